@@ -1,0 +1,67 @@
+//! `blobtrace info`: what a scene holds.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+use serde::Serialize;
+
+use crate::field::ModelCounts;
+use crate::scene::Scene;
+
+/// Options of `blobtrace info`.
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// Scene file (RON).
+    pub scene: PathBuf,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// What `info --json` prints.
+#[derive(Debug, Serialize)]
+pub struct InfoReport {
+    /// Node counts.
+    #[serde(flatten)]
+    pub counts: ModelCounts,
+    /// Names of `Named` nodes, sorted.
+    pub names: Vec<String>,
+    /// Iso-value.
+    pub threshold: f32,
+    /// Bounds of the model's support: `[min, max]`.
+    pub bounds: [[f32; 3]; 2],
+    /// Default image size.
+    pub size: [u32; 2],
+}
+
+/// Runs `blobtrace info`.
+pub fn run(a: &InfoArgs) -> anyhow::Result<()> {
+    let scene = Scene::load(&a.scene)?;
+    let m = &scene.model;
+    let b = m.bounds();
+    let report = InfoReport {
+        counts: m.counts(),
+        names: m.names().into_iter().map(String::from).collect(),
+        threshold: m.threshold(),
+        bounds: [b.min.to_array(), b.max.to_array()],
+        size: [scene.size.0, scene.size.1],
+    };
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
+        return Ok(());
+    }
+    let c = report.counts;
+    println!("{}", a.scene.display());
+    println!("  nodes       {}", c.nodes);
+    println!("  primitives  {}", c.primitives);
+    println!("  caches      {}", c.caches);
+    println!("  indexed blends {}", c.indexed_blends);
+    println!("  threshold   {}", report.threshold);
+    println!("  bounds      {:?} .. {:?}", report.bounds[0], report.bounds[1]);
+    println!("  size        {}x{}", report.size[0], report.size[1]);
+    if !report.names.is_empty() {
+        println!("  names       {}", report.names.join(", "));
+    }
+    Ok(())
+}

@@ -1,0 +1,264 @@
+//! Evaluation of a node: value, analytic gradient, colour, value range over a
+//! box and slope bound over a region. Every node's field is zero outside its
+//! bounds, which is what makes the per-node box rejection exact.
+
+use glam::{Vec3, Vec3A};
+
+use super::index::{IndexedLeaf, Leaf};
+use super::model::Model;
+use super::node::{NodeId, NodeKind};
+use super::region::Region;
+use super::{DEFAULT_COLOR, EvalMode};
+use crate::geom::{Aabb, Interval};
+
+impl Model {
+    /// Field value of node `id` at `p`.
+    pub fn node_value(&self, id: NodeId, p: Vec3A, mode: EvalMode) -> f32 {
+        let node = self.node(id);
+        if !node.bounds.contains(p) {
+            return 0.0;
+        }
+        let t = self.threshold();
+        match &node.kind {
+            NodeKind::Primitive(prim) => prim.value(p),
+            NodeKind::Blend { children, index } => match (mode, index) {
+                (EvalMode::Indexed, Some(ix)) => {
+                    let leaves = &ix.leaves;
+                    ix.candidates(p).iter().fold(0.0, |s, &i| s + self.leaf_value(&leaves[i as usize], p, mode))
+                }
+                _ => children.iter().fold(0.0, |s, &c| s + self.node_value(c, p, mode)),
+            },
+            NodeKind::Union(cs) => cs.iter().map(|&c| self.node_value(c, p, mode)).fold(f32::MIN, f32::max),
+            NodeKind::Intersection(cs) => cs.iter().map(|&c| self.node_value(c, p, mode)).fold(f32::MAX, f32::min),
+            NodeKind::Difference(a, b) => {
+                let (a, b) = (self.node_value(*a, p, mode), self.node_value(*b, p, mode));
+                a.min(2.0 * t - b).max(0.0)
+            }
+            NodeKind::Ricci { n, children } => {
+                let s: f32 = children.iter().map(|&c| self.node_value(c, p, mode).max(0.0).powf(*n)).sum();
+                s.powf(1.0 / n)
+            }
+            NodeKind::Transform { placement, child } => self.node_value(*child, placement.local(p), mode),
+            NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_value(*child, p, mode),
+        }
+    }
+
+    #[inline]
+    fn leaf_value(&self, leaf: &IndexedLeaf, p: Vec3A, mode: EvalMode) -> f32 {
+        match &leaf.leaf {
+            Leaf::Primitive(prim) => prim.value(p),
+            Leaf::Node(id) => self.node_value(*id, p, mode),
+        }
+    }
+
+    /// Analytic gradient of node `id` at `p`.
+    pub fn node_gradient(&self, id: NodeId, p: Vec3A, mode: EvalMode) -> Vec3A {
+        let node = self.node(id);
+        if !node.bounds.contains(p) {
+            return Vec3A::ZERO;
+        }
+        let t = self.threshold();
+        match &node.kind {
+            NodeKind::Primitive(prim) => prim.gradient(p),
+            NodeKind::Blend { children, index } => match (mode, index) {
+                (EvalMode::Indexed, Some(ix)) => ix.candidates(p).iter().fold(Vec3A::ZERO, |s, &i| {
+                    s + match &ix.leaves[i as usize].leaf {
+                        Leaf::Primitive(prim) => prim.gradient(p),
+                        Leaf::Node(id) => self.node_gradient(*id, p, mode),
+                    }
+                }),
+                _ => children.iter().fold(Vec3A::ZERO, |s, &c| s + self.node_gradient(c, p, mode)),
+            },
+            NodeKind::Union(cs) => self.node_gradient(self.extreme_child(cs, p, mode, true), p, mode),
+            NodeKind::Intersection(cs) => self.node_gradient(self.extreme_child(cs, p, mode, false), p, mode),
+            NodeKind::Difference(a, b) => {
+                let (va, vb) = (self.node_value(*a, p, mode), self.node_value(*b, p, mode));
+                if va.min(2.0 * t - vb) <= 0.0 {
+                    Vec3A::ZERO
+                } else if va <= 2.0 * t - vb {
+                    self.node_gradient(*a, p, mode)
+                } else {
+                    -self.node_gradient(*b, p, mode)
+                }
+            }
+            NodeKind::Ricci { n, children } => {
+                // ∇(Σ v_i^n)^(1/n) = f^(1-n) Σ v_i^(n-1) ∇v_i
+                let f = self.node_value(id, p, mode);
+                if f <= 0.0 {
+                    return Vec3A::ZERO;
+                }
+                let sum = children.iter().fold(Vec3A::ZERO, |s, &c| {
+                    let v = self.node_value(c, p, mode);
+                    if v <= 0.0 { s } else { s + self.node_gradient(c, p, mode) * v.powf(n - 1.0) }
+                });
+                sum * f.powf(1.0 - n)
+            }
+            NodeKind::Transform { placement, child } => {
+                placement.gradient_map * self.node_gradient(*child, placement.local(p), mode)
+            }
+            NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_gradient(*child, p, mode),
+        }
+    }
+
+    /// The child with the largest (`max`) or smallest value at `p`; the first on ties.
+    fn extreme_child(&self, cs: &[NodeId], p: Vec3A, mode: EvalMode, max: bool) -> NodeId {
+        let mut best = cs[0];
+        let mut best_v = self.node_value(best, p, mode);
+        for &c in &cs[1..] {
+            let v = self.node_value(c, p, mode);
+            if (max && v > best_v) || (!max && v < best_v) {
+                best = c;
+                best_v = v;
+            }
+        }
+        best
+    }
+
+    /// Surface colour of node `id` at `p`: a node's own colour wins; blends mix
+    /// their children's colours weighted by their field contributions.
+    pub fn node_color(&self, id: NodeId, p: Vec3A, mode: EvalMode) -> Vec3 {
+        let node = self.node(id);
+        if let Some(c) = node.color {
+            return c;
+        }
+        let t = self.threshold();
+        match &node.kind {
+            NodeKind::Primitive(_) => DEFAULT_COLOR,
+            NodeKind::Blend { children, index } => match (mode, index) {
+                (EvalMode::Indexed, Some(ix)) => mix(ix.candidates(p).iter().map(|&i| {
+                    let leaf = &ix.leaves[i as usize];
+                    let w = self.leaf_value(leaf, p, mode);
+                    (w, move || leaf.color.unwrap_or_else(|| self.leaf_color(leaf, p, mode)))
+                })),
+                _ => mix(children.iter().map(|&c| (self.node_value(c, p, mode), move || self.node_color(c, p, mode)))),
+            },
+            NodeKind::Ricci { n, children } => mix(children
+                .iter()
+                .map(|&c| (self.node_value(c, p, mode).max(0.0).powf(*n), move || self.node_color(c, p, mode)))),
+            NodeKind::Union(cs) => self.node_color(self.extreme_child(cs, p, mode, true), p, mode),
+            NodeKind::Intersection(cs) => self.node_color(self.extreme_child(cs, p, mode, false), p, mode),
+            NodeKind::Difference(a, b) => {
+                // The carved face takes the cutter's colour.
+                if self.node_value(*a, p, mode) <= 2.0 * t - self.node_value(*b, p, mode) {
+                    self.node_color(*a, p, mode)
+                } else {
+                    self.node_color(*b, p, mode)
+                }
+            }
+            NodeKind::Transform { placement, child } => self.node_color(*child, placement.local(p), mode),
+            NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_color(*child, p, mode),
+        }
+    }
+
+    fn leaf_color(&self, leaf: &IndexedLeaf, p: Vec3A, mode: EvalMode) -> Vec3 {
+        match &leaf.leaf {
+            Leaf::Primitive(_) => DEFAULT_COLOR,
+            Leaf::Node(id) => self.node_color(*id, p, mode),
+        }
+    }
+
+    /// Conservative bounds of node `id`'s value over a box.
+    pub fn node_interval(&self, id: NodeId, b: &Aabb, mode: EvalMode) -> Interval {
+        let node = self.node(id);
+        if !node.bounds.overlaps(b) {
+            return Interval::ZERO;
+        }
+        let t = self.threshold();
+        let sum = |cs: &[NodeId]| cs.iter().fold(Interval::ZERO, |s, &c| s.add(self.node_interval(c, b, mode)));
+        let reduce = |cs: &[NodeId], f: fn(Interval, Interval) -> Interval| {
+            cs[1..].iter().fold(self.node_interval(cs[0], b, mode), |s, &c| f(s, self.node_interval(c, b, mode)))
+        };
+        match &node.kind {
+            NodeKind::Primitive(prim) => prim.interval(b),
+            NodeKind::Blend { children, index } => match (mode, index) {
+                (EvalMode::Indexed, Some(ix)) => ix.interval(b),
+                _ => sum(children),
+            },
+            NodeKind::Union(cs) => reduce(cs, Interval::max),
+            NodeKind::Intersection(cs) => reduce(cs, Interval::min),
+            NodeKind::Difference(a, c) => {
+                let carved =
+                    self.node_interval(*a, b, mode).min(self.node_interval(*c, b, mode).subtracted_from(2.0 * t));
+                Interval::new(carved.lo.max(0.0), carved.hi.max(0.0))
+            }
+            NodeKind::Ricci { n, children } => {
+                let (lo, hi) = children.iter().fold((0.0f32, 0.0f32), |(lo, hi), &c| {
+                    let r = self.node_interval(c, b, mode);
+                    (lo + r.lo.max(0.0).powf(*n), hi + r.hi.max(0.0).powf(*n))
+                });
+                Interval::new(lo.powf(1.0 / n), hi.powf(1.0 / n))
+            }
+            NodeKind::Transform { placement, child } => {
+                self.node_interval(*child, &b.transformed(&placement.to_local), mode)
+            }
+            NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_interval(*child, b, mode),
+        }
+    }
+
+    pub(super) fn leaf_interval(&self, leaf: &IndexedLeaf, b: &Aabb, mode: EvalMode) -> Interval {
+        match &leaf.leaf {
+            Leaf::Primitive(prim) => {
+                if leaf.bounds.overlaps(b) {
+                    prim.interval(b)
+                } else {
+                    Interval::ZERO
+                }
+            }
+            Leaf::Node(id) => self.node_interval(*id, b, mode),
+        }
+    }
+
+    /// A bound on `|∇f|` of node `id` over a region (segment or box).
+    ///
+    /// Sums add their children's bounds, min/max take the largest, a transform
+    /// multiplies by its inverse's norm; children whose support misses the
+    /// region are constant (zero) there and add nothing.
+    pub fn node_lipschitz(&self, id: NodeId, region: &Region, mode: EvalMode) -> f32 {
+        let node = self.node(id);
+        if !region.meets(&node.bounds) {
+            return 0.0;
+        }
+        let sum = |cs: &[NodeId]| cs.iter().map(|&c| self.node_lipschitz(c, region, mode)).sum::<f32>();
+        let max = |cs: &[NodeId]| cs.iter().map(|&c| self.node_lipschitz(c, region, mode)).fold(0.0, f32::max);
+        match &node.kind {
+            NodeKind::Primitive(prim) => prim.lipschitz_over(region),
+            NodeKind::Blend { children, index } => match (mode, index) {
+                (EvalMode::Indexed, Some(ix)) => ix.lipschitz(region),
+                _ => sum(children),
+            },
+            NodeKind::Ricci { children, .. } => sum(children),
+            NodeKind::Union(cs) | NodeKind::Intersection(cs) => max(cs),
+            NodeKind::Difference(a, b) => max(&[*a, *b]),
+            NodeKind::Transform { placement, child } => {
+                placement.stretch * self.node_lipschitz(*child, &region.transformed(&placement.to_local), mode)
+            }
+            NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_lipschitz(*child, region, mode),
+        }
+    }
+
+    pub(super) fn leaf_lipschitz(&self, leaf: &IndexedLeaf, region: &Region, mode: EvalMode) -> f32 {
+        match &leaf.leaf {
+            Leaf::Primitive(prim) => {
+                if region.meets(&leaf.bounds) {
+                    prim.lipschitz_over(region)
+                } else {
+                    0.0
+                }
+            }
+            Leaf::Node(id) => self.node_lipschitz(*id, region, mode),
+        }
+    }
+}
+
+/// Weighted mean of colours; weights `<= 0` are skipped, and colours are only
+/// computed for the parts that contribute.
+fn mix<F: FnOnce() -> Vec3>(parts: impl Iterator<Item = (f32, F)>) -> Vec3 {
+    let (mut acc, mut total) = (Vec3::ZERO, 0.0f32);
+    for (w, color) in parts {
+        if w > 0.0 {
+            acc += color() * w;
+            total += w;
+        }
+    }
+    if total > 0.0 { acc / total } else { DEFAULT_COLOR }
+}

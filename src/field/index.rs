@@ -1,0 +1,242 @@
+//! A uniform grid over the leaves of a wide blend, so that evaluating the sum
+//! touches only the leaves whose supports can contain the query point.
+//!
+//! Blends nest (a component is a blend of splines, each a blend of points), and
+//! sums are associative, so the index flattens a whole cluster of nested blends
+//! into one list of leaves. Each cell also stores a Lipschitz bound and a value
+//! range of the sum over the cell, precomputed from the leaves that overlap it:
+//! segment tracing and interval culling then cost one grid walk, not a sum.
+
+use glam::{UVec3, Vec3, Vec3A};
+
+use super::node::NodeId;
+use super::primitive::Primitive;
+use super::region::Region;
+use crate::geom::{Aabb, Interval};
+
+/// Fewest leaves for which a blend gets an index: below this a plain loop is as fast.
+pub const MIN_INDEXED_LEAVES: usize = 8;
+
+/// Most cells a grid may have, whatever the leaf count.
+const MAX_CELLS: usize = 1 << 22;
+
+/// A leaf of a blend cluster: a primitive stored inline, or any other node.
+#[derive(Clone, Debug)]
+pub enum Leaf {
+    /// A primitive, copied so the hot loop needs no arena lookup.
+    Primitive(Primitive),
+    /// Any non-blend node (an operator, transform, …).
+    Node(NodeId),
+}
+
+/// A leaf with the colour it inherits from the nearest coloured blend above it.
+#[derive(Clone, Debug)]
+pub struct IndexedLeaf {
+    /// The leaf.
+    pub leaf: Leaf,
+    /// Its bounds.
+    pub bounds: Aabb,
+    /// The leaf's own colour, or that of the nearest coloured ancestor in the cluster.
+    pub color: Option<Vec3>,
+}
+
+/// The grid: leaves bucketed per cell (sorted by leaf order), plus per-cell bounds.
+#[derive(Clone, Debug)]
+pub struct BlendIndex {
+    /// The leaves of the cluster, in depth-first scene order.
+    pub leaves: Vec<IndexedLeaf>,
+    origin: Vec3A,
+    inv_cell: f32,
+    cell: f32,
+    dims: UVec3,
+    offsets: Vec<u32>,
+    items: Vec<u32>,
+    cell_lipschitz: Vec<f32>,
+    cell_range: Vec<Interval>,
+}
+
+impl BlendIndex {
+    /// Buckets `leaves` into a grid over `bounds`. `interval` and `lipschitz` give a
+    /// leaf's value range and gradient bound over a cell box.
+    pub fn build(
+        bounds: Aabb,
+        leaves: Vec<IndexedLeaf>,
+        interval: impl Fn(&IndexedLeaf, &Aabb) -> Interval,
+        lipschitz: impl Fn(&IndexedLeaf, &Region) -> f32,
+    ) -> Self {
+        let cell = choose_cell_size(&bounds, &leaves);
+        let dims = ((bounds.size() / cell).ceil().as_uvec3()).max(UVec3::ONE);
+        let mut index = Self {
+            leaves,
+            origin: bounds.min,
+            inv_cell: 1.0 / cell,
+            cell,
+            dims,
+            offsets: vec![],
+            items: vec![],
+            cell_lipschitz: vec![],
+            cell_range: vec![],
+        };
+        index.bucket();
+        index.precompute_cell_bounds(interval, lipschitz);
+        index
+    }
+
+    /// Counting sort of (cell, leaf) pairs; stable, so each cell lists leaves in order.
+    fn bucket(&mut self) {
+        let cells = self.cell_count();
+        let mut counts = vec![0u32; cells + 1];
+        for leaf in &self.leaves {
+            self.for_each_cell(&leaf.bounds, |c| counts[c + 1] += 1);
+        }
+        for i in 0..cells {
+            counts[i + 1] += counts[i];
+        }
+        let mut cursor = counts.clone();
+        let mut items = vec![0u32; counts[cells] as usize];
+        for (i, leaf) in self.leaves.iter().enumerate() {
+            self.for_each_cell(&leaf.bounds, |c| {
+                items[cursor[c] as usize] = i as u32;
+                cursor[c] += 1;
+            });
+        }
+        self.offsets = counts;
+        self.items = items;
+    }
+
+    fn precompute_cell_bounds(
+        &mut self,
+        interval: impl Fn(&IndexedLeaf, &Aabb) -> Interval,
+        lipschitz: impl Fn(&IndexedLeaf, &Region) -> f32,
+    ) {
+        let cells = self.cell_count();
+        self.cell_lipschitz = vec![0.0; cells];
+        self.cell_range = vec![Interval::ZERO; cells];
+        for c in 0..cells {
+            let cell_box = self.cell_box(c);
+            let region = Region::Box(cell_box);
+            let (mut l, mut range) = (0.0, Interval::ZERO);
+            for &i in self.cell_items(c) {
+                let leaf = &self.leaves[i as usize];
+                l += lipschitz(leaf, &region);
+                range = range.add(interval(leaf, &cell_box));
+            }
+            self.cell_lipschitz[c] = l;
+            self.cell_range[c] = range;
+        }
+    }
+
+    /// Number of cells.
+    #[must_use]
+    pub fn cell_count(&self) -> usize {
+        (self.dims.x * self.dims.y * self.dims.z) as usize
+    }
+
+    /// Total leaf references over all cells (memory and selectivity measure).
+    #[must_use]
+    pub fn reference_count(&self) -> usize {
+        self.items.len()
+    }
+
+    /// Cell edge length.
+    #[must_use]
+    pub fn cell_size(&self) -> f32 {
+        self.cell
+    }
+
+    fn cell_items(&self, c: usize) -> &[u32] {
+        &self.items[self.offsets[c] as usize..self.offsets[c + 1] as usize]
+    }
+
+    fn cell_box(&self, c: usize) -> Aabb {
+        let (nx, ny) = (self.dims.x as usize, self.dims.y as usize);
+        let ijk = Vec3A::new((c % nx) as f32, ((c / nx) % ny) as f32, (c / (nx * ny)) as f32);
+        let min = self.origin + ijk * self.cell;
+        Aabb::new(min, min + Vec3A::splat(self.cell))
+    }
+
+    #[inline]
+    fn linear(&self, i: UVec3) -> usize {
+        (i.x + self.dims.x * (i.y + self.dims.y * i.z)) as usize
+    }
+
+    /// The range of cell coordinates a box overlaps, clipped to the grid, and
+    /// whether the box reaches outside the grid.
+    fn cell_range_of(&self, b: &Aabb) -> Option<(UVec3, UVec3, bool)> {
+        let lo = ((b.min - self.origin) * self.inv_cell).floor();
+        let hi = ((b.max - self.origin) * self.inv_cell).floor();
+        let top = self.dims.as_vec3a() - Vec3A::ONE;
+        if hi.cmplt(Vec3A::ZERO).any() || lo.cmpgt(top).any() || b.is_empty() {
+            return None;
+        }
+        let outside = lo.cmplt(Vec3A::ZERO).any() || hi.cmpgt(top).any();
+        let lo = lo.max(Vec3A::ZERO).as_uvec3();
+        let hi = hi.min(top).as_uvec3();
+        Some((lo, hi, outside))
+    }
+
+    fn for_each_cell(&self, b: &Aabb, mut f: impl FnMut(usize)) {
+        if let Some((lo, hi, _)) = self.cell_range_of(b) {
+            for z in lo.z..=hi.z {
+                for y in lo.y..=hi.y {
+                    for x in lo.x..=hi.x {
+                        f(self.linear(UVec3::new(x, y, z)));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Leaves whose bounds overlap the cell holding `p` (empty outside the grid).
+    #[inline]
+    #[must_use]
+    pub fn candidates(&self, p: Vec3A) -> &[u32] {
+        let f = (p - self.origin) * self.inv_cell;
+        if f.cmplt(Vec3A::ZERO).any() {
+            return &[];
+        }
+        let i = f.as_uvec3();
+        if i.cmpge(self.dims).any() {
+            return &[];
+        }
+        self.cell_items(self.linear(i))
+    }
+
+    /// A bound on the blend's gradient over a region: the largest cell bound it meets.
+    #[must_use]
+    pub fn lipschitz(&self, region: &Region) -> f32 {
+        let mut l = 0.0f32;
+        self.for_each_cell(&region.bounds(), |c| l = l.max(self.cell_lipschitz[c]));
+        l
+    }
+
+    /// Bounds of the blend's value over a box: the hull of the cells it meets.
+    #[must_use]
+    pub fn interval(&self, b: &Aabb) -> Interval {
+        let Some((_, _, outside)) = self.cell_range_of(b) else {
+            return Interval::ZERO;
+        };
+        let mut acc: Option<Interval> = outside.then_some(Interval::ZERO);
+        self.for_each_cell(b, |c| {
+            let r = self.cell_range[c];
+            acc = Some(acc.map_or(r, |a| Interval::new(a.lo.min(r.lo), a.hi.max(r.hi))));
+        });
+        acc.unwrap_or(Interval::ZERO)
+    }
+}
+
+/// Half the median leaf size, so a leaf spans about three cells per axis and a
+/// cell lists few leaves that cannot reach the query; grown if the grid gets too big.
+fn choose_cell_size(bounds: &Aabb, leaves: &[IndexedLeaf]) -> f32 {
+    let mut sizes: Vec<f32> = leaves.iter().map(|l| l.bounds.size().max_element()).collect();
+    sizes.sort_by(f32::total_cmp);
+    let median = sizes.get(sizes.len() / 2).copied().unwrap_or(1.0);
+    let extent = bounds.size().max(Vec3A::splat(1e-6));
+    let mut cell = (0.5 * median).max(extent.max_element() / 512.0);
+    let limit = MAX_CELLS.min(64 * leaves.len() + 4096) as f32;
+    let count = |c: f32| (extent / c).ceil().max(Vec3A::ONE).element_product();
+    while count(cell) > limit {
+        cell *= (count(cell) / limit).cbrt().max(1.01);
+    }
+    cell
+}

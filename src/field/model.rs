@@ -1,0 +1,234 @@
+//! The model: an arena of nodes with parents, bounds and blend indices kept current.
+
+use std::collections::HashMap;
+
+use glam::Vec3;
+
+use super::EvalMode;
+use super::index::{BlendIndex, IndexedLeaf, Leaf, MIN_INDEXED_LEAVES};
+use super::node::{Node, NodeId, NodeKind};
+use super::region::Region;
+use crate::geom::Aabb;
+
+/// Why a model could not be built.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ModelError {
+    /// Two `Named` nodes share a name.
+    #[error("the name {0:?} is used twice")]
+    DuplicateName(String),
+    /// An operator was given no children.
+    #[error("{0} needs at least one child")]
+    NoChildren(&'static str),
+    /// The model has no nodes.
+    #[error("the model is empty")]
+    Empty,
+    /// A transform scales an axis by zero: it has no inverse.
+    #[error("a Transform scale factor is zero")]
+    ZeroScale,
+}
+
+/// A BlobTree: nodes in an arena, children before parents' use, parents known.
+#[derive(Clone, Debug)]
+pub struct Model {
+    nodes: Vec<Node>,
+    root: NodeId,
+    threshold: f32,
+    names: HashMap<String, NodeId>,
+}
+
+/// Adds nodes bottom-up (children first), then seals them into a [`Model`].
+#[derive(Default)]
+pub struct ModelBuilder {
+    nodes: Vec<Node>,
+}
+
+impl ModelBuilder {
+    /// An empty builder.
+    #[must_use]
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds a node whose children were added before; returns its id.
+    pub fn add(&mut self, kind: NodeKind, color: Option<Vec3>) -> Result<NodeId, ModelError> {
+        let empty = match &kind {
+            NodeKind::Blend { children, .. }
+            | NodeKind::Union(children)
+            | NodeKind::Intersection(children)
+            | NodeKind::Ricci { children, .. } => children.is_empty(),
+            _ => false,
+        };
+        if empty {
+            return Err(ModelError::NoChildren(kind.type_name()));
+        }
+        self.nodes.push(Node { kind, parent: None, bounds: Aabb::EMPTY, color });
+        Ok((self.nodes.len() - 1) as NodeId)
+    }
+
+    /// Seals the tree rooted at `root` with iso-value `threshold`.
+    pub fn finish(self, root: NodeId, threshold: f32) -> Result<Model, ModelError> {
+        if self.nodes.is_empty() {
+            return Err(ModelError::Empty);
+        }
+        let mut model = Model { nodes: self.nodes, root, threshold, names: HashMap::new() };
+        model.link()?;
+        model.refresh();
+        Ok(model)
+    }
+}
+
+impl Model {
+    /// The root node.
+    #[must_use]
+    pub fn root(&self) -> NodeId {
+        self.root
+    }
+
+    /// The iso-value `T`.
+    #[must_use]
+    pub fn threshold(&self) -> f32 {
+        self.threshold
+    }
+
+    /// A node by id.
+    #[inline]
+    #[must_use]
+    pub fn node(&self, id: NodeId) -> &Node {
+        &self.nodes[id as usize]
+    }
+
+    /// All nodes, in arena order.
+    #[must_use]
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    /// The node called `name` by a `Named` node (the `Named` node itself).
+    #[must_use]
+    pub fn find(&self, name: &str) -> Option<NodeId> {
+        self.names.get(name).copied()
+    }
+
+    /// The bounds of the whole model's support.
+    #[must_use]
+    pub fn bounds(&self) -> Aabb {
+        self.node(self.root).bounds
+    }
+
+    /// Names, sorted.
+    #[must_use]
+    pub fn names(&self) -> Vec<&str> {
+        let mut v: Vec<&str> = self.names.keys().map(String::as_str).collect();
+        v.sort_unstable();
+        v
+    }
+
+    /// Sets parents and the name table.
+    fn link(&mut self) -> Result<(), ModelError> {
+        for id in 0..self.nodes.len() {
+            for c in self.nodes[id].kind.children() {
+                self.nodes[c as usize].parent = Some(id as NodeId);
+            }
+            if let NodeKind::Named { name, .. } = &self.nodes[id].kind
+                && self.names.insert(name.clone(), id as NodeId).is_some()
+            {
+                return Err(ModelError::DuplicateName(name.clone()));
+            }
+        }
+        Ok(())
+    }
+
+    /// Recomputes every node's bounds and rebuilds the blend indices.
+    pub fn refresh(&mut self) {
+        self.update_bounds(self.root);
+        self.build_indices(self.root);
+    }
+
+    fn update_bounds(&mut self, id: NodeId) -> Aabb {
+        let kind = &self.nodes[id as usize].kind;
+        let children = kind.children();
+        let child_bounds: Vec<Aabb> = children.iter().map(|&c| self.update_bounds(c)).collect();
+        let kind = &self.nodes[id as usize].kind;
+        let b = match kind {
+            NodeKind::Primitive(p) => p.bounds(),
+            NodeKind::Intersection(_) => child_bounds.iter().fold(child_bounds[0], |a, b| a.intersection(b)),
+            NodeKind::Difference(..) => child_bounds[0],
+            NodeKind::Transform { placement, .. } => child_bounds[0].transformed(&placement.to_world),
+            _ => child_bounds.iter().fold(Aabb::EMPTY, |a, b| a.union(b)),
+        };
+        // An empty intersection still needs a valid (degenerate) box for later queries.
+        self.nodes[id as usize].bounds = b;
+        b
+    }
+
+    /// Indexes the top blend of every cluster of nested blends that has enough leaves.
+    fn build_indices(&mut self, id: NodeId) {
+        let is_cluster_top = matches!(self.nodes[id as usize].kind, NodeKind::Blend { .. })
+            && !self.nodes[id as usize]
+                .parent
+                .is_some_and(|p| matches!(self.nodes[p as usize].kind, NodeKind::Blend { .. }));
+        for c in self.nodes[id as usize].kind.children() {
+            self.build_indices(c);
+        }
+        if !is_cluster_top {
+            return;
+        }
+        let mut leaves = Vec::new();
+        self.collect_leaves(id, None, &mut leaves);
+        let index = (leaves.len() >= MIN_INDEXED_LEAVES).then(|| {
+            let bounds = self.nodes[id as usize].bounds;
+            Box::new(BlendIndex::build(
+                bounds,
+                leaves,
+                |leaf, b| self.leaf_interval(leaf, b, EvalMode::Naive),
+                |leaf, r: &Region| self.leaf_lipschitz(leaf, r, EvalMode::Naive),
+            ))
+        });
+        if let NodeKind::Blend { index: slot, .. } = &mut self.nodes[id as usize].kind {
+            *slot = index;
+        }
+    }
+
+    /// The non-blend descendants reached through nested blends, in scene order.
+    fn collect_leaves(&self, id: NodeId, inherited: Option<Vec3>, out: &mut Vec<IndexedLeaf>) {
+        let node = self.node(id);
+        let color = node.color.or(inherited);
+        match &node.kind {
+            NodeKind::Blend { children, .. } => {
+                for &c in children {
+                    self.collect_leaves(c, color, out);
+                }
+            }
+            NodeKind::Primitive(p) => out.push(IndexedLeaf { leaf: Leaf::Primitive(*p), bounds: node.bounds, color }),
+            _ => out.push(IndexedLeaf { leaf: Leaf::Node(id), bounds: node.bounds, color }),
+        }
+    }
+
+    /// Counts of primitives, caches and nodes.
+    #[must_use]
+    pub fn counts(&self) -> ModelCounts {
+        let mut c = ModelCounts { nodes: self.nodes.len(), ..Default::default() };
+        for n in &self.nodes {
+            match n.kind {
+                NodeKind::Primitive(_) => c.primitives += 1,
+                NodeKind::Cache { .. } => c.caches += 1,
+                NodeKind::Blend { index: Some(_), .. } => c.indexed_blends += 1,
+                _ => {}
+            }
+        }
+        c
+    }
+}
+
+/// How many of each kind of node a model holds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct ModelCounts {
+    /// All nodes.
+    pub nodes: usize,
+    /// Skeletal primitives.
+    pub primitives: usize,
+    /// Cache nodes.
+    pub caches: usize,
+    /// Blends carrying a spatial index.
+    pub indexed_blends: usize,
+}

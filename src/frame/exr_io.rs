@@ -1,0 +1,61 @@
+//! Multi-channel float EXR files for frames.
+
+use std::collections::BTreeMap;
+use std::io::Cursor;
+
+use exr::prelude::*;
+
+use super::Frame;
+
+/// Encodes all channels of a frame as 32-bit float EXR bytes.
+pub fn exr_bytes(frame: &Frame) -> std::result::Result<Vec<u8>, String> {
+    let mut channels: Vec<(String, Vec<f32>)> = vec![
+        ("R".into(), frame.color.iter().map(|c| c.x).collect()),
+        ("G".into(), frame.color.iter().map(|c| c.y).collect()),
+        ("B".into(), frame.color.iter().map(|c| c.z).collect()),
+        ("A".into(), frame.alpha.clone()),
+        ("Z".into(), frame.depth.clone()),
+        ("N.X".into(), frame.normal.iter().map(|n| n.x).collect()),
+        ("N.Y".into(), frame.normal.iter().map(|n| n.y).collect()),
+        ("N.Z".into(), frame.normal.iter().map(|n| n.z).collect()),
+    ];
+    channels.extend(frame.extra.iter().cloned());
+    let list =
+        channels.into_iter().map(|(name, v)| AnyChannel::new(name.as_str(), FlatSamples::F32(v))).collect::<Vec<_>>();
+    let layer = Layer::new(
+        (frame.width as usize, frame.height as usize),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(SmallVec::from_vec(list)),
+    );
+    let mut buf = Cursor::new(Vec::new());
+    Image::from_layer(layer).write().to_buffered(&mut buf).map_err(|e| e.to_string())?;
+    Ok(buf.into_inner())
+}
+
+/// The float channels of an EXR file by name, with its size.
+#[derive(Clone, Debug)]
+pub struct ExrChannels {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// Channel samples, row-major, by channel name.
+    pub channels: BTreeMap<String, Vec<f32>>,
+}
+
+/// Reads every channel of the first layer of an EXR file as `f32`.
+pub fn read_exr_channels(path: &std::path::Path) -> std::result::Result<ExrChannels, String> {
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let layer = image.layer_data;
+    let channels =
+        layer.channel_data.list.iter().map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect())).collect();
+    Ok(ExrChannels { width: layer.size.0, height: layer.size.1, channels })
+}

@@ -1,0 +1,138 @@
+//! Frames: a rendered image with its arbitrary output variables (AOVs), and
+//! their files — 8-bit sRGB PNG for people, one multi-channel EXR for tools.
+
+mod exr_io;
+
+use glam::Vec3;
+
+pub use exr_io::{ExrChannels, read_exr_channels};
+
+/// A rendered image and its AOVs, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Shaded colour, linear RGB, background where the ray missed.
+    pub color: Vec<Vec3>,
+    /// Coverage: 1 where the ray hit the surface, 0 where it missed.
+    pub alpha: Vec<f32>,
+    /// Distance from the eye along the unit ray to the hit; `+inf` on a miss.
+    pub depth: Vec<f32>,
+    /// World-space unit normal at the hit; zero on a miss.
+    pub normal: Vec<Vec3>,
+    /// Extra scalar AOVs by EXR channel name (`steps.Y`, `evals.Y`, …).
+    pub extra: Vec<(String, Vec<f32>)>,
+}
+
+impl Frame {
+    /// A frame of `width × height` pixels filled with misses on `background`.
+    #[must_use]
+    pub fn new(width: u32, height: u32, background: Vec3) -> Self {
+        let n = (width * height) as usize;
+        Self {
+            width,
+            height,
+            color: vec![background; n],
+            alpha: vec![0.0; n],
+            depth: vec![f32::INFINITY; n],
+            normal: vec![Vec3::ZERO; n],
+            extra: vec![],
+        }
+    }
+
+    /// Number of pixels.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.color.len()
+    }
+
+    /// True for a frame with no pixels.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.color.is_empty()
+    }
+
+    /// Number of pixels whose ray hit the surface.
+    #[must_use]
+    pub fn hits(&self) -> usize {
+        self.alpha.iter().filter(|&&a| a > 0.0).count()
+    }
+
+    /// An extra AOV by channel name.
+    #[must_use]
+    pub fn aov(&self, name: &str) -> Option<&[f32]> {
+        self.extra.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_slice())
+    }
+
+    /// The colour as 8-bit sRGB bytes, row-major RGB.
+    #[must_use]
+    pub fn to_srgb8(&self) -> Vec<u8> {
+        self.color.iter().flat_map(|c| c.to_array().map(linear_to_srgb8)).collect()
+    }
+
+    /// PNG bytes (8-bit sRGB).
+    pub fn png_bytes(&self) -> Result<Vec<u8>, image::ImageError> {
+        let mut out = Vec::new();
+        let encoder = image::codecs::png::PngEncoder::new(&mut out);
+        image::ImageEncoder::write_image(
+            encoder,
+            &self.to_srgb8(),
+            self.width,
+            self.height,
+            image::ExtendedColorType::Rgb8,
+        )?;
+        Ok(out)
+    }
+
+    /// Writes the colour as an 8-bit sRGB PNG, atomically.
+    pub fn save_png(&self, path: &std::path::Path) -> Result<(), FrameIoError> {
+        let bytes = self.png_bytes().map_err(|e| FrameIoError::Encode(path.display().to_string(), e.to_string()))?;
+        crate::output::write_atomic(path, &bytes).map_err(|e| FrameIoError::Write(path.display().to_string(), e))
+    }
+
+    /// Writes every channel (`R,G,B,A`, `Z`, `N.X,N.Y,N.Z`, extras) as a float EXR, atomically.
+    pub fn save_exr(&self, path: &std::path::Path) -> Result<(), FrameIoError> {
+        let bytes = exr_io::exr_bytes(self).map_err(|e| FrameIoError::Encode(path.display().to_string(), e))?;
+        crate::output::write_atomic(path, &bytes).map_err(|e| FrameIoError::Write(path.display().to_string(), e))
+    }
+}
+
+/// Why a frame could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum FrameIoError {
+    /// Encoding failed.
+    #[error("{0}: could not encode: {1}")]
+    Encode(String, String),
+    /// Writing failed.
+    #[error("{0}: could not write: {1}")]
+    Write(String, std::io::Error),
+}
+
+/// Linear `[0, 1]` to an 8-bit sRGB code value.
+#[must_use]
+pub fn linear_to_srgb8(v: f32) -> u8 {
+    let v = v.clamp(0.0, 1.0);
+    let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+    (s * 255.0 + 0.5) as u8
+}
+
+/// 8-bit sRGB code value to linear `[0, 1]`.
+#[must_use]
+pub fn srgb8_to_linear(v: u8) -> f32 {
+    let s = v as f32 / 255.0;
+    if s <= 0.040_45 { s / 12.92 } else { ((s + 0.055) / 1.055).powf(2.4) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_round_trips_every_code() {
+        for v in 0..=255u8 {
+            assert_eq!(linear_to_srgb8(srgb8_to_linear(v)), v);
+        }
+    }
+}

@@ -1,0 +1,10 @@
+//! Small geometric building blocks shared by every pipeline stage: axis-aligned
+//! boxes, closed intervals of field values, and rays.
+
+mod aabb;
+mod interval;
+mod ray;
+
+pub use aabb::Aabb;
+pub use interval::Interval;
+pub use ray::Ray;

@@ -1,0 +1,85 @@
+//! Scene description → model arena.
+
+use glam::Vec3A;
+
+use super::desc::NodeDesc;
+use crate::field::{Model, ModelBuilder, ModelError, NodeId, NodeKind, Placement, Primitive, Skeleton, spline};
+
+/// Builds the model for the tree `root` with iso-value `threshold`.
+pub fn model(root: &NodeDesc, threshold: f32) -> Result<Model, ModelError> {
+    let mut b = ModelBuilder::new();
+    let id = add(&mut b, root)?;
+    b.finish(id, threshold)
+}
+
+fn add(b: &mut ModelBuilder, desc: &NodeDesc) -> Result<NodeId, ModelError> {
+    let color = |c: &Option<super::Color>| c.map(|c| c.0);
+    let prim = |skeleton, radius: f32, weight: f32, kernel| {
+        NodeKind::Primitive(Primitive::new(skeleton, radius, weight, kernel))
+    };
+    match desc {
+        NodeDesc::Point { center, radius, weight, kernel, color: c } => {
+            b.add(prim(Skeleton::Point { center: center.0.into() }, radius.0, weight.0, *kernel), color(c))
+        }
+        NodeDesc::Segment { a, b: e, radius, weight, kernel, color: c } => {
+            b.add(prim(Skeleton::Segment { a: a.0.into(), b: e.0.into() }, radius.0, weight.0, *kernel), color(c))
+        }
+        NodeDesc::Circle { center, normal, ring, radius, weight, kernel, color: c } => {
+            let normal = Vec3A::from(normal.0).try_normalize().unwrap_or(Vec3A::Y);
+            let skeleton = Skeleton::Circle { center: center.0.into(), normal, ring: ring.0 };
+            b.add(prim(skeleton, radius.0, weight.0, *kernel), color(c))
+        }
+        NodeDesc::SplinePoints { control, count, radius, radius_end, weight, color: c } => {
+            let control: Vec<Vec3A> = control.iter().map(|v| v.0.into()).collect();
+            if control.is_empty() {
+                return Err(ModelError::NoChildren("SplinePoints (control points)"));
+            }
+            let end = radius_end.map_or(radius.0, |r| r.0);
+            let children = spline::even_points(&control, count.0 as usize)
+                .into_iter()
+                .map(|(p, u)| {
+                    let r = radius.0 + (end - radius.0) * u;
+                    b.add(prim(Skeleton::Point { center: p }, r, weight.0, Default::default()), None)
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            b.add(NodeKind::Blend { children, index: None }, color(c))
+        }
+        NodeDesc::Blend(cs) => {
+            let children = add_all(b, &cs.0)?;
+            b.add(NodeKind::Blend { children, index: None }, None)
+        }
+        NodeDesc::Union(cs) => {
+            let children = add_all(b, &cs.0)?;
+            b.add(NodeKind::Union(children), None)
+        }
+        NodeDesc::Intersection(cs) => {
+            let children = add_all(b, &cs.0)?;
+            b.add(NodeKind::Intersection(children), None)
+        }
+        NodeDesc::Difference(x, y) => {
+            let (x, y) = (add(b, x)?, add(b, y)?);
+            b.add(NodeKind::Difference(x, y), None)
+        }
+        NodeDesc::Ricci { n, children } => {
+            let children = add_all(b, &children.0)?;
+            b.add(NodeKind::Ricci { n: n.0.max(1.0), children }, None)
+        }
+        NodeDesc::Transform { translate, rotate, scale, child, color: c } => {
+            let placement = Placement::new(translate.0, rotate.0, scale.0).ok_or(ModelError::ZeroScale)?;
+            let child = add(b, child)?;
+            b.add(NodeKind::Transform { placement, child }, color(c))
+        }
+        NodeDesc::Named(name, child) => {
+            let child = add(b, child)?;
+            b.add(NodeKind::Named { name: name.clone(), child }, None)
+        }
+        NodeDesc::Cache { res, child } => {
+            let child = add(b, child)?;
+            b.add(NodeKind::Cache { res: res.0, child }, None)
+        }
+    }
+}
+
+fn add_all(b: &mut ModelBuilder, descs: &[NodeDesc]) -> Result<Vec<NodeId>, ModelError> {
+    descs.iter().map(|d| add(b, d)).collect()
+}

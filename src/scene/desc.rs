@@ -1,0 +1,251 @@
+//! The scene file's grammar: serde types that mirror the RON text one to one.
+
+use serde::Deserialize;
+use serde::de::{self, Deserializer};
+
+use super::values::{Color, Finite, Positive, Size, V3};
+use crate::field::Kernel;
+
+/// A whole scene file: `Scene(camera: …, size: …, threshold: …, model: …)`.
+#[derive(Debug, Deserialize)]
+#[serde(rename = "Scene", deny_unknown_fields)]
+pub struct SceneDesc {
+    /// The viewpoint.
+    pub camera: CameraDesc,
+    /// Default image size `(width, height)`.
+    pub size: Size,
+    /// Iso-value `T`; inside is where `f > T`.
+    #[serde(default = "half")]
+    pub threshold: Positive,
+    /// Background colour (linear RGB) of pixels whose ray misses.
+    #[serde(default)]
+    pub background: Option<Color>,
+    /// The BlobTree.
+    pub model: NodeDesc,
+}
+
+fn half() -> Positive {
+    Positive(0.5)
+}
+
+fn one() -> Finite {
+    Finite(1.0)
+}
+
+fn zero3() -> V3 {
+    V3(glam::Vec3::ZERO)
+}
+
+fn one3() -> V3 {
+    V3(glam::Vec3::ONE)
+}
+
+fn y_axis() -> V3 {
+    V3(glam::Vec3::Y)
+}
+
+/// `Camera(eye: …, target: …, up: …, fov_y: …)`: a look-at pinhole camera.
+#[derive(Debug, Deserialize)]
+#[serde(try_from = "RawCamera")]
+pub struct CameraDesc {
+    /// Eye position.
+    pub eye: V3,
+    /// Point looked at.
+    pub target: V3,
+    /// Up direction (need not be orthogonal to the view direction).
+    pub up: V3,
+    /// Vertical field of view in degrees, in `(0, 180)`.
+    pub fov_y: Positive,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(rename = "Camera", deny_unknown_fields)]
+struct RawCamera {
+    eye: V3,
+    target: V3,
+    #[serde(default = "y_axis")]
+    up: V3,
+    fov_y: Positive,
+}
+
+impl TryFrom<RawCamera> for CameraDesc {
+    type Error = String;
+    fn try_from(r: RawCamera) -> Result<Self, String> {
+        let view = r.target.0 - r.eye.0;
+        if view.length() <= 1e-6 {
+            return Err("camera eye and target coincide".into());
+        }
+        if view.normalize().cross(r.up.0).length() <= 1e-6 {
+            return Err("camera up is parallel to the view direction (or zero)".into());
+        }
+        if r.fov_y.0 >= 180.0 {
+            return Err(format!("fov_y must be below 180 degrees, got {}", r.fov_y.0));
+        }
+        Ok(CameraDesc { eye: r.eye, target: r.target, up: r.up, fov_y: r.fov_y })
+    }
+}
+
+/// A node of the BlobTree as written in a scene file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum NodeDesc {
+    /// A point skeleton: a blob.
+    Point {
+        /// The point.
+        center: V3,
+        /// Support radius.
+        radius: Positive,
+        /// Field weight.
+        #[serde(default = "one")]
+        weight: Finite,
+        /// Falloff.
+        #[serde(default)]
+        kernel: Kernel,
+        /// Surface colour.
+        #[serde(default)]
+        color: Option<Color>,
+    },
+    /// A segment skeleton: a capsule.
+    Segment {
+        /// First end.
+        a: V3,
+        /// Second end.
+        b: V3,
+        /// Support radius.
+        radius: Positive,
+        /// Field weight.
+        #[serde(default = "one")]
+        weight: Finite,
+        /// Falloff.
+        #[serde(default)]
+        kernel: Kernel,
+        /// Surface colour.
+        #[serde(default)]
+        color: Option<Color>,
+    },
+    /// A circle skeleton: a torus.
+    Circle {
+        /// Centre of the circle.
+        center: V3,
+        /// Normal of the circle's plane.
+        #[serde(default = "y_axis")]
+        normal: V3,
+        /// Radius of the circle itself.
+        ring: Positive,
+        /// Support radius around the circle.
+        radius: Positive,
+        /// Field weight.
+        #[serde(default = "one")]
+        weight: Finite,
+        /// Falloff.
+        #[serde(default)]
+        kernel: Kernel,
+        /// Surface colour.
+        #[serde(default)]
+        color: Option<Color>,
+    },
+    /// `count` points spaced evenly along a Catmull-Rom spline through `control`,
+    /// blended: how the paper builds the Medusa model.
+    SplinePoints {
+        /// Control points the spline passes through.
+        control: Vec<V3>,
+        /// Number of point primitives.
+        count: Count,
+        /// Support radius of each point (at the start of the spline).
+        radius: Positive,
+        /// Support radius at the end; radii taper linearly when given.
+        #[serde(default)]
+        radius_end: Option<Positive>,
+        /// Field weight of each point.
+        #[serde(default = "one")]
+        weight: Finite,
+        /// Surface colour.
+        #[serde(default)]
+        color: Option<Color>,
+    },
+    /// Sum of the children.
+    Blend(Children),
+    /// `max` of the children.
+    Union(Children),
+    /// `min` of the children.
+    Intersection(Children),
+    /// The first child with the second carved out.
+    Difference(Box<NodeDesc>, Box<NodeDesc>),
+    /// Ricci's blend with exponent `n`.
+    Ricci {
+        /// Exponent, at least 1.
+        n: Positive,
+        /// Children.
+        children: Children,
+    },
+    /// The child placed by `translate · rotate · scale`.
+    Transform {
+        /// Translation.
+        #[serde(default = "zero3")]
+        translate: V3,
+        /// Rotation in degrees about X, then Y, then Z.
+        #[serde(default = "zero3")]
+        rotate: V3,
+        /// Per-axis scale, non-zero.
+        #[serde(default = "one3")]
+        scale: V3,
+        /// The placed subtree.
+        child: Box<NodeDesc>,
+        /// Surface colour.
+        #[serde(default)]
+        color: Option<Color>,
+    },
+    /// A named subtree, for edits.
+    Named(String, Box<NodeDesc>),
+    /// A cache of the child's field.
+    Cache {
+        /// Grid resolution along the longest side.
+        res: Resolution,
+        /// The cached subtree.
+        child: Box<NodeDesc>,
+    },
+}
+
+/// A non-empty list of child nodes.
+#[derive(Debug)]
+pub struct Children(pub Vec<NodeDesc>);
+
+impl<'de> serde::Deserialize<'de> for Children {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = Vec::<NodeDesc>::deserialize(d)?;
+        if v.is_empty() {
+            return Err(de::Error::custom("an operator needs at least one child, got an empty list"));
+        }
+        Ok(Children(v))
+    }
+}
+
+/// A primitive count in `1..=1_000_000`.
+#[derive(Clone, Copy, Debug)]
+pub struct Count(pub u32);
+
+impl<'de> serde::Deserialize<'de> for Count {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = u32::deserialize(d)?;
+        if (1..=1_000_000).contains(&v) {
+            Ok(Count(v))
+        } else {
+            Err(de::Error::custom(format!("count must lie in 1..=1000000, got {v}")))
+        }
+    }
+}
+
+/// A cache resolution in `2..=4096`.
+#[derive(Clone, Copy, Debug)]
+pub struct Resolution(pub u32);
+
+impl<'de> serde::Deserialize<'de> for Resolution {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = u32::deserialize(d)?;
+        if (2..=4096).contains(&v) {
+            Ok(Resolution(v))
+        } else {
+            Err(de::Error::custom(format!("cache resolution must lie in 2..=4096, got {v}")))
+        }
+    }
+}

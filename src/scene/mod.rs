@@ -1,0 +1,101 @@
+//! Scene files: RON text → [`Scene`] (camera, size, iso-value, [`Model`]).
+//!
+//! Every bad value is reported as `file:line:column: problem`, from the
+//! position the parser reached when the value failed its check.
+
+mod build;
+mod desc;
+mod values;
+
+use std::path::Path;
+
+use glam::Vec3;
+
+pub use desc::{CameraDesc, NodeDesc, SceneDesc};
+pub use values::{Color, Finite, Positive, Size, V3};
+
+use crate::camera::Camera;
+use crate::field::{Model, ModelError};
+
+/// Background colour where the scene names none (linear RGB).
+pub const DEFAULT_BACKGROUND: Vec3 = Vec3::new(0.05, 0.055, 0.065);
+
+/// A loaded scene, ready to render.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The viewpoint.
+    pub camera: Camera,
+    /// Default image size.
+    pub size: Size,
+    /// The BlobTree, with its iso-value.
+    pub model: Model,
+    /// Colour of pixels whose ray misses (linear RGB).
+    pub background: Vec3,
+}
+
+/// Why a scene could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The text is not a valid scene, at a known place.
+    #[error("{path}:{line}:{column}: {message}")]
+    Syntax {
+        /// The file.
+        path: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// The scene parsed but describes an invalid model.
+    #[error("{path}: {source}")]
+    Model {
+        /// The file.
+        path: String,
+        /// The cause.
+        source: ModelError,
+    },
+}
+
+impl Scene {
+    /// Reads and builds the scene in `path`.
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+        let path = path.as_ref();
+        let label = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io { path: label.clone(), source })?;
+        Scene::parse(&text, &label)
+    }
+
+    /// Builds a scene from RON text; `label` names the source in errors.
+    pub fn parse(text: &str, label: &str) -> Result<Scene, SceneError> {
+        let desc = parse_desc(text, label)?;
+        Scene::from_desc(&desc).map_err(|source| SceneError::Model { path: label.to_string(), source })
+    }
+
+    /// Builds a scene from its parsed description.
+    pub fn from_desc(desc: &SceneDesc) -> Result<Scene, ModelError> {
+        let c = &desc.camera;
+        let camera = Camera::look_at(c.eye.0, c.target.0, c.up.0, c.fov_y.0);
+        let model = build::model(&desc.model, desc.threshold.0)?;
+        Ok(Scene { camera, size: desc.size, model, background: desc.background.map_or(DEFAULT_BACKGROUND, |c| c.0) })
+    }
+}
+
+/// Parses RON text into a [`SceneDesc`], with positions in errors.
+pub fn parse_desc(text: &str, label: &str) -> Result<SceneDesc, SceneError> {
+    ron::Options::default().from_str::<SceneDesc>(text).map_err(|e| SceneError::Syntax {
+        path: label.to_string(),
+        line: e.span.start.line,
+        column: e.span.start.col,
+        message: e.code.to_string(),
+    })
+}

@@ -1,0 +1,98 @@
+//! Validated scalar and vector values of scene files. Each checks itself while
+//! it is parsed, so a bad number is reported at its own line and column.
+
+use std::fmt;
+
+use glam::Vec3;
+use serde::de::{self, Deserialize, Deserializer};
+
+/// A finite number.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Finite(pub f32);
+
+/// A finite number `> 0`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Positive(pub f32);
+
+/// Three finite numbers `(x, y, z)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct V3(pub Vec3);
+
+/// A colour `(r, g, b)`, each in `[0, 1]`, in linear RGB.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Color(pub Vec3);
+
+fn check_finite<E: de::Error>(v: f32) -> Result<f32, E> {
+    if v.is_finite() { Ok(v) } else { Err(E::custom(format!("expected a finite number, got {v}"))) }
+}
+
+impl<'de> Deserialize<'de> for Finite {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        check_finite(f32::deserialize(d)?).map(Finite)
+    }
+}
+
+impl<'de> Deserialize<'de> for Positive {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = check_finite(f32::deserialize(d)?)?;
+        if v > 0.0 { Ok(Positive(v)) } else { Err(de::Error::custom(format!("expected a positive number, got {v}"))) }
+    }
+}
+
+impl<'de> Deserialize<'de> for V3 {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let (x, y, z) = <(f32, f32, f32)>::deserialize(d)?;
+        for v in [x, y, z] {
+            check_finite::<D::Error>(v)?;
+        }
+        Ok(V3(Vec3::new(x, y, z)))
+    }
+}
+
+impl<'de> Deserialize<'de> for Color {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let V3(c) = V3::deserialize(d)?;
+        if c.min_element() < 0.0 || c.max_element() > 1.0 {
+            return Err(de::Error::custom(format!("colour components must lie in [0, 1], got {c}")));
+        }
+        Ok(Color(c))
+    }
+}
+
+/// An image size `(width, height)`, each in `1..=16384`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Size(pub u32, pub u32);
+
+/// Largest image side blobtrace accepts.
+pub const MAX_SIDE: u32 = 16384;
+
+impl Size {
+    /// Parses `WxH` (as on the command line).
+    pub fn parse(s: &str) -> Result<Self, String> {
+        let (w, h) =
+            s.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT such as 640x480, got {s:?}"))?;
+        let side = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("{v:?} is not a whole number in {s:?}"));
+        Self::checked(side(w)?, side(h)?)
+    }
+
+    fn checked(w: u32, h: u32) -> Result<Self, String> {
+        if (1..=MAX_SIDE).contains(&w) && (1..=MAX_SIDE).contains(&h) {
+            Ok(Size(w, h))
+        } else {
+            Err(format!("image size {w}x{h} is out of range (each side 1..={MAX_SIDE})"))
+        }
+    }
+}
+
+impl fmt::Display for Size {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}x{}", self.0, self.1)
+    }
+}
+
+impl<'de> Deserialize<'de> for Size {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let (w, h) = <(u32, u32)>::deserialize(d)?;
+        Size::checked(w, h).map_err(de::Error::custom)
+    }
+}
