@@ -92,10 +92,13 @@ impl Scene {
 
 /// Parses RON text into a [`SceneDesc`], with positions in errors.
 pub fn parse_desc(text: &str, label: &str) -> Result<SceneDesc, SceneError> {
-    ron::Options::default().from_str::<SceneDesc>(text).map_err(|e| SceneError::Syntax {
-        path: label.to_string(),
-        line: e.span.start.line,
-        column: e.span.start.col,
-        message: e.code.to_string(),
-    })
+    ron::Options::default()
+        .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
+        .from_str::<SceneDesc>(text)
+        .map_err(|e| SceneError::Syntax {
+            path: label.to_string(),
+            line: e.span.start.line,
+            column: e.span.start.col,
+            message: e.code.to_string(),
+        })
 }
