@@ -24,9 +24,13 @@ impl Model {
             NodeKind::Blend { children, index } => match (mode, index) {
                 (EvalMode::Indexed, Some(ix)) => {
                     let leaves = &ix.leaves;
-                    ix.candidates(p).iter().fold(0.0, |s, &i| s + self.leaf_value(&leaves[i as usize], p, mode))
+                    let sum = ix
+                        .candidates(p)
+                        .iter()
+                        .fold(0.0f64, |s, &i| s + f64::from(self.leaf_value(&leaves[i as usize], p, mode)));
+                    sum as f32
                 }
-                _ => children.iter().fold(0.0, |s, &c| s + self.node_value(c, p, mode)),
+                _ => self.nested_blend_sum(children, p, mode) as f32,
             },
             NodeKind::Union(cs) => cs.iter().map(|&c| self.node_value(c, p, mode)).fold(f32::MIN, f32::max),
             NodeKind::Intersection(cs) => cs.iter().map(|&c| self.node_value(c, p, mode)).fold(f32::MAX, f32::min),
@@ -41,6 +45,25 @@ impl Model {
             NodeKind::Transform { placement, child } => self.node_value(*child, placement.local(p), mode),
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_value(*child, p, mode),
         }
+    }
+
+    /// The sum over a blend's children, descending into nested blends without
+    /// rounding: summed in `f64` and rounded once, it equals the flattened
+    /// indexed sum to the last bit but for rare ties.
+    fn nested_blend_sum(&self, children: &[NodeId], p: Vec3A, mode: EvalMode) -> f64 {
+        children.iter().fold(0.0f64, |s, &c| {
+            let node = self.node(c);
+            s + match &node.kind {
+                NodeKind::Blend { children, .. } => {
+                    if node.bounds.contains(p) {
+                        self.nested_blend_sum(children, p, mode)
+                    } else {
+                        0.0
+                    }
+                }
+                _ => f64::from(self.node_value(c, p, mode)),
+            }
+        })
     }
 
     #[inline]

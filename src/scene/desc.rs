@@ -3,7 +3,7 @@
 use serde::Deserialize;
 use serde::de::{self, Deserializer};
 
-use super::values::{Color, Finite, Positive, Size, V3};
+use super::values::{Color, Finite, Positive, Scale, Size, V3};
 use crate::field::Kernel;
 
 /// A whole scene file: `Scene(camera: …, size: …, threshold: …, model: …)`.
@@ -36,8 +36,8 @@ fn zero3() -> V3 {
     V3(glam::Vec3::ZERO)
 }
 
-fn one3() -> V3 {
-    V3(glam::Vec3::ONE)
+fn one3() -> Scale {
+    Scale(glam::Vec3::ONE)
 }
 
 fn y_axis() -> V3 {
@@ -87,7 +87,7 @@ impl TryFrom<RawCamera> for CameraDesc {
 
 /// A node of the BlobTree as written in a scene file.
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(rename = "node", deny_unknown_fields)]
 pub enum NodeDesc {
     /// A point skeleton: a blob.
     Point {
@@ -188,7 +188,7 @@ pub enum NodeDesc {
         rotate: V3,
         /// Per-axis scale, non-zero.
         #[serde(default = "one3")]
-        scale: V3,
+        scale: Scale,
         /// The placed subtree.
         child: Box<NodeDesc>,
         /// Surface colour.

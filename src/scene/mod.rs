@@ -37,12 +37,12 @@ pub struct Scene {
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
     /// The file could not be read.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         /// The file.
         path: String,
         /// The cause.
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// The text is not a valid scene, at a known place.
     #[error("{path}:{line}:{column}: {message}")]
@@ -57,12 +57,12 @@ pub enum SceneError {
         message: String,
     },
     /// The scene parsed but describes an invalid model.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Model {
         /// The file.
         path: String,
         /// The cause.
-        source: ModelError,
+        cause: ModelError,
     },
 }
 
@@ -71,14 +71,14 @@ impl Scene {
     pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
         let path = path.as_ref();
         let label = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io { path: label.clone(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|cause| SceneError::Io { path: label.clone(), cause })?;
         Scene::parse(&text, &label)
     }
 
     /// Builds a scene from RON text; `label` names the source in errors.
     pub fn parse(text: &str, label: &str) -> Result<Scene, SceneError> {
         let desc = parse_desc(text, label)?;
-        Scene::from_desc(&desc).map_err(|source| SceneError::Model { path: label.to_string(), source })
+        Scene::from_desc(&desc).map_err(|cause| SceneError::Model { path: label.to_string(), cause })
     }
 
     /// Builds a scene from its parsed description.

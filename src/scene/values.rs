@@ -96,3 +96,17 @@ impl<'de> Deserialize<'de> for Size {
         Size::checked(w, h).map_err(de::Error::custom)
     }
 }
+
+/// Three finite, non-zero scale factors.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scale(pub Vec3);
+
+impl<'de> Deserialize<'de> for Scale {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let V3(s) = V3::deserialize(d)?;
+        if s.abs().min_element() <= f32::EPSILON {
+            return Err(de::Error::custom(format!("scale factors must be non-zero, got {s}")));
+        }
+        Ok(Scale(s))
+    }
+}

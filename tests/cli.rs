@@ -1,0 +1,174 @@
+//! The command line: outputs, JSON keys, and clear errors for bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn blobtrace(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_blobtrace"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the binary runs")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("blobtrace-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn json(out: &Output) -> serde_json::Value {
+    assert!(out.status.success(), "failed: {}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).expect("stdout is one JSON object")
+}
+
+#[test]
+fn render_writes_png_and_exr_and_reports_json() {
+    let dir = scratch("render");
+    let png = dir.join("pair.png");
+    let exr = dir.join("pair.exr");
+    let out = blobtrace(&[
+        "render",
+        "scenes/pair.ron",
+        "-o",
+        png.to_str().unwrap(),
+        "--exr",
+        exr.to_str().unwrap(),
+        "--size",
+        "64x48",
+        "--json",
+    ]);
+    let v = json(&out);
+    for key in ["seconds", "rays", "hits", "field_evals", "width", "height"] {
+        assert!(v.get(key).is_some(), "missing key {key} in {v}");
+    }
+    assert_eq!(v["rays"], 64 * 48);
+    assert_eq!((v["width"].as_u64(), v["height"].as_u64()), (Some(64), Some(48)));
+    let img = image::open(&png).expect("a PNG was written").to_rgb8();
+    assert_eq!(img.dimensions(), (64, 48));
+    assert!(exr.exists());
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn threads_option_does_not_change_the_image() {
+    let dir = scratch("threads");
+    let render = |threads: &str, name: &str| {
+        let p = dir.join(name);
+        let out = blobtrace(&[
+            "render",
+            "scenes/sharp.ron",
+            "--size",
+            "80x60",
+            "--threads",
+            threads,
+            "--exr",
+            p.to_str().unwrap(),
+            "-o",
+            dir.join(format!("{name}.png")).to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        std::fs::read(p).unwrap()
+    };
+    assert_eq!(render("1", "one.exr"), render("2", "two.exr"));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn info_reports_counts() {
+    let v = json(&blobtrace(&["info", "scenes/medusa.ron", "--json"]));
+    assert_eq!(v["primitives"], 9490);
+    assert_eq!(v["caches"], 7);
+    assert!(v["nodes"].as_u64().unwrap() > 9490);
+    let names: Vec<&str> = v["names"].as_array().unwrap().iter().map(|n| n.as_str().unwrap()).collect();
+    assert_eq!(names, ["body", "chest", "hair", "head", "left_hand", "neck", "tail"]);
+}
+
+const GOOD: &str = "Scene(
+    camera: Camera(eye: (0.0, 0.0, 3.0), target: (0.0, 0.0, 0.0), fov_y: 30.0),
+    size: (16, 16),
+    model: Blend([
+        Point(center: (0.0, 0.0, 0.0), radius: 1.0),
+    ]),
+)
+";
+
+/// Renders a scene text that must fail; checks the message and that an
+/// existing output file is left as it was.
+fn assert_rejected(name: &str, text: &str, expect_position: Option<(usize, usize)>, expect_words: &str) {
+    let dir = scratch(name);
+    let scene = dir.join(format!("{name}.ron"));
+    std::fs::write(&scene, text).unwrap();
+    let png = dir.join("existing.png");
+    std::fs::write(&png, b"keep me").unwrap();
+    let out = blobtrace(&["render", scene.to_str().unwrap(), "-o", png.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{name}: should fail");
+    assert!(!err.contains("panicked"), "{name}: panicked: {err}");
+    if let Some((line, col)) = expect_position {
+        let at = format!("{}:{line}:{col}:", scene.display());
+        assert!(err.contains(&at), "{name}: expected position {at} in {err}");
+    }
+    assert!(err.to_lowercase().contains(expect_words), "{name}: expected {expect_words:?} in {err}");
+    assert_eq!(std::fs::read(&png).unwrap(), b"keep me", "{name}: output was touched");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn good_scene_text_renders() {
+    let dir = scratch("good");
+    let scene = dir.join("good.ron");
+    std::fs::write(&scene, GOOD).unwrap();
+    let out = blobtrace(&["render", scene.to_str().unwrap(), "-o", dir.join("g.png").to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn bad_scenes_give_positions_and_no_panic() {
+    assert_rejected("syntax", &GOOD.replace("radius: 1.0),", "radius: 1.0"), Some((6, 5)), "expected");
+    assert_rejected("unknown-node", &GOOD.replace("Point(", "Pointy("), Some((5, 9)), "pointy");
+    assert_rejected("negative-radius", &GOOD.replace("radius: 1.0", "radius: -1.0"), Some((5, 48)), "positive");
+    assert_rejected(
+        "nan",
+        &GOOD.replace("center: (0.0, 0.0, 0.0)", "center: (0.0, NaN, 0.0)"),
+        Some((5, 37)),
+        "finite",
+    );
+    assert_rejected(
+        "empty-blend",
+        &GOOD.replace("Point(center: (0.0, 0.0, 0.0), radius: 1.0),", ""),
+        Some((6, 5)),
+        "at least one child",
+    );
+    assert_rejected("unknown-field", &GOOD.replace("radius: 1.0", "radius: 1.0, wieght: 2.0"), Some((5, 53)), "wieght");
+    assert_rejected(
+        "zero-scale",
+        &GOOD.replace(
+            "Point(center: (0.0, 0.0, 0.0), radius: 1.0)",
+            "Transform(scale: (1.0, 0.0, 1.0), child: Point(center: (0.0, 0.0, 0.0), radius: 1.0))",
+        ),
+        Some((5, 40)),
+        "scale",
+    );
+    assert_rejected("eye-on-target", &GOOD.replace("eye: (0.0, 0.0, 3.0)", "eye: (0.0, 0.0, 0.0)"), None, "coincide");
+    assert_rejected("duplicate-name", &GOOD.replace("Point(center: (0.0, 0.0, 0.0), radius: 1.0),", "Named(\"a\", Point(center: (0.0, 0.0, 0.0), radius: 1.0)), Named(\"a\", Point(center: (1.0, 0.0, 0.0), radius: 1.0)),"), None, "used twice");
+}
+
+#[test]
+fn missing_scene_and_bad_options_fail_cleanly() {
+    for args in [
+        &["render", "scenes/no-such-scene.ron"][..],
+        &["render", "scenes/pair.ron", "--size", "0x10"],
+        &["render", "scenes/pair.ron", "--size", "big"],
+        &["render", "scenes/pair.ron", "--threads", "0", "-o", "/tmp/blobtrace-never.png"],
+        &["render", "scenes/pair.ron", "--eval", "fast"],
+        &["render", "scenes/pair.ron", "-o", "/no/such/dir/out.png"],
+    ] {
+        let out = blobtrace(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} should fail");
+        assert!(!err.contains("panicked") && !err.is_empty(), "{args:?}: {err}");
+    }
+    assert!(!Path::new("/tmp/blobtrace-never.png").exists());
+}

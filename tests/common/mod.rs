@@ -1,0 +1,55 @@
+//! Shared helpers for the integration tests.
+#![allow(dead_code)]
+
+use blobtrace::scene::Scene;
+use glam::Vec3A;
+
+/// A scene using every node type, with transforms that rotate and scale unevenly.
+pub const EVERY_NODE: &str = r#"Scene(
+    camera: Camera(eye: (0.0, 1.0, 7.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
+    size: (64, 48),
+    model: Blend([
+        Point(center: (0.0, 0.0, 0.0), radius: 1.0),
+        Segment(a: (1.0, 0.0, 0.0), b: (2.0, 0.5, 0.3), radius: 0.6, weight: 1.3),
+        Circle(center: (-1.5, 0.0, 0.0), normal: (0.3, 1.0, 0.2), ring: 0.8, radius: 0.4),
+        SplinePoints(control: [(-2.0, 1.0, 0.0), (-1.0, 1.6, 0.4), (0.0, 1.4, 0.8)], count: 30, radius: 0.35, radius_end: 0.2),
+        Union([Point(center: (0.0, -1.5, 0.0), radius: 0.9), Point(center: (0.5, -1.6, 0.2), radius: 0.8)]),
+        Intersection([Point(center: (2.0, -1.5, 0.0), radius: 1.4), Segment(a: (1.5, -1.5, 0.0), b: (2.5, -1.5, 0.0), radius: 0.9)]),
+        Difference(Point(center: (-2.0, -1.5, 0.0), radius: 1.3), Point(center: (-1.8, -1.3, 0.4), radius: 0.7)),
+        Ricci(n: 3.0, children: [Point(center: (0.0, 2.5, 0.0), radius: 0.8), Point(center: (0.4, 2.6, 0.0), radius: 0.8)]),
+        Named("arm", Transform(translate: (0.5, 0.3, -1.0), rotate: (20.0, -35.0, 50.0), scale: (1.5, 0.7, 1.1),
+            child: Segment(a: (0.0, 0.0, 0.0), b: (1.0, 0.0, 0.0), radius: 0.5))),
+        Cache(res: 32, child: Point(center: (0.0, 0.0, 1.5), radius: 0.7)),
+    ]),
+)"#;
+
+/// Loads a bundled scene by file name.
+pub fn bundled(name: &str) -> Scene {
+    Scene::load(format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))).expect("bundled scene loads")
+}
+
+/// A small deterministic generator (SplitMix64) so tests need no seed plumbing.
+pub struct Rng(pub u64);
+
+impl Rng {
+    /// Next value in `[0, 1)`.
+    pub fn next_f32(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// A point uniformly in the box `[min, max]`.
+    pub fn point_in(&mut self, min: Vec3A, max: Vec3A) -> Vec3A {
+        let t = Vec3A::new(self.next_f32(), self.next_f32(), self.next_f32());
+        min + (max - min) * t
+    }
+}
+
+/// Asserts `|a - b| <= tol`, printing the actual difference.
+#[track_caller]
+pub fn assert_close(a: f32, b: f32, tol: f32, what: &str) {
+    assert!((a - b).abs() <= tol, "{what}: {a} vs {b}, difference {} > {tol}", (a - b).abs());
+}

@@ -1,0 +1,169 @@
+//! One conformance suite for every evaluator and node type: gradients against
+//! finite differences, interval and Lipschitz bounds against samples, and
+//! indexed against naive evaluation.
+
+mod common;
+
+use blobtrace::field::{EvalMode, ExactField, Field, Model, NodeId, Region};
+use blobtrace::geom::Aabb;
+use blobtrace::scene::Scene;
+use common::{EVERY_NODE, Rng, bundled};
+use glam::Vec3A;
+use proptest::prelude::*;
+use std::sync::OnceLock;
+
+fn every_node() -> &'static Scene {
+    static SCENE: OnceLock<Scene> = OnceLock::new();
+    SCENE.get_or_init(|| Scene::parse(EVERY_NODE, "every-node").expect("test scene parses"))
+}
+
+fn medusa() -> &'static Scene {
+    static SCENE: OnceLock<Scene> = OnceLock::new();
+    SCENE.get_or_init(|| bundled("medusa.ron"))
+}
+
+/// Central difference of node `id` at `p` with step `h`.
+fn central_difference(m: &Model, id: NodeId, p: Vec3A, h: f32, mode: EvalMode) -> Vec3A {
+    let d = |axis: Vec3A| (m.node_value(id, p + axis * h, mode) - m.node_value(id, p - axis * h, mode)) / (2.0 * h);
+    Vec3A::new(d(Vec3A::X), d(Vec3A::Y), d(Vec3A::Z))
+}
+
+#[test]
+fn gradients_match_central_differences_for_every_node_type() {
+    let m = &every_node().model;
+    let mut rng = Rng(7);
+    let mut checked_types = std::collections::BTreeSet::new();
+    for id in 0..m.nodes().len() as NodeId {
+        let node = m.node(id);
+        let b = node.bounds;
+        let mut compared = 0;
+        for _ in 0..400 {
+            let p = rng.point_in(b.min, b.max);
+            for mode in [EvalMode::Indexed, EvalMode::Naive] {
+                let fd1 = central_difference(m, id, p, 1e-3, mode);
+                let fd2 = central_difference(m, id, p, 5e-4, mode);
+                // Where the two step sizes disagree the field has a kink (min/max,
+                // support boundary): the derivative is not defined there.
+                if (fd1 - fd2).length() > 1e-2 * (1.0 + fd1.length()) {
+                    continue;
+                }
+                let g = m.node_gradient(id, p, mode);
+                let err = (g - fd1).length();
+                assert!(
+                    err <= 3e-3 + 1e-2 * g.length(),
+                    "{} node {id} at {p}: gradient {g} vs finite difference {fd1} ({mode:?}), error {err}",
+                    node.kind.type_name()
+                );
+                compared += 1;
+            }
+        }
+        assert!(compared > 200, "{} node {id}: only {compared} smooth samples", node.kind.type_name());
+        checked_types.insert(node.kind.type_name());
+    }
+    for t in [
+        "Point",
+        "Segment",
+        "Circle",
+        "Blend",
+        "Union",
+        "Intersection",
+        "Difference",
+        "Ricci",
+        "Transform",
+        "Named",
+        "Cache",
+    ] {
+        assert!(checked_types.contains(t), "no {t} node was checked");
+    }
+}
+
+#[test]
+fn indexed_and_naive_evaluation_agree() {
+    for scene in [medusa(), every_node()] {
+        let m = &scene.model;
+        let (fast, slow) = (ExactField::new(m, EvalMode::Indexed), ExactField::new(m, EvalMode::Naive));
+        let b = m.bounds();
+        let mut rng = Rng(11);
+        let mut inside_support = 0;
+        for _ in 0..20_000 {
+            let p = rng.point_in(b.min, b.max);
+            let (a, n) = (fast.value(p), slow.value(p));
+            assert!((a - n).abs() <= 1e-6, "value at {p}: indexed {a} vs naive {n}");
+            let (ga, gn) = (fast.gradient(p), slow.gradient(p));
+            assert!((ga - gn).length() <= 1e-4 * (1.0 + gn.length()), "gradient at {p}: {ga} vs {gn}");
+            inside_support += usize::from(n > 0.0);
+        }
+        assert!(inside_support > 500, "too few samples inside the supports: {inside_support}");
+    }
+}
+
+#[test]
+fn wide_blends_are_indexed() {
+    let c = medusa().model.counts();
+    assert_eq!(c.primitives, 9490);
+    assert_eq!(c.caches, 7);
+    assert_eq!(c.indexed_blends, 7, "each Medusa component is one indexed cluster");
+}
+
+/// A random box or segment inside the scene bounds, from unit-cube parameters.
+fn region_from(b: &Aabb, t: [f32; 6], thin: f32) -> (Vec3A, Vec3A) {
+    let a = b.min + b.size() * Vec3A::new(t[0], t[1], t[2]);
+    let d = b.size() * (Vec3A::new(t[3], t[4], t[5]) - 0.5) * thin;
+    (a, a + d)
+}
+
+fn check_interval(field: &ExactField, a: Vec3A, c: Vec3A, seed: u64) -> Result<(), TestCaseError> {
+    let bx = Aabb::from_points(a, c);
+    let range = field.interval(&bx);
+    let mut rng = Rng(seed);
+    for _ in 0..64 {
+        let p = rng.point_in(bx.min, bx.max);
+        let v = field.value(p);
+        prop_assert!(range.lo - 1e-5 <= v && v <= range.hi + 1e-5, "value {v} at {p} outside {range:?} over {bx:?}");
+    }
+    Ok(())
+}
+
+fn check_lipschitz(field: &ExactField, a: Vec3A, c: Vec3A, seed: u64) -> Result<(), TestCaseError> {
+    let l = field.lipschitz(&Region::Segment(a, c));
+    let mut rng = Rng(seed);
+    for _ in 0..64 {
+        let (s, t) = (rng.next_f32(), rng.next_f32());
+        let (p, q) = (a.lerp(c, s), a.lerp(c, t));
+        let slope_times_dist = l * (p - q).length();
+        let dv = (field.value(p) - field.value(q)).abs();
+        prop_assert!(dv <= slope_times_dist * 1.001 + 2e-6, "|Δf| {dv} > L|Δx| {slope_times_dist} on {a}..{c}");
+    }
+    let lb = field.lipschitz(&Region::Box(Aabb::from_points(a, c)));
+    let bx = Aabb::from_points(a, c);
+    for _ in 0..32 {
+        let (p, q) = (rng.point_in(bx.min, bx.max), rng.point_in(bx.min, bx.max));
+        let dv = (field.value(p) - field.value(q)).abs();
+        prop_assert!(dv <= lb * (p - q).length() * 1.001 + 2e-6, "box bound {lb} violated: {dv}");
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    #[test]
+    fn intervals_contain_sampled_values(t in prop::array::uniform6(0.0f32..1.0), thin in 0.01f32..0.6, seed in 0u64..1000) {
+        for scene in [every_node(), medusa()] {
+            let (a, c) = region_from(&scene.model.bounds(), t, thin);
+            for mode in [EvalMode::Indexed, EvalMode::Naive] {
+                check_interval(&ExactField::new(&scene.model, mode), a, c, seed)?;
+            }
+        }
+    }
+
+    #[test]
+    fn lipschitz_bounds_dominate_sampled_slopes(t in prop::array::uniform6(0.0f32..1.0), thin in 0.01f32..0.6, seed in 0u64..1000) {
+        for scene in [every_node(), medusa()] {
+            let (a, c) = region_from(&scene.model.bounds(), t, thin);
+            for mode in [EvalMode::Indexed, EvalMode::Naive] {
+                check_lipschitz(&ExactField::new(&scene.model, mode), a, c, seed)?;
+            }
+        }
+    }
+}

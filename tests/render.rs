@@ -1,0 +1,184 @@
+//! The field ray caster against analytic answers, brute force and itself.
+
+mod common;
+
+use blobtrace::field::{EvalMode, ExactField, Field};
+use blobtrace::geom::Ray;
+use blobtrace::scene::Scene;
+use blobtrace::trace::{Lighting, RenderSettings, TraceOptions, render, trace_ray};
+use common::bundled;
+use glam::Vec3A;
+
+fn settings(scene: &Scene, w: u32, h: u32) -> RenderSettings {
+    RenderSettings {
+        camera: scene.camera,
+        width: w,
+        height: h,
+        background: scene.background,
+        lighting: Lighting::default(),
+        trace: TraceOptions::default(),
+    }
+}
+
+/// Distance along `ray` to the sphere of radius `r` at the origin, if hit.
+fn ray_sphere(ray: &Ray, r: f32) -> Option<f32> {
+    let o = ray.origin;
+    let b = o.dot(ray.dir);
+    let c = o.length_squared() - r * r;
+    let disc = b * b - c;
+    (disc >= 0.0).then(|| -b - disc.sqrt())
+}
+
+#[test]
+fn lone_point_depth_matches_the_analytic_sphere() {
+    let scene = bundled("sphere.ron");
+    let field = ExactField::new(&scene.model, EvalMode::Indexed);
+    let radius = 2.0f32; // the scene's support radius R
+    let iso_radius = radius * (1.0 - 0.5f32.powf(1.0 / 3.0)).sqrt();
+    let s = settings(&scene, 160, 120);
+    let (frame, _) = render(&field, &s, &|_| {});
+    let (mut hits, mut checked_misses) = (0, 0);
+    for y in 0..s.height {
+        for x in 0..s.width {
+            let i = (y * s.width + x) as usize;
+            let ray = scene.camera.ray(x, y, s.width, s.height);
+            // Distance from the centre to the ray's line: how far from the silhouette.
+            let miss_distance = (ray.origin - ray.dir * ray.origin.dot(ray.dir)).length();
+            let near_silhouette = (miss_distance - iso_radius).abs() < 2e-3;
+            match ray_sphere(&ray, iso_radius) {
+                Some(t) if !near_silhouette => {
+                    assert!(frame.depth[i].is_finite(), "pixel {x},{y} should hit");
+                    let err = (frame.depth[i] - t).abs();
+                    assert!(err <= 1e-4 * radius, "pixel {x},{y}: Z {} vs analytic {t} (error {err})", frame.depth[i]);
+                    hits += 1;
+                }
+                None if !near_silhouette => {
+                    assert!(frame.depth[i].is_infinite(), "pixel {x},{y} should miss");
+                    checked_misses += 1;
+                }
+                _ => {}
+            }
+        }
+    }
+    assert!(hits > 5000 && checked_misses > 1000, "hits {hits}, misses {checked_misses}");
+}
+
+/// Thin features: capsules and blobs far thinner than a naive step would resolve.
+const THIN: &str = r#"Scene(
+    camera: Camera(eye: (0.3, 0.4, 3.0), target: (0.0, 0.0, 0.0), fov_y: 45.0),
+    size: (48, 48),
+    model: Blend([
+        Segment(a: (-1.0, -0.8, 0.0), b: (1.0, 0.9, 0.1), radius: 0.07),
+        Segment(a: (-1.0, 0.7, -0.5), b: (0.9, -0.6, 0.6), radius: 0.05),
+        Circle(center: (0.0, 0.0, 0.0), normal: (0.2, 0.3, 1.0), ring: 0.8, radius: 0.05),
+        SplinePoints(control: [(-0.9, 0.0, 0.5), (0.0, 0.5, 0.6), (0.9, 0.0, 0.4)], count: 9, radius: 0.06),
+        Point(center: (0.4, 0.4, 0.2), radius: 1.0, weight: 0.45),
+    ]),
+)"#;
+
+/// Hit or miss by marching with a tiny fixed step.
+fn brute_force_hit(field: &impl Field, ray: &Ray, step: f32) -> bool {
+    let Some((t0, t1)) = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY) else {
+        return false;
+    };
+    let mut t = t0;
+    while t <= t1 {
+        if field.value(ray.at(t)) > field.threshold() {
+            return true;
+        }
+        t += step;
+    }
+    false
+}
+
+#[test]
+fn no_tunnelling_through_thin_features() {
+    let scene = Scene::parse(THIN, "thin").unwrap();
+    let field = ExactField::new(&scene.model, EvalMode::Indexed);
+    let (w, h) = (48u32, 48u32);
+    let step = 1e-3;
+    let (mut compared, mut hits) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let at = |dx: f32, dy: f32| scene.camera.ray_at(x as f32 + 0.5 + dx, y as f32 + 0.5 + dy, w, h);
+            let brute = brute_force_hit(&field, &at(0.0, 0.0), step);
+            // Pixels whose quarter-pixel neighbours disagree straddle a silhouette.
+            let straddles = [(-0.25, 0.0), (0.25, 0.0), (0.0, -0.25), (0.0, 0.25)]
+                .iter()
+                .any(|&(dx, dy)| brute_force_hit(&field, &at(dx, dy), step) != brute);
+            if straddles {
+                continue;
+            }
+            let traced = trace_ray(&field, &at(0.0, 0.0), &TraceOptions::default()).hit.is_some();
+            assert_eq!(traced, brute, "pixel {x},{y}: traced hit {traced}, brute force {brute}");
+            compared += 1;
+            hits += usize::from(brute);
+        }
+    }
+    assert!(compared > 1500 && hits > 100, "compared {compared}, hits {hits}");
+}
+
+#[test]
+fn one_and_many_threads_give_identical_frames_and_exr_bytes() {
+    let scene = bundled("medusa.ron");
+    let field = ExactField::new(&scene.model, EvalMode::Indexed);
+    let s = settings(&scene, 96, 72);
+    let run = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| render(&field, &s, &|_| {}).0)
+    };
+    let one = run(1);
+    let many = run(4);
+    assert!(one.hits() > 300, "the view should hit Medusa: {} hits", one.hits());
+    assert_eq!(one, many);
+    let dir = std::env::temp_dir().join(format!("blobtrace-threads-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    one.save_exr(&dir.join("one.exr")).unwrap();
+    many.save_exr(&dir.join("many.exr")).unwrap();
+    assert_eq!(std::fs::read(dir.join("one.exr")).unwrap(), std::fs::read(dir.join("many.exr")).unwrap());
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn exr_holds_every_aov() {
+    let scene = bundled("pair.ron");
+    let field = ExactField::new(&scene.model, EvalMode::Indexed);
+    let (frame, stats) = render(&field, &settings(&scene, 40, 30), &|_| {});
+    let path = std::env::temp_dir().join(format!("blobtrace-aov-{}.exr", std::process::id()));
+    frame.save_exr(&path).unwrap();
+    let exr = blobtrace::frame::read_exr_channels(&path).unwrap();
+    std::fs::remove_file(&path).unwrap();
+    assert_eq!((exr.width, exr.height), (40, 30));
+    for name in ["R", "G", "B", "A", "Z", "N.X", "N.Y", "N.Z", "steps.Y"] {
+        assert!(exr.channels.contains_key(name), "missing channel {name}");
+    }
+    let z = &exr.channels["Z"];
+    let a = &exr.channels["A"];
+    assert_eq!(a.iter().filter(|&&v| v > 0.0).count() as u64, stats.hits);
+    for (z, a) in z.iter().zip(a) {
+        assert_eq!(z.is_infinite(), *a == 0.0, "Z is +inf exactly on misses");
+    }
+    // Normals are unit length on hits.
+    let n = |i: usize| Vec3A::new(exr.channels["N.X"][i], exr.channels["N.Y"][i], exr.channels["N.Z"][i]);
+    for i in (0..z.len()).filter(|&i| a[i] > 0.0) {
+        assert!((n(i).length() - 1.0).abs() < 1e-4);
+    }
+}
+
+#[test]
+fn naive_and_indexed_renders_agree_on_coverage() {
+    let scene = bundled("hair_point.ron");
+    let s = settings(&scene, 64, 48);
+    let (a, _) = render(&ExactField::new(&scene.model, EvalMode::Indexed), &s, &|_| {});
+    let (b, _) = render(&ExactField::new(&scene.model, EvalMode::Naive), &s, &|_| {});
+    let mismatch = a.alpha.iter().zip(&b.alpha).filter(|(x, y)| x != y).count();
+    assert!(mismatch <= 2, "{mismatch} pixels differ in coverage");
+    let worst = a
+        .depth
+        .iter()
+        .zip(&b.depth)
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-3, "depths differ by {worst}");
+}
