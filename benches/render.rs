@@ -1,1 +1,52 @@
-fn main() {}
+//! Exact field rendering of Medusa: indexed against naive evaluation, and the
+//! indexed render across thread counts. `cargo bench --bench render`.
+
+use blobtrace::field::{EvalMode, ExactField};
+use blobtrace::scene::Scene;
+use blobtrace::trace::{Lighting, RenderSettings, TraceOptions, render};
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+
+fn medusa() -> Scene {
+    Scene::load(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/medusa.ron")).expect("medusa loads")
+}
+
+fn settings(scene: &Scene, w: u32, h: u32) -> RenderSettings {
+    RenderSettings {
+        camera: scene.camera,
+        width: w,
+        height: h,
+        background: scene.background,
+        lighting: Lighting::default(),
+        trace: TraceOptions::default(),
+    }
+}
+
+fn eval_modes(c: &mut Criterion) {
+    let scene = medusa();
+    let mut group = c.benchmark_group("medusa_160x120");
+    group.sample_size(10);
+    for (name, mode) in [("indexed", EvalMode::Indexed), ("naive", EvalMode::Naive)] {
+        let field = ExactField::new(&scene.model, mode);
+        let s = settings(&scene, 160, 120);
+        group.bench_function(name, |b| b.iter(|| render(&field, &s, &|_| {})));
+    }
+    group.finish();
+}
+
+fn threads(c: &mut Criterion) {
+    let scene = medusa();
+    let field = ExactField::new(&scene.model, EvalMode::Indexed);
+    let mut group = c.benchmark_group("medusa_indexed_threads");
+    group.sample_size(10);
+    for n in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
+        let s = settings(&scene, 160, 120);
+        group.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
+            b.iter(|| pool.install(|| render(&field, &s, &|_| {})))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, eval_modes, threads);
+criterion_main!(benches);

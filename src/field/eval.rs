@@ -187,7 +187,7 @@ impl Model {
             return Interval::ZERO;
         }
         let t = self.threshold();
-        let sum = |cs: &[NodeId]| cs.iter().fold(Interval::ZERO, |s, &c| s.add(self.node_interval(c, b, mode)));
+        let sum = |cs: &[NodeId]| cs.iter().fold(Interval::ZERO, |s, &c| s + self.node_interval(c, b, mode));
         let reduce = |cs: &[NodeId], f: fn(Interval, Interval) -> Interval| {
             cs[1..].iter().fold(self.node_interval(cs[0], b, mode), |s, &c| f(s, self.node_interval(c, b, mode)))
         };

@@ -119,7 +119,7 @@ impl BlendIndex {
             for &i in self.cell_items(c) {
                 let leaf = &self.leaves[i as usize];
                 l += lipschitz(leaf, &region);
-                range = range.add(interval(leaf, &cell_box));
+                range = range + interval(leaf, &cell_box);
             }
             self.cell_lipschitz[c] = l;
             self.cell_range[c] = range;
@@ -202,12 +202,53 @@ impl BlendIndex {
         self.cell_items(self.linear(i))
     }
 
-    /// A bound on the blend's gradient over a region: the largest cell bound it meets.
+    /// A bound on the blend's gradient over a region: the largest bound of the
+    /// cells it passes through. Every point of the region lies in one of those
+    /// (closed) cells, where `|∇f|` is at most that cell's bound.
     #[must_use]
     pub fn lipschitz(&self, region: &Region) -> f32 {
         let mut l = 0.0f32;
-        self.for_each_cell(&region.bounds(), |c| l = l.max(self.cell_lipschitz[c]));
+        match region {
+            Region::Segment(a, b) => self.for_each_cell_on_segment(*a, *b, |c| l = l.max(self.cell_lipschitz[c])),
+            Region::Box(b) => self.for_each_cell(b, |c| l = l.max(self.cell_lipschitz[c])),
+        }
         l
+    }
+
+    /// Visits the cells the segment `a..b` passes through (Amanatides–Woo walk).
+    fn for_each_cell_on_segment(&self, a: Vec3A, b: Vec3A, mut f: impl FnMut(usize)) {
+        let grid = Aabb::new(self.origin, self.origin + self.dims.as_vec3a() * self.cell);
+        let d = b - a;
+        let inv = d.recip();
+        let Some((t0, t1)) = grid.clip_ray(a, inv, 0.0, 1.0) else {
+            return;
+        };
+        let top = self.dims.as_ivec3() - glam::IVec3::ONE;
+        let start = (a + d * t0 - self.origin) * self.inv_cell;
+        let mut cell = start.floor().as_ivec3().clamp(glam::IVec3::ZERO, top);
+        let step = glam::IVec3::new(sign(d.x), sign(d.y), sign(d.z));
+        let next_face = (cell + step.max(glam::IVec3::ZERO)).as_vec3a() * self.cell + self.origin;
+        // Parameter of the next face crossing per axis; infinite along axes the segment does not move on.
+        let mut t_max = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (next_face - a) * inv);
+        let t_delta = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (self.cell * inv).abs());
+        loop {
+            f(self.linear(cell.as_uvec3()));
+            let axis = if t_max.x <= t_max.y && t_max.x <= t_max.z {
+                0
+            } else if t_max.y <= t_max.z {
+                1
+            } else {
+                2
+            };
+            if t_max[axis] > t1 {
+                return;
+            }
+            cell[axis] += step[axis];
+            if cell[axis] < 0 || cell[axis] > top[axis] {
+                return;
+            }
+            t_max[axis] += t_delta[axis];
+        }
     }
 
     /// Bounds of the blend's value over a box: the hull of the cells it meets.
@@ -239,4 +280,14 @@ fn choose_cell_size(bounds: &Aabb, leaves: &[IndexedLeaf]) -> f32 {
         cell *= (count(cell) / limit).cbrt().max(1.01);
     }
     cell
+}
+
+fn sign(v: f32) -> i32 {
+    if v > 0.0 {
+        1
+    } else if v < 0.0 {
+        -1
+    } else {
+        0
+    }
 }

@@ -31,12 +31,6 @@ impl Interval {
         self.lo <= v && v <= self.hi
     }
 
-    /// Interval sum.
-    #[must_use]
-    pub fn add(self, o: Interval) -> Interval {
-        Interval::new(self.lo + o.lo, self.hi + o.hi)
-    }
-
     /// Interval of `max(a, b)`.
     #[must_use]
     pub fn max(self, o: Interval) -> Interval {
@@ -59,5 +53,14 @@ impl Interval {
     #[must_use]
     pub fn scaled(self, s: f32) -> Interval {
         Interval::hull(self.lo * s, self.hi * s)
+    }
+}
+
+impl std::ops::Add for Interval {
+    type Output = Interval;
+
+    /// Interval sum.
+    fn add(self, o: Interval) -> Interval {
+        Interval::new(self.lo + o.lo, self.hi + o.hi)
     }
 }
