@@ -2,14 +2,56 @@
 //! box and slope bound over a region. Every node's field is zero outside its
 //! bounds, which is what makes the per-node box rejection exact.
 
+use std::cell::Cell;
+
 use glam::{Vec3, Vec3A};
 
-use super::index::{IndexedLeaf, Leaf};
+use super::index::{BlendIndex, IndexedLeaf, Leaf};
 use super::model::Model;
 use super::node::{NodeId, NodeKind};
 use super::region::Region;
 use super::{DEFAULT_COLOR, EvalMode};
 use crate::geom::{Aabb, Interval};
+
+/// Above this many cells, a segment's slope bound comes from the per-cell bounds.
+const MAX_CELLS_FOR_LEAF_BOUNDS: usize = 64;
+
+thread_local! {
+    /// Per-thread marks of the leaves already summed in the current query.
+    static SEEN: Cell<SeenLeaves> = const { Cell::new(SeenLeaves { stamp: Vec::new(), generation: 0 }) };
+}
+
+/// Generation-stamped marks: clearing costs nothing between queries.
+#[derive(Default)]
+struct SeenLeaves {
+    stamp: Vec<u32>,
+    generation: u32,
+}
+
+impl SeenLeaves {
+    /// Sums `f(leaf)` over the distinct leaves in the cells the segment `a..b` crosses.
+    fn sum_unique(&mut self, ix: &BlendIndex, a: Vec3A, b: Vec3A, mut f: impl FnMut(u32) -> f32) -> f32 {
+        if self.stamp.len() < ix.leaves.len() {
+            self.stamp.resize(ix.leaves.len(), 0);
+        }
+        self.generation = self.generation.wrapping_add(1);
+        if self.generation == 0 {
+            self.stamp.fill(0);
+            self.generation = 1;
+        }
+        let mut total = 0.0;
+        ix.walk_segment(a, b, |c, _, _| {
+            for &i in ix.leaves_in(c) {
+                let mark = &mut self.stamp[i as usize];
+                if *mark != self.generation {
+                    *mark = self.generation;
+                    total += f(i);
+                }
+            }
+        });
+        total
+    }
+}
 
 impl Model {
     /// Field value of node `id` at `p`.
@@ -246,7 +288,7 @@ impl Model {
         match &node.kind {
             NodeKind::Primitive(prim) => prim.lipschitz_over(region),
             NodeKind::Blend { children, index } => match (mode, index) {
-                (EvalMode::Indexed, Some(ix)) => ix.lipschitz(region),
+                (EvalMode::Indexed, Some(ix)) => self.indexed_lipschitz(ix, region),
                 _ => sum(children),
             },
             NodeKind::Ricci { children, .. } => sum(children),
@@ -257,6 +299,32 @@ impl Model {
             }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_lipschitz(*child, region, mode),
         }
+    }
+
+    /// Slope bound of an indexed blend over a region: for a segment, Galin's
+    /// sum of the local bounds of the leaves listed in the cells the segment
+    /// crosses (each leaf once). Long segments use the per-cell bounds instead.
+    fn indexed_lipschitz(&self, ix: &BlendIndex, region: &Region) -> f32 {
+        let Region::Segment(a, b) = *region else {
+            return ix.cell_lipschitz(region);
+        };
+        if ix.cells_overlapped(&region.bounds()) > MAX_CELLS_FOR_LEAF_BOUNDS {
+            return ix.cell_lipschitz(region);
+        }
+        SEEN.with(|cell| {
+            // Taken out while in use, so a nested index gets its own scratch.
+            let mut seen = cell.take();
+            let l = seen.sum_unique(ix, a, b, |i| {
+                let leaf = &ix.leaves[i as usize];
+                match &leaf.leaf {
+                    // The distance range already gives zero slope outside the support.
+                    Leaf::Primitive(prim) => prim.lipschitz_over(region),
+                    Leaf::Node(id) => self.node_lipschitz(*id, region, EvalMode::Indexed),
+                }
+            });
+            cell.set(seen);
+            l
+        })
     }
 
     pub(super) fn leaf_lipschitz(&self, leaf: &IndexedLeaf, region: &Region, mode: EvalMode) -> f32 {

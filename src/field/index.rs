@@ -17,6 +17,9 @@ use crate::geom::{Aabb, Interval};
 /// Fewest leaves for which a blend gets an index: below this a plain loop is as fast.
 pub const MIN_INDEXED_LEAVES: usize = 8;
 
+/// Cell edge as a fraction of the median leaf size.
+const CELL_PER_LEAF_SIZE: f32 = 0.25;
+
 /// Most cells a grid may have, whatever the leaf count.
 const MAX_CELLS: usize = 1 << 22;
 
@@ -202,21 +205,41 @@ impl BlendIndex {
         self.cell_items(self.linear(i))
     }
 
-    /// A bound on the blend's gradient over a region: the largest bound of the
-    /// cells it passes through. Every point of the region lies in one of those
-    /// (closed) cells, where `|∇f|` is at most that cell's bound.
+    /// Number of cells a box overlaps (clipped to the grid).
     #[must_use]
-    pub fn lipschitz(&self, region: &Region) -> f32 {
+    pub fn cells_overlapped(&self, b: &Aabb) -> usize {
+        self.cell_range_of(b).map_or(0, |(lo, hi, _)| (hi - lo + UVec3::ONE).element_product() as usize)
+    }
+
+    /// A bound on the blend's gradient over a region from the precomputed cell
+    /// bounds: the largest bound of the cells it passes through. Every point of
+    /// the region lies in one of those (closed) cells, where `|∇f|` is at most
+    /// that cell's bound.
+    #[must_use]
+    pub fn cell_lipschitz(&self, region: &Region) -> f32 {
         let mut l = 0.0f32;
         match region {
-            Region::Segment(a, b) => self.for_each_cell_on_segment(*a, *b, |c| l = l.max(self.cell_lipschitz[c])),
+            Region::Segment(a, b) => self.walk_segment(*a, *b, |c, _, _| l = l.max(self.cell_lipschitz[c])),
             Region::Box(b) => self.for_each_cell(b, |c| l = l.max(self.cell_lipschitz[c])),
         }
         l
     }
 
-    /// Visits the cells the segment `a..b` passes through (Amanatides–Woo walk).
-    fn for_each_cell_on_segment(&self, a: Vec3A, b: Vec3A, mut f: impl FnMut(usize)) {
+    /// The precomputed slope bound of a cell.
+    #[must_use]
+    pub fn cell_bound(&self, c: usize) -> f32 {
+        self.cell_lipschitz[c]
+    }
+
+    /// The leaves listed in cell `c`.
+    #[must_use]
+    pub fn leaves_in(&self, c: usize) -> &[u32] {
+        self.cell_items(c)
+    }
+
+    /// Visits the cells the segment `a..b` passes through (Amanatides–Woo walk),
+    /// each with the parameter range `[t_in, t_out] ⊂ [0, 1]` of the segment inside it.
+    pub fn walk_segment(&self, a: Vec3A, b: Vec3A, mut f: impl FnMut(usize, f32, f32)) {
         let grid = Aabb::new(self.origin, self.origin + self.dims.as_vec3a() * self.cell);
         let d = b - a;
         let inv = d.recip();
@@ -231,8 +254,8 @@ impl BlendIndex {
         // Parameter of the next face crossing per axis; infinite along axes the segment does not move on.
         let mut t_max = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (next_face - a) * inv);
         let t_delta = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (self.cell * inv).abs());
+        let mut t_in = t0;
         loop {
-            f(self.linear(cell.as_uvec3()));
             let axis = if t_max.x <= t_max.y && t_max.x <= t_max.z {
                 0
             } else if t_max.y <= t_max.z {
@@ -240,9 +263,12 @@ impl BlendIndex {
             } else {
                 2
             };
+            let t_out = t_max[axis].min(t1);
+            f(self.linear(cell.as_uvec3()), t_in, t_out);
             if t_max[axis] > t1 {
                 return;
             }
+            t_in = t_out;
             cell[axis] += step[axis];
             if cell[axis] < 0 || cell[axis] > top[axis] {
                 return;
@@ -273,8 +299,8 @@ fn choose_cell_size(bounds: &Aabb, leaves: &[IndexedLeaf]) -> f32 {
     sizes.sort_by(f32::total_cmp);
     let median = sizes.get(sizes.len() / 2).copied().unwrap_or(1.0);
     let extent = bounds.size().max(Vec3A::splat(1e-6));
-    let mut cell = (0.5 * median).max(extent.max_element() / 512.0);
-    let limit = MAX_CELLS.min(64 * leaves.len() + 4096) as f32;
+    let mut cell = (CELL_PER_LEAF_SIZE * median).max(extent.max_element() / 512.0);
+    let limit = MAX_CELLS.min(512 * leaves.len() + 4096) as f32;
     let count = |c: f32| (extent / c).ceil().max(Vec3A::ONE).element_product();
     while count(cell) > limit {
         cell *= (count(cell) / limit).cbrt().max(1.01);

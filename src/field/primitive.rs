@@ -238,9 +238,28 @@ impl Primitive {
     }
 
     /// A bound on `|∇f|` over a region: a Lipschitz constant of the field there.
+    #[inline]
     #[must_use]
     pub fn lipschitz_over(&self, region: &super::Region) -> f32 {
+        if let (Skeleton::Point { center }, super::Region::Segment(a, b)) = (self.skeleton, region) {
+            return self.point_lipschitz_on_segment(center, *a, *b);
+        }
         let (near, far) = self.distance_range(region);
         self.weight.abs() * self.kernel.lipschitz(near, far, self.radius)
+    }
+}
+
+impl Primitive {
+    /// The hot case of segment tracing: a point skeleton and a segment. Rejects
+    /// on squared distances before any square root.
+    #[inline]
+    fn point_lipschitz_on_segment(&self, center: Vec3A, a: Vec3A, b: Vec3A) -> f32 {
+        let near2 = (center - closest_on_segment(center, a, b)).length_squared();
+        let r2 = self.radius * self.radius;
+        if near2 >= r2 {
+            return 0.0;
+        }
+        let far2 = (a - center).length_squared().max((b - center).length_squared());
+        self.weight.abs() * self.kernel.lipschitz(near2.sqrt(), far2.sqrt(), self.radius)
     }
 }
