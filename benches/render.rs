@@ -2,8 +2,8 @@
 //! indexed render across thread counts. `cargo bench --bench render`.
 
 use blobtrace::field::{EvalMode, ExactField};
-use blobtrace::scene::Scene;
-use blobtrace::trace::{Lighting, RenderSettings, TraceOptions, render};
+use blobtrace::scene::{Scene, Size};
+use blobtrace::trace::{RenderSettings, render};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 
 fn medusa() -> Scene {
@@ -11,14 +11,7 @@ fn medusa() -> Scene {
 }
 
 fn settings(scene: &Scene, w: u32, h: u32) -> RenderSettings {
-    RenderSettings {
-        camera: scene.camera,
-        width: w,
-        height: h,
-        background: scene.background,
-        lighting: Lighting::default(),
-        trace: TraceOptions::default(),
-    }
+    RenderSettings::for_scene(scene, Size(w, h))
 }
 
 fn eval_modes(c: &mut Criterion) {

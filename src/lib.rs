@@ -9,7 +9,7 @@
 //! ```
 //! use blobtrace::field::{ExactField, EvalMode, Field};
 //! use blobtrace::scene::Scene;
-//! use blobtrace::trace::{render, Lighting, RenderSettings, TraceOptions};
+//! use blobtrace::trace::{render, RenderSettings};
 //!
 //! let scene = Scene::parse(
 //!     "Scene(camera: Camera(eye: (0.0, 0.0, 4.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
@@ -21,14 +21,7 @@
 //! // Inside is where the field exceeds the iso-value T = 0.5.
 //! assert!(field.value(glam::Vec3A::ZERO) > field.threshold());
 //!
-//! let settings = RenderSettings {
-//!     camera: scene.camera,
-//!     width: scene.size.0,
-//!     height: scene.size.1,
-//!     background: scene.background,
-//!     lighting: Lighting::default(),
-//!     trace: TraceOptions::default(),
-//! };
+//! let settings = RenderSettings::for_scene(&scene, scene.size);
 //! let (frame, stats) = render(&field, &settings, &|_| {});
 //! assert_eq!(stats.rays, 33 * 25);
 //! // The centre ray meets the sphere of radius R·sqrt(1 - T^(1/3)) at 4 - 0.4542.

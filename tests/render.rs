@@ -4,20 +4,13 @@ mod common;
 
 use blobtrace::field::{EvalMode, ExactField, Field};
 use blobtrace::geom::Ray;
-use blobtrace::scene::Scene;
-use blobtrace::trace::{Lighting, RenderSettings, TraceOptions, render, trace_ray};
+use blobtrace::scene::{Scene, Size};
+use blobtrace::trace::{RenderSettings, TraceOptions, render, trace_ray};
 use common::bundled;
 use glam::Vec3A;
 
 fn settings(scene: &Scene, w: u32, h: u32) -> RenderSettings {
-    RenderSettings {
-        camera: scene.camera,
-        width: w,
-        height: h,
-        background: scene.background,
-        lighting: Lighting::default(),
-        trace: TraceOptions::default(),
-    }
+    RenderSettings::for_scene(scene, Size(w, h))
 }
 
 /// Distance along `ray` to the sphere of radius `r` at the origin, if hit.

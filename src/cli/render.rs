@@ -12,7 +12,7 @@ use super::{EvalArg, check_output_dir, scene_stem, with_threads};
 use crate::field::ExactField;
 use crate::frame::Frame;
 use crate::scene::{Scene, Size};
-use crate::trace::{Lighting, RenderSettings, RenderStats, TraceOptions, render};
+use crate::trace::{RenderSettings, RenderStats, render};
 
 /// Options of `blobtrace render`.
 #[derive(Debug, Args)]
@@ -94,7 +94,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
 
 /// Renders `scene` at `size` with exact evaluation, timing it.
 pub fn render_scene(scene: &Scene, size: Size, eval: EvalArg) -> (Frame, RenderReport) {
-    let settings = settings_for(scene, size);
+    let settings = RenderSettings::for_scene(scene, size);
     let field = ExactField::new(&scene.model, eval.into());
     let progress = Progress::new(u64::from(size.1), "tracing");
     let start = Instant::now();
@@ -112,17 +112,4 @@ pub fn render_scene(scene: &Scene, size: Size, eval: EvalArg) -> (Frame, RenderR
         threads: rayon::current_num_threads(),
     };
     (frame, report)
-}
-
-/// The render settings of a scene at a given size.
-#[must_use]
-pub fn settings_for(scene: &Scene, size: Size) -> RenderSettings {
-    RenderSettings {
-        camera: scene.camera,
-        width: size.0,
-        height: size.1,
-        background: scene.background,
-        lighting: Lighting::default(),
-        trace: TraceOptions::default(),
-    }
 }

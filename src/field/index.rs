@@ -225,12 +225,6 @@ impl BlendIndex {
         l
     }
 
-    /// The precomputed slope bound of a cell.
-    #[must_use]
-    pub fn cell_bound(&self, c: usize) -> f32 {
-        self.cell_lipschitz[c]
-    }
-
     /// The leaves listed in cell `c`.
     #[must_use]
     pub fn leaves_in(&self, c: usize) -> &[u32] {

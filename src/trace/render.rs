@@ -12,6 +12,7 @@ use super::shade::Lighting;
 use crate::camera::Camera;
 use crate::field::Field;
 use crate::frame::Frame;
+use crate::scene::{Scene, Size};
 
 /// Everything a field render needs besides the field.
 #[derive(Clone, Copy, Debug)]
@@ -28,6 +29,21 @@ pub struct RenderSettings {
     pub lighting: Lighting,
     /// Tracer knobs.
     pub trace: TraceOptions,
+}
+
+impl RenderSettings {
+    /// The scene's camera and background at `size`, with default lights and tracer knobs.
+    #[must_use]
+    pub fn for_scene(scene: &Scene, size: Size) -> Self {
+        Self {
+            camera: scene.camera,
+            width: size.0,
+            height: size.1,
+            background: scene.background,
+            lighting: Lighting::default(),
+            trace: TraceOptions::default(),
+        }
+    }
 }
 
 /// One traced pixel.
