@@ -40,7 +40,7 @@ impl SeenLeaves {
             self.generation = 1;
         }
         let mut total = 0.0;
-        ix.walk_segment(a, b, |c, _, _| {
+        ix.walk_segment(a, b, |c| {
             for &i in ix.leaves_in(c) {
                 let mark = &mut self.stamp[i as usize];
                 if *mark != self.generation {

@@ -135,18 +135,6 @@ impl BlendIndex {
         (self.dims.x * self.dims.y * self.dims.z) as usize
     }
 
-    /// Total leaf references over all cells (memory and selectivity measure).
-    #[must_use]
-    pub fn reference_count(&self) -> usize {
-        self.items.len()
-    }
-
-    /// Cell edge length.
-    #[must_use]
-    pub fn cell_size(&self) -> f32 {
-        self.cell
-    }
-
     fn cell_items(&self, c: usize) -> &[u32] {
         &self.items[self.offsets[c] as usize..self.offsets[c + 1] as usize]
     }
@@ -219,7 +207,7 @@ impl BlendIndex {
     pub fn cell_lipschitz(&self, region: &Region) -> f32 {
         let mut l = 0.0f32;
         match region {
-            Region::Segment(a, b) => self.walk_segment(*a, *b, |c, _, _| l = l.max(self.cell_lipschitz[c])),
+            Region::Segment(a, b) => self.walk_segment(*a, *b, |c| l = l.max(self.cell_lipschitz[c])),
             Region::Box(b) => self.for_each_cell(b, |c| l = l.max(self.cell_lipschitz[c])),
         }
         l
@@ -231,9 +219,8 @@ impl BlendIndex {
         self.cell_items(c)
     }
 
-    /// Visits the cells the segment `a..b` passes through (Amanatides–Woo walk),
-    /// each with the parameter range `[t_in, t_out] ⊂ [0, 1]` of the segment inside it.
-    pub fn walk_segment(&self, a: Vec3A, b: Vec3A, mut f: impl FnMut(usize, f32, f32)) {
+    /// Visits the cells the segment `a..b` passes through (Amanatides–Woo walk).
+    pub fn walk_segment(&self, a: Vec3A, b: Vec3A, mut f: impl FnMut(usize)) {
         let grid = Aabb::new(self.origin, self.origin + self.dims.as_vec3a() * self.cell);
         let d = b - a;
         let inv = d.recip();
@@ -248,7 +235,6 @@ impl BlendIndex {
         // Parameter of the next face crossing per axis; infinite along axes the segment does not move on.
         let mut t_max = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (next_face - a) * inv);
         let t_delta = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (self.cell * inv).abs());
-        let mut t_in = t0;
         loop {
             let axis = if t_max.x <= t_max.y && t_max.x <= t_max.z {
                 0
@@ -257,12 +243,10 @@ impl BlendIndex {
             } else {
                 2
             };
-            let t_out = t_max[axis].min(t1);
-            f(self.linear(cell.as_uvec3()), t_in, t_out);
+            f(self.linear(cell.as_uvec3()));
             if t_max[axis] > t1 {
                 return;
             }
-            t_in = t_out;
             cell[axis] += step[axis];
             if cell[axis] < 0 || cell[axis] > top[axis] {
                 return;
