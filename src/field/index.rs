@@ -7,12 +7,12 @@
 //! range of the sum over the cell, precomputed from the leaves that overlap it:
 //! segment tracing and interval culling then cost one grid walk, not a sum.
 
-use glam::{UVec3, Vec3, Vec3A};
+use glam::{Vec3, Vec3A};
 
 use super::node::NodeId;
 use super::primitive::Primitive;
 use super::region::Region;
-use crate::geom::{Aabb, Interval};
+use crate::geom::{Aabb, Interval, UniformGrid};
 
 /// Fewest leaves for which a blend gets an index: below this a plain loop is as fast.
 pub const MIN_INDEXED_LEAVES: usize = 8;
@@ -48,10 +48,7 @@ pub struct IndexedLeaf {
 pub struct BlendIndex {
     /// The leaves of the cluster, in depth-first scene order.
     pub leaves: Vec<IndexedLeaf>,
-    origin: Vec3A,
-    inv_cell: f32,
-    cell: f32,
-    dims: UVec3,
+    grid: UniformGrid,
     offsets: Vec<u32>,
     items: Vec<u32>,
     cell_lipschitz: Vec<f32>,
@@ -68,13 +65,10 @@ impl BlendIndex {
         lipschitz: impl Fn(&IndexedLeaf, &Region) -> f32,
     ) -> Self {
         let cell = choose_cell_size(&bounds, &leaves);
-        let dims = ((bounds.size() / cell).ceil().as_uvec3()).max(UVec3::ONE);
+        let dims = (bounds.size() / cell).ceil().as_uvec3();
         let mut index = Self {
             leaves,
-            origin: bounds.min,
-            inv_cell: 1.0 / cell,
-            cell,
-            dims,
+            grid: UniformGrid::new(bounds.min, cell, dims),
             offsets: vec![],
             items: vec![],
             cell_lipschitz: vec![],
@@ -87,10 +81,10 @@ impl BlendIndex {
 
     /// Counting sort of (cell, leaf) pairs; stable, so each cell lists leaves in order.
     fn bucket(&mut self) {
-        let cells = self.cell_count();
+        let cells = self.grid.cell_count();
         let mut counts = vec![0u32; cells + 1];
         for leaf in &self.leaves {
-            self.for_each_cell(&leaf.bounds, |c| counts[c + 1] += 1);
+            self.grid.for_each_cell(&leaf.bounds, |c| counts[c + 1] += 1);
         }
         for i in 0..cells {
             counts[i + 1] += counts[i];
@@ -98,7 +92,7 @@ impl BlendIndex {
         let mut cursor = counts.clone();
         let mut items = vec![0u32; counts[cells] as usize];
         for (i, leaf) in self.leaves.iter().enumerate() {
-            self.for_each_cell(&leaf.bounds, |c| {
+            self.grid.for_each_cell(&leaf.bounds, |c| {
                 items[cursor[c] as usize] = i as u32;
                 cursor[c] += 1;
             });
@@ -112,11 +106,11 @@ impl BlendIndex {
         interval: impl Fn(&IndexedLeaf, &Aabb) -> Interval,
         lipschitz: impl Fn(&IndexedLeaf, &Region) -> f32,
     ) {
-        let cells = self.cell_count();
+        let cells = self.grid.cell_count();
         self.cell_lipschitz = vec![0.0; cells];
         self.cell_range = vec![Interval::ZERO; cells];
         for c in 0..cells {
-            let cell_box = self.cell_box(c);
+            let cell_box = self.grid.cell_box(c);
             let region = Region::Box(cell_box);
             let (mut l, mut range) = (0.0, Interval::ZERO);
             for &i in self.cell_items(c) {
@@ -129,74 +123,21 @@ impl BlendIndex {
         }
     }
 
-    /// Number of cells.
-    #[must_use]
-    pub fn cell_count(&self) -> usize {
-        (self.dims.x * self.dims.y * self.dims.z) as usize
-    }
-
     fn cell_items(&self, c: usize) -> &[u32] {
         &self.items[self.offsets[c] as usize..self.offsets[c + 1] as usize]
-    }
-
-    fn cell_box(&self, c: usize) -> Aabb {
-        let (nx, ny) = (self.dims.x as usize, self.dims.y as usize);
-        let ijk = Vec3A::new((c % nx) as f32, ((c / nx) % ny) as f32, (c / (nx * ny)) as f32);
-        let min = self.origin + ijk * self.cell;
-        Aabb::new(min, min + Vec3A::splat(self.cell))
-    }
-
-    #[inline]
-    fn linear(&self, i: UVec3) -> usize {
-        (i.x + self.dims.x * (i.y + self.dims.y * i.z)) as usize
-    }
-
-    /// The range of cell coordinates a box overlaps, clipped to the grid, and
-    /// whether the box reaches outside the grid.
-    fn cell_range_of(&self, b: &Aabb) -> Option<(UVec3, UVec3, bool)> {
-        let lo = ((b.min - self.origin) * self.inv_cell).floor();
-        let hi = ((b.max - self.origin) * self.inv_cell).floor();
-        let top = self.dims.as_vec3a() - Vec3A::ONE;
-        if hi.cmplt(Vec3A::ZERO).any() || lo.cmpgt(top).any() || b.is_empty() {
-            return None;
-        }
-        let outside = lo.cmplt(Vec3A::ZERO).any() || hi.cmpgt(top).any();
-        let lo = lo.max(Vec3A::ZERO).as_uvec3();
-        let hi = hi.min(top).as_uvec3();
-        Some((lo, hi, outside))
-    }
-
-    fn for_each_cell(&self, b: &Aabb, mut f: impl FnMut(usize)) {
-        if let Some((lo, hi, _)) = self.cell_range_of(b) {
-            for z in lo.z..=hi.z {
-                for y in lo.y..=hi.y {
-                    for x in lo.x..=hi.x {
-                        f(self.linear(UVec3::new(x, y, z)));
-                    }
-                }
-            }
-        }
     }
 
     /// Leaves whose bounds overlap the cell holding `p` (empty outside the grid).
     #[inline]
     #[must_use]
     pub fn candidates(&self, p: Vec3A) -> &[u32] {
-        let f = (p - self.origin) * self.inv_cell;
-        if f.cmplt(Vec3A::ZERO).any() {
-            return &[];
-        }
-        let i = f.as_uvec3();
-        if i.cmpge(self.dims).any() {
-            return &[];
-        }
-        self.cell_items(self.linear(i))
+        self.grid.cell_of(p).map_or(&[], |c| self.cell_items(c))
     }
 
     /// Number of cells a box overlaps (clipped to the grid).
     #[must_use]
     pub fn cells_overlapped(&self, b: &Aabb) -> usize {
-        self.cell_range_of(b).map_or(0, |(lo, hi, _)| (hi - lo + UVec3::ONE).element_product() as usize)
+        self.grid.cells_overlapped(b)
     }
 
     /// A bound on the blend's gradient over a region from the precomputed cell
@@ -208,7 +149,7 @@ impl BlendIndex {
         let mut l = 0.0f32;
         match region {
             Region::Segment(a, b) => self.walk_segment(*a, *b, |c| l = l.max(self.cell_lipschitz[c])),
-            Region::Box(b) => self.for_each_cell(b, |c| l = l.max(self.cell_lipschitz[c])),
+            Region::Box(b) => self.grid.for_each_cell(b, |c| l = l.max(self.cell_lipschitz[c])),
         }
         l
     }
@@ -220,49 +161,18 @@ impl BlendIndex {
     }
 
     /// Visits the cells the segment `a..b` passes through (Amanatides–Woo walk).
-    pub fn walk_segment(&self, a: Vec3A, b: Vec3A, mut f: impl FnMut(usize)) {
-        let grid = Aabb::new(self.origin, self.origin + self.dims.as_vec3a() * self.cell);
-        let d = b - a;
-        let inv = d.recip();
-        let Some((t0, t1)) = grid.clip_ray(a, inv, 0.0, 1.0) else {
-            return;
-        };
-        let top = self.dims.as_ivec3() - glam::IVec3::ONE;
-        let start = (a + d * t0 - self.origin) * self.inv_cell;
-        let mut cell = start.floor().as_ivec3().clamp(glam::IVec3::ZERO, top);
-        let step = glam::IVec3::new(sign(d.x), sign(d.y), sign(d.z));
-        let next_face = (cell + step.max(glam::IVec3::ZERO)).as_vec3a() * self.cell + self.origin;
-        // Parameter of the next face crossing per axis; infinite along axes the segment does not move on.
-        let mut t_max = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (next_face - a) * inv);
-        let t_delta = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (self.cell * inv).abs());
-        loop {
-            let axis = if t_max.x <= t_max.y && t_max.x <= t_max.z {
-                0
-            } else if t_max.y <= t_max.z {
-                1
-            } else {
-                2
-            };
-            f(self.linear(cell.as_uvec3()));
-            if t_max[axis] > t1 {
-                return;
-            }
-            cell[axis] += step[axis];
-            if cell[axis] < 0 || cell[axis] > top[axis] {
-                return;
-            }
-            t_max[axis] += t_delta[axis];
-        }
+    pub fn walk_segment(&self, a: Vec3A, b: Vec3A, f: impl FnMut(usize)) {
+        self.grid.walk_segment(a, b, f);
     }
 
     /// Bounds of the blend's value over a box: the hull of the cells it meets.
     #[must_use]
     pub fn interval(&self, b: &Aabb) -> Interval {
-        let Some((_, _, outside)) = self.cell_range_of(b) else {
+        let Some((_, _, outside)) = self.grid.cell_range_of(b) else {
             return Interval::ZERO;
         };
         let mut acc: Option<Interval> = outside.then_some(Interval::ZERO);
-        self.for_each_cell(b, |c| {
+        self.grid.for_each_cell(b, |c| {
             let r = self.cell_range[c];
             acc = Some(acc.map_or(r, |a| Interval::new(a.lo.min(r.lo), a.hi.max(r.hi))));
         });
@@ -284,14 +194,4 @@ fn choose_cell_size(bounds: &Aabb, leaves: &[IndexedLeaf]) -> f32 {
         cell *= (count(cell) / limit).cbrt().max(1.01);
     }
     cell
-}
-
-fn sign(v: f32) -> i32 {
-    if v > 0.0 {
-        1
-    } else if v < 0.0 {
-        -1
-    } else {
-        0
-    }
 }

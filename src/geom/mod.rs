@@ -2,9 +2,11 @@
 //! boxes, closed intervals of field values, and rays.
 
 mod aabb;
+mod grid;
 mod interval;
 mod ray;
 
 pub use aabb::Aabb;
+pub use grid::UniformGrid;
 pub use interval::Interval;
 pub use ray::Ray;

@@ -1,0 +1,168 @@
+//! A uniform grid of cubic cells over a box: cell lookup, box overlap and the
+//! Amanatides–Woo walk along a segment. The blend index and the cache's block
+//! summaries both stand on it.
+
+use glam::{IVec3, UVec3, Vec3A};
+
+use super::Aabb;
+
+/// `dims` cubic cells of edge `cell`, the first with its minimum corner at `origin`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UniformGrid {
+    /// Minimum corner of cell (0, 0, 0).
+    pub origin: Vec3A,
+    /// Cell edge length.
+    pub cell: f32,
+    /// `1 / cell`.
+    pub inv_cell: f32,
+    /// Cells per axis (each at least 1).
+    pub dims: UVec3,
+}
+
+impl UniformGrid {
+    /// A grid of `dims` cells of edge `cell` from `origin`.
+    #[must_use]
+    pub fn new(origin: Vec3A, cell: f32, dims: UVec3) -> Self {
+        Self { origin, cell, inv_cell: 1.0 / cell, dims: dims.max(UVec3::ONE) }
+    }
+
+    /// Number of cells.
+    #[must_use]
+    pub fn cell_count(&self) -> usize {
+        self.dims.as_usizevec3().element_product()
+    }
+
+    /// The box the whole grid covers.
+    #[must_use]
+    pub fn bounds(&self) -> Aabb {
+        Aabb::new(self.origin, self.origin + self.dims.as_vec3a() * self.cell)
+    }
+
+    /// Linear index of cell `i` (x fastest).
+    #[inline]
+    #[must_use]
+    pub fn linear(&self, i: UVec3) -> usize {
+        (i.x + self.dims.x * (i.y + self.dims.y * i.z)) as usize
+    }
+
+    /// The box of the cell with linear index `c`.
+    #[must_use]
+    pub fn cell_box(&self, c: usize) -> Aabb {
+        let (nx, ny) = (self.dims.x as usize, self.dims.y as usize);
+        let ijk = Vec3A::new((c % nx) as f32, ((c / nx) % ny) as f32, (c / (nx * ny)) as f32);
+        let min = self.origin + ijk * self.cell;
+        Aabb::new(min, min + Vec3A::splat(self.cell))
+    }
+
+    /// The cell holding `p`, or `None` outside the grid.
+    #[inline]
+    #[must_use]
+    pub fn cell_of(&self, p: Vec3A) -> Option<usize> {
+        let f = (p - self.origin) * self.inv_cell;
+        if f.cmplt(Vec3A::ZERO).any() {
+            return None;
+        }
+        let i = f.as_uvec3();
+        if i.cmpge(self.dims).any() {
+            return None;
+        }
+        Some(self.linear(i))
+    }
+
+    /// The range of cell coordinates a box overlaps, clipped to the grid, and
+    /// whether the box reaches outside the grid.
+    #[must_use]
+    pub fn cell_range_of(&self, b: &Aabb) -> Option<(UVec3, UVec3, bool)> {
+        let lo = ((b.min - self.origin) * self.inv_cell).floor();
+        let hi = ((b.max - self.origin) * self.inv_cell).floor();
+        let top = self.dims.as_vec3a() - Vec3A::ONE;
+        if hi.cmplt(Vec3A::ZERO).any() || lo.cmpgt(top).any() || b.is_empty() {
+            return None;
+        }
+        let outside = lo.cmplt(Vec3A::ZERO).any() || hi.cmpgt(top).any();
+        Some((lo.max(Vec3A::ZERO).as_uvec3(), hi.min(top).as_uvec3(), outside))
+    }
+
+    /// Number of cells a box overlaps (clipped to the grid).
+    #[must_use]
+    pub fn cells_overlapped(&self, b: &Aabb) -> usize {
+        self.cell_range_of(b).map_or(0, |(lo, hi, _)| (hi - lo + UVec3::ONE).as_usizevec3().element_product())
+    }
+
+    /// Visits every cell a box overlaps.
+    pub fn for_each_cell(&self, b: &Aabb, mut f: impl FnMut(usize)) {
+        if let Some((lo, hi, _)) = self.cell_range_of(b) {
+            for z in lo.z..=hi.z {
+                for y in lo.y..=hi.y {
+                    for x in lo.x..=hi.x {
+                        f(self.linear(UVec3::new(x, y, z)));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Visits the cells the segment `a..b` passes through, in order (Amanatides–Woo walk).
+    pub fn walk_segment(&self, a: Vec3A, b: Vec3A, mut f: impl FnMut(usize)) {
+        let d = b - a;
+        let inv = d.recip();
+        let Some((t0, t1)) = self.bounds().clip_ray(a, inv, 0.0, 1.0) else {
+            return;
+        };
+        let top = self.dims.as_ivec3() - IVec3::ONE;
+        let start = (a + d * t0 - self.origin) * self.inv_cell;
+        let mut cell = start.floor().as_ivec3().clamp(IVec3::ZERO, top);
+        let step = IVec3::new(sign(d.x), sign(d.y), sign(d.z));
+        let next_face = (cell + step.max(IVec3::ZERO)).as_vec3a() * self.cell + self.origin;
+        // Parameter of the next face crossing per axis; infinite along axes the segment does not move on.
+        let mut t_max = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (next_face - a) * inv);
+        let t_delta = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (self.cell * inv).abs());
+        loop {
+            let axis = if t_max.x <= t_max.y && t_max.x <= t_max.z {
+                0
+            } else if t_max.y <= t_max.z {
+                1
+            } else {
+                2
+            };
+            f(self.linear(cell.as_uvec3()));
+            if t_max[axis] > t1 {
+                return;
+            }
+            cell[axis] += step[axis];
+            if cell[axis] < 0 || cell[axis] > top[axis] {
+                return;
+            }
+            t_max[axis] += t_delta[axis];
+        }
+    }
+}
+
+fn sign(v: f32) -> i32 {
+    if v > 0.0 {
+        1
+    } else if v < 0.0 {
+        -1
+    } else {
+        0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn walk_visits_the_cells_a_dense_march_visits() {
+        let g = UniformGrid::new(Vec3A::new(-1.0, -2.0, 0.5), 0.37, UVec3::new(9, 7, 5));
+        let (a, b) = (Vec3A::new(-1.5, -1.1, 0.7), Vec3A::new(2.9, 0.3, 2.2));
+        let mut walked = Vec::new();
+        g.walk_segment(a, b, |c| walked.push(c));
+        let mut marched: Vec<usize> = (0..=20000).filter_map(|i| g.cell_of(a + (b - a) * (i as f32 / 20000.0))).collect();
+        marched.dedup();
+        for c in &marched {
+            assert!(walked.contains(c), "cell {c} missed");
+        }
+        assert!(walked.len() <= marched.len() + 2, "{} walked vs {} marched", walked.len(), marched.len());
+    }
+}
