@@ -1,7 +1,7 @@
 //! Exact field rendering of Medusa: indexed against naive evaluation, and the
 //! indexed render across thread counts. `cargo bench --bench render`.
 
-use blobtrace::field::{EvalMode, ExactField};
+use blobtrace::field::{EvalMode, ModelField};
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::{RenderSettings, render};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
@@ -19,7 +19,7 @@ fn eval_modes(c: &mut Criterion) {
     let mut group = c.benchmark_group("medusa_160x120");
     group.sample_size(10);
     for (name, mode) in [("indexed", EvalMode::Indexed), ("naive", EvalMode::Naive)] {
-        let field = ExactField::new(&scene.model, mode);
+        let field = ModelField::new(&scene.model, mode);
         let s = settings(&scene, 160, 120);
         group.bench_function(name, |b| b.iter(|| render(&field, &s, &|_| {})));
     }
@@ -28,7 +28,7 @@ fn eval_modes(c: &mut Criterion) {
 
 fn threads(c: &mut Criterion) {
     let scene = medusa();
-    let field = ExactField::new(&scene.model, EvalMode::Indexed);
+    let field = ModelField::new(&scene.model, EvalMode::Indexed);
     let mut group = c.benchmark_group("medusa_indexed_threads");
     group.sample_size(10);
     for n in [1, 2] {

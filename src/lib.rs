@@ -7,7 +7,7 @@
 //! writes a [`frame::Frame`] of colour and AOVs.
 //!
 //! ```
-//! use blobtrace::field::{ExactField, EvalMode, Field};
+//! use blobtrace::field::{ModelField, EvalMode, Field};
 //! use blobtrace::scene::Scene;
 //! use blobtrace::trace::{render, RenderSettings};
 //!
@@ -17,7 +17,7 @@
 //!            model: Point(center: (0.0, 0.0, 0.0), radius: 1.0))",
 //!     "inline",
 //! )?;
-//! let field = ExactField::new(&scene.model, EvalMode::Indexed);
+//! let field = ModelField::new(&scene.model, EvalMode::Indexed);
 //! // Inside is where the field exceeds the iso-value T = 0.5.
 //! assert!(field.value(glam::Vec3A::ZERO) > field.threshold());
 //!
@@ -30,6 +30,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod cache;
 pub mod camera;
 pub mod cli;
 pub mod field;

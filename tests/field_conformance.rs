@@ -4,7 +4,7 @@
 
 mod common;
 
-use blobtrace::field::{EvalMode, ExactField, Field, Model, NodeId, Region};
+use blobtrace::field::{EvalMode, ModelField, Field, Model, NodeId, Region};
 use blobtrace::geom::Aabb;
 use blobtrace::scene::Scene;
 use common::{EVERY_NODE, Rng, bundled};
@@ -81,7 +81,7 @@ fn gradients_match_central_differences_for_every_node_type() {
 fn indexed_and_naive_evaluation_agree() {
     for scene in [medusa(), every_node()] {
         let m = &scene.model;
-        let (fast, slow) = (ExactField::new(m, EvalMode::Indexed), ExactField::new(m, EvalMode::Naive));
+        let (fast, slow) = (ModelField::new(m, EvalMode::Indexed), ModelField::new(m, EvalMode::Naive));
         let b = m.bounds();
         let mut rng = Rng(11);
         let mut inside_support = 0;
@@ -112,7 +112,7 @@ fn region_from(b: &Aabb, t: [f32; 6], thin: f32) -> (Vec3A, Vec3A) {
     (a, a + d)
 }
 
-fn check_interval(field: &ExactField, a: Vec3A, c: Vec3A, seed: u64) -> Result<(), TestCaseError> {
+fn check_interval(field: &ModelField, a: Vec3A, c: Vec3A, seed: u64) -> Result<(), TestCaseError> {
     let bx = Aabb::from_points(a, c);
     let range = field.interval(&bx);
     let mut rng = Rng(seed);
@@ -124,7 +124,7 @@ fn check_interval(field: &ExactField, a: Vec3A, c: Vec3A, seed: u64) -> Result<(
     Ok(())
 }
 
-fn check_lipschitz(field: &ExactField, a: Vec3A, c: Vec3A, seed: u64) -> Result<(), TestCaseError> {
+fn check_lipschitz(field: &ModelField, a: Vec3A, c: Vec3A, seed: u64) -> Result<(), TestCaseError> {
     let l = field.lipschitz(&Region::Segment(a, c));
     let mut rng = Rng(seed);
     for _ in 0..64 {
@@ -152,7 +152,7 @@ proptest! {
         for scene in [every_node(), medusa()] {
             let (a, c) = region_from(&scene.model.bounds(), t, thin);
             for mode in [EvalMode::Indexed, EvalMode::Naive] {
-                check_interval(&ExactField::new(&scene.model, mode), a, c, seed)?;
+                check_interval(&ModelField::new(&scene.model, mode), a, c, seed)?;
             }
         }
     }
@@ -162,7 +162,7 @@ proptest! {
         for scene in [every_node(), medusa()] {
             let (a, c) = region_from(&scene.model.bounds(), t, thin);
             for mode in [EvalMode::Indexed, EvalMode::Naive] {
-                check_lipschitz(&ExactField::new(&scene.model, mode), a, c, seed)?;
+                check_lipschitz(&ModelField::new(&scene.model, mode), a, c, seed)?;
             }
         }
     }

@@ -2,7 +2,7 @@
 
 mod common;
 
-use blobtrace::field::{EvalMode, ExactField, Field};
+use blobtrace::field::{EvalMode, ModelField, Field};
 use blobtrace::geom::Ray;
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::{RenderSettings, TraceOptions, render, trace_ray};
@@ -25,7 +25,7 @@ fn ray_sphere(ray: &Ray, r: f32) -> Option<f32> {
 #[test]
 fn lone_point_depth_matches_the_analytic_sphere() {
     let scene = bundled("sphere.ron");
-    let field = ExactField::new(&scene.model, EvalMode::Indexed);
+    let field = ModelField::new(&scene.model, EvalMode::Indexed);
     let radius = 2.0f32; // the scene's support radius R
     let iso_radius = radius * (1.0 - 0.5f32.powf(1.0 / 3.0)).sqrt();
     let s = settings(&scene, 160, 120);
@@ -87,7 +87,7 @@ fn brute_force_hit(field: &impl Field, ray: &Ray, step: f32) -> bool {
 #[test]
 fn no_tunnelling_through_thin_features() {
     let scene = Scene::parse(THIN, "thin").unwrap();
-    let field = ExactField::new(&scene.model, EvalMode::Indexed);
+    let field = ModelField::new(&scene.model, EvalMode::Indexed);
     let (w, h) = (48u32, 48u32);
     let step = 1e-3;
     let (mut compared, mut hits) = (0, 0);
@@ -114,7 +114,7 @@ fn no_tunnelling_through_thin_features() {
 #[test]
 fn one_and_many_threads_give_identical_frames_and_exr_bytes() {
     let scene = bundled("medusa.ron");
-    let field = ExactField::new(&scene.model, EvalMode::Indexed);
+    let field = ModelField::new(&scene.model, EvalMode::Indexed);
     let s = settings(&scene, 96, 72);
     let run = |threads| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
@@ -135,7 +135,7 @@ fn one_and_many_threads_give_identical_frames_and_exr_bytes() {
 #[test]
 fn exr_holds_every_aov() {
     let scene = bundled("pair.ron");
-    let field = ExactField::new(&scene.model, EvalMode::Indexed);
+    let field = ModelField::new(&scene.model, EvalMode::Indexed);
     let (frame, stats) = render(&field, &settings(&scene, 40, 30), &|_| {});
     let path = std::env::temp_dir().join(format!("blobtrace-aov-{}.exr", std::process::id()));
     frame.save_exr(&path).unwrap();
@@ -162,8 +162,8 @@ fn exr_holds_every_aov() {
 fn naive_and_indexed_renders_agree_on_coverage() {
     let scene = bundled("hair_point.ron");
     let s = settings(&scene, 64, 48);
-    let (a, _) = render(&ExactField::new(&scene.model, EvalMode::Indexed), &s, &|_| {});
-    let (b, _) = render(&ExactField::new(&scene.model, EvalMode::Naive), &s, &|_| {});
+    let (a, _) = render(&ModelField::new(&scene.model, EvalMode::Indexed), &s, &|_| {});
+    let (b, _) = render(&ModelField::new(&scene.model, EvalMode::Naive), &s, &|_| {});
     let mismatch = a.alpha.iter().zip(&b.alpha).filter(|(x, y)| x != y).count();
     assert!(mismatch <= 2, "{mismatch} pixels differ in coverage");
     let worst = a
@@ -183,7 +183,7 @@ fn peer_particles_scene_covers_what_the_reference_tracer_covers() {
     // refinement, so a few silhouette pixels may differ).
     let scene = bundled("particles.ron");
     assert_eq!(scene.model.counts().primitives, 1001);
-    let field = ExactField::new(&scene.model, EvalMode::Indexed);
+    let field = ModelField::new(&scene.model, EvalMode::Indexed);
     let (frame, stats) = render(&field, &settings(&scene, 500, 500), &|_| {});
     let hits = frame.hits() as f64;
     assert!((hits - 34_380.0).abs() / 34_380.0 < 0.002, "{hits} hit pixels");

@@ -9,7 +9,7 @@ use serde::Serialize;
 
 use super::progress::Progress;
 use super::{EvalArg, check_output_dir, scene_stem, with_threads};
-use crate::field::ExactField;
+use crate::field::ModelField;
 use crate::frame::Frame;
 use crate::scene::{Scene, Size};
 use crate::trace::{RenderSettings, RenderStats, render};
@@ -95,7 +95,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
 /// Renders `scene` at `size` with exact evaluation, timing it.
 pub fn render_scene(scene: &Scene, size: Size, eval: EvalArg) -> (Frame, RenderReport) {
     let settings = RenderSettings::for_scene(scene, size);
-    let field = ExactField::new(&scene.model, eval.into());
+    let field = ModelField::new(&scene.model, eval.into());
     let progress = Progress::new(u64::from(size.1), "tracing");
     let start = Instant::now();
     let (frame, stats) = render(&field, &settings, &|rows| progress.set(rows));

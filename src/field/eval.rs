@@ -64,7 +64,7 @@ impl Model {
         match &node.kind {
             NodeKind::Primitive(prim) => prim.value(p),
             NodeKind::Blend { children, index } => match (mode, index) {
-                (EvalMode::Indexed, Some(ix)) => {
+                (m, Some(ix)) if m.indexed() => {
                     let leaves = &ix.leaves;
                     let sum = ix
                         .candidates(p)
@@ -85,6 +85,9 @@ impl Model {
                 s.powf(1.0 / n)
             }
             NodeKind::Transform { placement, child } => self.node_value(*child, placement.local(p), mode),
+            NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
+                self.cache(*grid).value(p, self.pool(), &|q| self.node_value(*child, q, mode))
+            }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_value(*child, p, mode),
         }
     }
@@ -126,7 +129,7 @@ impl Model {
         match &node.kind {
             NodeKind::Primitive(prim) => prim.gradient(p),
             NodeKind::Blend { children, index } => match (mode, index) {
-                (EvalMode::Indexed, Some(ix)) => ix.candidates(p).iter().fold(Vec3A::ZERO, |s, &i| {
+                (m, Some(ix)) if m.indexed() => ix.candidates(p).iter().fold(Vec3A::ZERO, |s, &i| {
                     s + match &ix.leaves[i as usize].leaf {
                         Leaf::Primitive(prim) => prim.gradient(p),
                         Leaf::Node(id) => self.node_gradient(*id, p, mode),
@@ -161,6 +164,9 @@ impl Model {
             NodeKind::Transform { placement, child } => {
                 placement.gradient_map * self.node_gradient(*child, placement.local(p), mode)
             }
+            NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
+                self.cache(*grid).gradient(p, self.pool(), &|q| self.node_value(*child, q, mode))
+            }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_gradient(*child, p, mode),
         }
     }
@@ -190,7 +196,7 @@ impl Model {
         match &node.kind {
             NodeKind::Primitive(_) => DEFAULT_COLOR,
             NodeKind::Blend { children, index } => match (mode, index) {
-                (EvalMode::Indexed, Some(ix)) => mix(ix.candidates(p).iter().map(|&i| {
+                (m, Some(ix)) if m.indexed() => mix(ix.candidates(p).iter().map(|&i| {
                     let leaf = &ix.leaves[i as usize];
                     let w = self.leaf_value(leaf, p, mode);
                     (w, move || leaf.color.unwrap_or_else(|| self.leaf_color(leaf, p, mode)))
@@ -236,7 +242,7 @@ impl Model {
         match &node.kind {
             NodeKind::Primitive(prim) => prim.interval(b),
             NodeKind::Blend { children, index } => match (mode, index) {
-                (EvalMode::Indexed, Some(ix)) => ix.interval(b),
+                (m, Some(ix)) if m.indexed() => ix.interval(b),
                 _ => sum(children),
             },
             NodeKind::Union(cs) => reduce(cs, Interval::max),
@@ -255,6 +261,9 @@ impl Model {
             }
             NodeKind::Transform { placement, child } => {
                 self.node_interval(*child, &b.transformed(&placement.to_local), mode)
+            }
+            NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
+                self.cache(*grid).interval(b, &|r| self.node_interval(*child, r, mode))
             }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_interval(*child, b, mode),
         }
@@ -288,7 +297,7 @@ impl Model {
         match &node.kind {
             NodeKind::Primitive(prim) => prim.lipschitz_over(region),
             NodeKind::Blend { children, index } => match (mode, index) {
-                (EvalMode::Indexed, Some(ix)) => self.indexed_lipschitz(ix, region),
+                (m, Some(ix)) if m.indexed() => self.indexed_lipschitz(ix, region, mode),
                 _ => sum(children),
             },
             NodeKind::Ricci { children, .. } => sum(children),
@@ -297,6 +306,11 @@ impl Model {
             NodeKind::Transform { placement, child } => {
                 placement.stretch * self.node_lipschitz(*child, &region.transformed(&placement.to_local), mode)
             }
+            NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => self.cache(*grid).lipschitz(
+                region,
+                &|b| self.node_lipschitz(*child, &Region::Box(*b), mode),
+                &|b| self.node_interval(*child, b, mode),
+            ),
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_lipschitz(*child, region, mode),
         }
     }
@@ -304,7 +318,7 @@ impl Model {
     /// Slope bound of an indexed blend over a region: for a segment, Galin's
     /// sum of the local bounds of the leaves listed in the cells the segment
     /// crosses (each leaf once). Long segments use the per-cell bounds instead.
-    fn indexed_lipschitz(&self, ix: &BlendIndex, region: &Region) -> f32 {
+    fn indexed_lipschitz(&self, ix: &BlendIndex, region: &Region, mode: EvalMode) -> f32 {
         let Region::Segment(a, b) = *region else {
             return ix.cell_lipschitz(region);
         };
@@ -319,7 +333,7 @@ impl Model {
                 match &leaf.leaf {
                     // The distance range already gives zero slope outside the support.
                     Leaf::Primitive(prim) => prim.lipschitz_over(region),
-                    Leaf::Node(id) => self.node_lipschitz(*id, region, EvalMode::Indexed),
+                    Leaf::Node(id) => self.node_lipschitz(*id, region, mode),
                 }
             });
             cell.set(seen);

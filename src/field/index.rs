@@ -174,7 +174,7 @@ impl BlendIndex {
         let mut acc: Option<Interval> = outside.then_some(Interval::ZERO);
         self.grid.for_each_cell(b, |c| {
             let r = self.cell_range[c];
-            acc = Some(acc.map_or(r, |a| Interval::new(a.lo.min(r.lo), a.hi.max(r.hi))));
+            acc = Some(acc.map_or(r, |a| a.join(r)));
         });
         acc.unwrap_or(Interval::ZERO)
     }

@@ -38,6 +38,18 @@ pub enum EvalMode {
     Indexed,
     /// Plain tree traversal with per-node box rejection: the paper's baseline.
     Naive,
+    /// Indexed, with every `Cache` node answering from its lattice: the field
+    /// the caches reconstruct, which approximates the exact one.
+    Cached,
+}
+
+impl EvalMode {
+    /// True when wide blends use their grid.
+    #[inline]
+    #[must_use]
+    pub fn indexed(self) -> bool {
+        matches!(self, EvalMode::Indexed | EvalMode::Cached)
+    }
 }
 
 /// A scalar field with an iso-value: what the tracer, the polygonizer and the
@@ -59,22 +71,22 @@ pub trait Field: Sync {
     fn threshold(&self) -> f32;
 }
 
-/// Exact evaluation of a [`Model`], indexed or naive.
+/// Evaluation of a [`Model`]: exact (indexed or naive) or through its caches.
 #[derive(Clone, Copy)]
-pub struct ExactField<'a> {
+pub struct ModelField<'a> {
     model: &'a Model,
     mode: EvalMode,
 }
 
-impl<'a> ExactField<'a> {
-    /// Exact evaluation of `model` in `mode`.
+impl<'a> ModelField<'a> {
+    /// Evaluation of `model` in `mode`.
     #[must_use]
     pub fn new(model: &'a Model, mode: EvalMode) -> Self {
         Self { model, mode }
     }
 }
 
-impl Field for ExactField<'_> {
+impl Field for ModelField<'_> {
     fn value(&self, p: Vec3A) -> f32 {
         self.model.node_value(self.model.root(), p, self.mode)
     }

@@ -8,6 +8,7 @@ use super::EvalMode;
 use super::index::{BlendIndex, IndexedLeaf, Leaf, MIN_INDEXED_LEAVES};
 use super::node::{Node, NodeId, NodeKind};
 use super::region::Region;
+use crate::cache::{CacheGrid, CacheSpec, CacheStats, SLOT_BYTES, SamplePool};
 use crate::geom::Aabb;
 
 /// Why a model could not be built.
@@ -27,13 +28,33 @@ pub enum ModelError {
     ZeroScale,
 }
 
-/// A BlobTree: nodes in an arena, children before parents' use, parents known.
-#[derive(Clone, Debug)]
+/// A BlobTree: nodes in an arena, children before parents' use, parents known,
+/// and the lattices of its `Cache` nodes with the memory pool behind them.
+#[derive(Debug)]
 pub struct Model {
     nodes: Vec<Node>,
     root: NodeId,
     threshold: f32,
     names: HashMap<String, NodeId>,
+    /// One lattice per `Cache` node, indexed by the node's `grid`.
+    grids: Vec<Option<CacheGrid>>,
+    pool: SamplePool,
+}
+
+impl Clone for Model {
+    /// The same tree with cold caches (and the same cache budget).
+    fn clone(&self) -> Self {
+        let mut model = Self {
+            nodes: self.nodes.clone(),
+            root: self.root,
+            threshold: self.threshold,
+            names: self.names.clone(),
+            grids: self.grids.iter().map(|_| None).collect(),
+            pool: SamplePool::new(self.pool.budget_slots()),
+        };
+        model.update_bounds(model.root);
+        model
+    }
 }
 
 /// Adds nodes bottom-up (children first), then seals them into a [`Model`].
@@ -70,7 +91,14 @@ impl ModelBuilder {
         if self.nodes.is_empty() {
             return Err(ModelError::Empty);
         }
-        let mut model = Model { nodes: self.nodes, root, threshold, names: HashMap::new() };
+        let mut model = Model {
+            nodes: self.nodes,
+            root,
+            threshold,
+            names: HashMap::new(),
+            grids: Vec::new(),
+            pool: SamplePool::default(),
+        };
         model.link()?;
         model.refresh();
         Ok(model)
@@ -123,9 +151,13 @@ impl Model {
         v
     }
 
-    /// Sets parents and the name table.
+    /// Sets parents, the name table and the caches' lattice numbers.
     fn link(&mut self) -> Result<(), ModelError> {
         for id in 0..self.nodes.len() {
+            if let NodeKind::Cache { grid, .. } = &mut self.nodes[id].kind {
+                *grid = self.grids.len();
+                self.grids.push(None);
+            }
             for c in self.nodes[id].kind.children() {
                 self.nodes[c as usize].parent = Some(id as NodeId);
             }
@@ -154,11 +186,75 @@ impl Model {
             NodeKind::Intersection(_) => child_bounds.iter().fold(child_bounds[0], |a, b| a.intersection(b)),
             NodeKind::Difference(..) => child_bounds[0],
             NodeKind::Transform { placement, .. } => child_bounds[0].transformed(&placement.to_world),
+            NodeKind::Cache { spec, grid, .. } => {
+                let (spec, grid) = (*spec, *grid);
+                self.fit_cache(grid, spec, child_bounds[0])
+            }
             _ => child_bounds.iter().fold(Aabb::EMPTY, |a, b| a.union(b)),
         };
         // An empty intersection still needs a valid (degenerate) box for later queries.
         self.nodes[id as usize].bounds = b;
         b
+    }
+
+    /// Makes or refits cache `grid` for its subtree's new bounds; returns the cache's bounds.
+    fn fit_cache(&mut self, grid: usize, spec: CacheSpec, child_bounds: Aabb) -> Aabb {
+        match &mut self.grids[grid] {
+            Some(g) => {
+                g.fit(child_bounds, &self.pool);
+                g.bounds()
+            }
+            slot @ None => slot.insert(CacheGrid::new(spec, child_bounds, &self.pool)).bounds(),
+        }
+    }
+
+    /// The lattice of cache `grid`.
+    #[inline]
+    #[must_use]
+    pub fn cache(&self, grid: usize) -> &CacheGrid {
+        self.grids[grid].as_ref().expect("every cache gets its lattice when the model is sealed")
+    }
+
+    /// The memory pool behind the caches.
+    #[inline]
+    #[must_use]
+    pub fn pool(&self) -> &SamplePool {
+        &self.pool
+    }
+
+    /// Caps the caches' sample storage at `bytes` (unbounded for `None`),
+    /// evicting least-recently-used blocks beyond it. Empties every cache.
+    pub fn set_cache_budget(&mut self, bytes: Option<usize>) {
+        for g in self.grids.iter().flatten() {
+            g.release(&self.pool);
+        }
+        self.pool = SamplePool::new(bytes.map(|b| b / SLOT_BYTES));
+        self.grids.iter_mut().for_each(|g| *g = None);
+        self.update_bounds(self.root);
+    }
+
+    /// Every cache: its node, the nearest name above it, and its statistics.
+    #[must_use]
+    pub fn cache_stats(&self) -> Vec<(NodeId, String, CacheStats)> {
+        let mut out = Vec::new();
+        for (id, node) in self.nodes.iter().enumerate() {
+            if let NodeKind::Cache { grid, .. } = node.kind {
+                let name = self.name_above(id as NodeId).unwrap_or_else(|| format!("cache{}", grid));
+                out.push((id as NodeId, name, self.cache(grid).stats(&self.pool)));
+            }
+        }
+        out
+    }
+
+    /// The name of the nearest `Named` ancestor of `id` (or of `id` itself).
+    #[must_use]
+    pub fn name_above(&self, mut id: NodeId) -> Option<String> {
+        loop {
+            if let NodeKind::Named { name, .. } = &self.node(id).kind {
+                return Some(name.clone());
+            }
+            id = self.node(id).parent?;
+        }
     }
 
     /// Indexes the top blend of every cluster of nested blends that has enough leaves.
@@ -180,8 +276,11 @@ impl Model {
             Box::new(BlendIndex::build(
                 bounds,
                 leaves,
-                |leaf, b| self.leaf_interval(leaf, b, EvalMode::Naive),
-                |leaf, r: &Region| self.leaf_lipschitz(leaf, r, EvalMode::Naive),
+                // Per-cell bounds must hold for exact and cached evaluation alike.
+                |leaf, b| self.leaf_interval(leaf, b, EvalMode::Naive).join(self.leaf_interval(leaf, b, EvalMode::Cached)),
+                |leaf, r: &Region| {
+                    self.leaf_lipschitz(leaf, r, EvalMode::Naive).max(self.leaf_lipschitz(leaf, r, EvalMode::Cached))
+                },
             ))
         });
         if let NodeKind::Blend { index: slot, .. } = &mut self.nodes[id as usize].kind {

@@ -3,6 +3,7 @@
 use glam::{Affine3A, Mat3A, Vec3, Vec3A};
 
 use super::index::BlendIndex;
+use crate::cache::CacheSpec;
 use super::primitive::Primitive;
 use crate::geom::Aabb;
 
@@ -62,12 +63,15 @@ pub enum NodeKind {
         /// The named subtree.
         child: NodeId,
     },
-    /// A cache of the child's field on a grid (a pass-through until caching lands).
+    /// The child's field sampled on a lattice and reconstructed (in cached
+    /// evaluation; exact evaluation passes through to the child).
     Cache {
-        /// Grid resolution along the longest side of the child's bounds.
-        res: u32,
+        /// Resolution, filters and storage.
+        spec: CacheSpec,
         /// The cached subtree.
         child: NodeId,
+        /// The cache's lattice: an index into the model's caches, set when the model is sealed.
+        grid: usize,
     },
 }
 

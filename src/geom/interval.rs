@@ -31,6 +31,12 @@ impl Interval {
         self.lo <= v && v <= self.hi
     }
 
+    /// The smallest interval holding both.
+    #[must_use]
+    pub fn join(self, o: Interval) -> Interval {
+        Interval::new(self.lo.min(o.lo), self.hi.max(o.hi))
+    }
+
     /// Interval of `max(a, b)`.
     #[must_use]
     pub fn max(self, o: Interval) -> Interval {

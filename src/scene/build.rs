@@ -3,6 +3,7 @@
 use glam::Vec3A;
 
 use super::desc::NodeDesc;
+use crate::cache::CacheSpec;
 use crate::field::{Model, ModelBuilder, ModelError, NodeId, NodeKind, Placement, Primitive, Skeleton, spline};
 
 /// Builds the model for the tree `root` with iso-value `threshold`.
@@ -73,9 +74,10 @@ fn add(b: &mut ModelBuilder, desc: &NodeDesc) -> Result<NodeId, ModelError> {
             let child = add(b, child)?;
             b.add(NodeKind::Named { name: name.clone(), child }, None)
         }
-        NodeDesc::Cache { res, child } => {
+        NodeDesc::Cache { res, value, gradient, storage, child } => {
             let child = add(b, child)?;
-            b.add(NodeKind::Cache { res: res.0, child }, None)
+            let spec = CacheSpec { res: res.0, value: *value, gradient: *gradient, storage: *storage };
+            b.add(NodeKind::Cache { spec, child, grid: 0 }, None)
         }
     }
 }

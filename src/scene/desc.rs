@@ -4,6 +4,7 @@ use serde::Deserialize;
 use serde::de::{self, Deserializer};
 
 use super::values::{Color, Finite, Positive, Scale, Size, V3};
+use crate::cache::{Filter, Storage};
 use crate::field::Kernel;
 
 /// A whole scene file: `Scene(camera: …, size: …, threshold: …, model: …)`.
@@ -201,6 +202,15 @@ pub enum NodeDesc {
     Cache {
         /// Grid resolution along the longest side.
         res: Resolution,
+        /// Reconstruction filter for values (default tri-linear).
+        #[serde(default)]
+        value: Filter,
+        /// Reconstruction filter for gradients (default tri-quadratic).
+        #[serde(default = "triquadratic")]
+        gradient: Filter,
+        /// Sample storage (default four-byte floats).
+        #[serde(default)]
+        storage: Storage,
         /// The cached subtree.
         child: Box<NodeDesc>,
     },
@@ -235,17 +245,21 @@ impl<'de> serde::Deserialize<'de> for Count {
     }
 }
 
-/// A cache resolution in `2..=4096`.
+fn triquadratic() -> Filter {
+    Filter::Triquadratic
+}
+
+/// A cache resolution in `2..=1024` (the block table holds up to 130 blocks per axis).
 #[derive(Clone, Copy, Debug)]
 pub struct Resolution(pub u32);
 
 impl<'de> serde::Deserialize<'de> for Resolution {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let v = u32::deserialize(d)?;
-        if (2..=4096).contains(&v) {
+        if (2..=1024).contains(&v) {
             Ok(Resolution(v))
         } else {
-            Err(de::Error::custom(format!("cache resolution must lie in 2..=4096, got {v}")))
+            Err(de::Error::custom(format!("cache resolution must lie in 2..=1024, got {v}")))
         }
     }
 }

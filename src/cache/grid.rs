@@ -1,0 +1,482 @@
+//! One cache's lattice: exact samples of its subtree at the points `c·(i, j, k)`
+//! of its own frame, in blocks allocated on first touch and filled one sample
+//! at a time when a reconstruction first needs it (paper sections 4.2–4.5).
+//!
+//! The lattice is anchored at the frame's origin, not at the subtree's bounds,
+//! so a sample keeps its place when the bounds change: an edit clears only the
+//! samples inside the changed box, and the grid only grows its block table.
+
+use std::sync::atomic::{AtomicPtr, AtomicU32, AtomicU64, Ordering};
+
+use glam::{IVec3, UVec3, Vec3A};
+
+use super::filter::{Filter, MAX_SUPPORT_CELLS};
+use super::pool::{Read, SLOT_WORDS, SamplePool, Slot, UNSET, block_key};
+use super::{CacheSpec, Storage};
+use crate::field::Region;
+use crate::geom::{Aabb, Interval, UniformGrid};
+
+/// Lattice points per block edge along x and y (z doubles for two-byte storage).
+const BLOCK_SHIFT: i32 = 3;
+/// Cells of padding around the subtree's bounds: beyond the filters' support,
+/// so every reconstruction inside the cache's bounds finds its samples here.
+pub const PAD_CELLS: f32 = 2.0;
+/// Summary cells a slope query may visit before falling back to one bound over its box.
+const MAX_SUMMARY_CELLS: usize = 64;
+/// A bound on each gradient component is a bound on the norm divided by √3.
+const SQRT_3: f32 = 1.732_050_8;
+/// The word of a slope summary not yet computed.
+const UNSET_SLOPE: u32 = u32::MAX;
+
+/// The lattice, the block table and the per-region slope summaries of one cache.
+pub struct CacheGrid {
+    spec: CacheSpec,
+    serial: u16,
+    cell: f32,
+    inv_cell: f32,
+    /// Bounds of the cached subtree: outside them every sample is zero.
+    child_bounds: Aabb,
+    /// Block coordinates of table entry 0, and the table's extent in blocks.
+    table_lo: IVec3,
+    table_dims: UVec3,
+    table: Box<[AtomicPtr<Slot>]>,
+    /// Cubes of 8 cells over the table's region, each with a lazily computed slope bound.
+    summary: UniformGrid,
+    slopes: Box<[AtomicU32]>,
+    lookups: ShardedCounter,
+    evaluated: AtomicU64,
+}
+
+impl std::fmt::Debug for CacheGrid {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CacheGrid").field("spec", &self.spec).field("cell", &self.cell).finish_non_exhaustive()
+    }
+}
+
+/// What a cache holds and has done.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct CacheStats {
+    /// Lattice spacing `c`.
+    pub cell: f32,
+    /// Lattice points over the subtree's bounds (a dense grid's size).
+    pub grid_points: u64,
+    /// Samples evaluated from the subtree (again after an eviction).
+    pub samples_evaluated: u64,
+    /// Samples held now.
+    pub samples_held: u64,
+    /// `samples_held / grid_points`.
+    pub touched_fraction: f64,
+    /// Blocks held now.
+    pub blocks: u64,
+    /// Bytes of sample storage held now.
+    pub bytes: u64,
+    /// Reconstructions asked of the cache (values and gradients).
+    pub lookups: u64,
+}
+
+/// What [`CacheGrid::fit`] did when the subtree's bounds changed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Refit {
+    /// The cell size still fits: samples kept (the block table may have grown).
+    Kept,
+    /// The cell size left `[c/2, 2c]`: every sample was dropped and the lattice rebuilt.
+    Rebuilt,
+}
+
+impl CacheGrid {
+    /// An empty cache with `spec`, fitted to `child_bounds`, holding slots of `pool`.
+    #[must_use]
+    pub fn new(spec: CacheSpec, child_bounds: Aabb, pool: &SamplePool) -> Self {
+        let mut grid = Self {
+            spec,
+            serial: pool.new_serial(),
+            cell: 1.0,
+            inv_cell: 1.0,
+            child_bounds: Aabb::EMPTY,
+            table_lo: IVec3::ZERO,
+            table_dims: UVec3::ZERO,
+            table: Box::new([]),
+            summary: UniformGrid::new(Vec3A::ZERO, 1.0, UVec3::ONE),
+            slopes: Box::new([]),
+            lookups: ShardedCounter::default(),
+            evaluated: AtomicU64::new(0),
+        };
+        grid.rebuild(child_bounds, pool);
+        grid
+    }
+
+    /// The options the cache was made with.
+    #[must_use]
+    pub fn spec(&self) -> &CacheSpec {
+        &self.spec
+    }
+
+    /// Lattice spacing `c`.
+    #[must_use]
+    pub fn cell(&self) -> f32 {
+        self.cell
+    }
+
+    /// The cell size the resolution asks for over `bounds`: longest side / res.
+    fn cell_for(&self, bounds: &Aabb) -> f32 {
+        let side = if bounds.is_empty() { 0.0 } else { bounds.size().max_element() };
+        if side > 0.0 { side / self.spec.res as f32 } else { 1.0 }
+    }
+
+    /// The bounds of the reconstructed field: the subtree's, padded by the filters' reach.
+    #[must_use]
+    pub fn bounds(&self) -> Aabb {
+        if self.child_bounds.is_empty() { self.child_bounds } else { self.child_bounds.padded(PAD_CELLS * self.cell) }
+    }
+
+    /// Follows the subtree's new bounds (paper section 4.5): keeps the lattice
+    /// while the cell size the resolution asks for stays within `[c/2, 2c]`,
+    /// growing the block table if needed; otherwise drops everything and rebuilds.
+    pub fn fit(&mut self, child_bounds: Aabb, pool: &SamplePool) -> Refit {
+        let ratio = self.cell_for(&child_bounds) / self.cell;
+        if !(0.5..=2.0).contains(&ratio) {
+            self.rebuild(child_bounds, pool);
+            return Refit::Rebuilt;
+        }
+        self.child_bounds = child_bounds;
+        let (lo, hi) = self.block_range(&child_bounds);
+        let (old_lo, old_hi) = (self.table_lo, self.table_lo + self.table_dims.as_ivec3() - IVec3::ONE);
+        if self.table_dims.cmpgt(UVec3::ZERO).all() && lo.cmpge(old_lo).all() && hi.cmple(old_hi).all() {
+            return Refit::Kept;
+        }
+        let (lo, hi) = if self.table.is_empty() { (lo, hi) } else { (lo.min(old_lo), hi.max(old_hi)) };
+        self.resize_table(lo, hi);
+        Refit::Kept
+    }
+
+    /// Drops every sample and lays a fresh lattice over `child_bounds`.
+    fn rebuild(&mut self, child_bounds: Aabb, pool: &SamplePool) {
+        pool.release(self.serial);
+        self.cell = self.cell_for(&child_bounds);
+        self.inv_cell = 1.0 / self.cell;
+        self.child_bounds = child_bounds;
+        self.table = Box::new([]);
+        self.table_dims = UVec3::ZERO;
+        if !child_bounds.is_empty() {
+            let (lo, hi) = self.block_range(&child_bounds);
+            self.resize_table(lo, hi);
+        }
+    }
+
+    /// Block coordinates spanned by `bounds` padded by the filters' reach.
+    fn block_range(&self, bounds: &Aabb) -> (IVec3, IVec3) {
+        let padded = bounds.padded((PAD_CELLS + 1.0) * self.cell);
+        let lo = (padded.min * self.inv_cell).floor().as_ivec3();
+        let hi = (padded.max * self.inv_cell).ceil().as_ivec3();
+        (self.block_of(lo), self.block_of(hi))
+    }
+
+    /// Re-lays the block table over blocks `lo..=hi`, keeping the slots held.
+    fn resize_table(&mut self, lo: IVec3, hi: IVec3) {
+        let dims = (hi - lo + IVec3::ONE).max(IVec3::ONE).as_uvec3();
+        let mut table: Vec<AtomicPtr<Slot>> =
+            (0..dims.as_usizevec3().element_product()).map(|_| AtomicPtr::new(std::ptr::null_mut())).collect();
+        for (i, entry) in self.table.iter().enumerate() {
+            let b = self.table_lo + unlinear(i, self.table_dims).as_ivec3();
+            table[linear((b - lo).as_uvec3(), dims)] = AtomicPtr::new(entry.load(Ordering::Relaxed));
+        }
+        self.table = table.into_boxed_slice();
+        self.table_lo = lo;
+        self.table_dims = dims;
+        // Slope summaries: cubes of 8 cells over the same region, all recomputed lazily.
+        let origin = (lo << BLOCK_SHIFT).as_vec3a() * self.cell;
+        let extent = ((hi + IVec3::ONE - lo) << BLOCK_SHIFT).as_vec3a() * self.cell;
+        let summary_cell = 8.0 * self.cell;
+        let summary_dims = (extent / summary_cell).ceil().as_uvec3();
+        self.summary = UniformGrid::new(origin, summary_cell, summary_dims);
+        self.slopes = (0..self.summary.cell_count()).map(|_| AtomicU32::new(UNSET_SLOPE)).collect();
+    }
+
+    /// Block coordinates (floor division) of lattice point `i`.
+    #[inline]
+    fn block_of(&self, i: IVec3) -> IVec3 {
+        IVec3::new(i.x >> BLOCK_SHIFT, i.y >> BLOCK_SHIFT, i.z >> (BLOCK_SHIFT + self.spec.storage.z_extra_shift()))
+    }
+
+    /// Word and half of lattice point `i` within its block.
+    #[inline]
+    fn word_of(&self, i: IVec3) -> (usize, u32) {
+        let mask = (1 << BLOCK_SHIFT) - 1;
+        let z_mask = (1 << (BLOCK_SHIFT + self.spec.storage.z_extra_shift())) - 1;
+        let local = ((i.x & mask) | ((i.y & mask) << BLOCK_SHIFT) | ((i.z & z_mask) << (2 * BLOCK_SHIFT))) as usize;
+        match self.spec.storage {
+            Storage::F32 => (local, 0),
+            Storage::F16 => (local >> 1, (local & 1) as u32),
+        }
+    }
+
+    #[inline]
+    fn table_index(&self, block: IVec3) -> Option<usize> {
+        let r = block - self.table_lo;
+        if r.cmplt(IVec3::ZERO).any() || r.as_uvec3().cmpge(self.table_dims).any() {
+            return None;
+        }
+        Some(linear(r.as_uvec3(), self.table_dims))
+    }
+
+    /// Sample `i`: held, or evaluated now with `eval` (in the cache's frame) and stored.
+    fn sample(&self, i: IVec3, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+        let p = i.as_vec3a() * self.cell;
+        if !self.child_bounds.contains(p) {
+            // The subtree's field is zero outside its bounds: nothing to store.
+            return 0.0;
+        }
+        let block = self.block_of(i);
+        let Some(t) = self.table_index(block) else {
+            return self.spec.storage.round_trip(eval(p));
+        };
+        let key = block_key(self.serial, block);
+        let (w, half) = self.word_of(i);
+        let storage = self.spec.storage;
+        for _ in 0..4 {
+            let entry = &self.table[t];
+            // SAFETY: table entries hold null or slots of `pool`, which never move or die while it lives.
+            let slot = match unsafe { entry.load(Ordering::Acquire).as_ref() } {
+                Some(slot) => slot,
+                None => pool.attach(entry, key),
+            };
+            let (Read::Word(word), g) = slot.read(key, w) else {
+                pool.attach(entry, key);
+                continue;
+            };
+            if let Some(v) = storage.decode(word, half) {
+                pool.touch(slot);
+                return v;
+            }
+            let v = storage.round_trip(eval(p));
+            self.evaluated.fetch_add(1, Ordering::Relaxed);
+            let bits = storage.encode(v);
+            slot.write(g, w, |old| storage.store(old, half, bits));
+            return v;
+        }
+        // The block kept changing hands under a tight budget: evaluate without storing.
+        storage.round_trip(eval(p))
+    }
+
+    /// The footprint's samples for `filter` at lattice coordinate `u`, x fastest.
+    fn gather(&self, filter: Filter, u: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> [f32; 27] {
+        let (first, n) = filter.footprint(u);
+        let mut s = [0.0; 27];
+        let mut at = 0;
+        for k in 0..n as i32 {
+            for j in 0..n as i32 {
+                for i in 0..n as i32 {
+                    s[at] = self.sample(first + IVec3::new(i, j, k), pool, eval);
+                    at += 1;
+                }
+            }
+        }
+        s
+    }
+
+    /// The reconstructed value at `p` (cache frame), with the value filter.
+    pub fn value(&self, p: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+        self.lookups.add(1);
+        let u = p * self.inv_cell;
+        let filter = self.spec.value;
+        filter.value(u, &self.gather(filter, u, pool, eval))
+    }
+
+    /// The reconstructed gradient at `p` (cache frame), with the gradient filter.
+    pub fn gradient(&self, p: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> Vec3A {
+        self.lookups.add(1);
+        let u = p * self.inv_cell;
+        let filter = self.spec.gradient;
+        filter.gradient(u, &self.gather(filter, u, pool, eval)) * self.inv_cell
+    }
+
+    /// A box holding every sample the value filter may read for points of `b`:
+    /// the reconstruction over `b` lies within the subtree's range over it.
+    #[must_use]
+    pub fn sample_reach(&self, b: &Aabb) -> Aabb {
+        b.padded(MAX_SUPPORT_CELLS * self.cell)
+    }
+
+    /// Bounds of the reconstructed value over `b`, given `child_range`, the
+    /// subtree's range over a box: the samples the filter reads, widened by
+    /// their rounding in storage.
+    pub fn interval(&self, b: &Aabb, child_range: &impl Fn(&Aabb) -> Interval) -> Interval {
+        let r = child_range(&self.sample_reach(b));
+        let e = self.spec.storage.rounding_error(r.lo.abs().max(r.hi.abs()));
+        Interval::new(r.lo - e, r.hi + e)
+    }
+
+    /// A bound on the reconstruction's slope over `region`. Each axis
+    /// derivative of either filter is a convex combination of sample
+    /// differences along that axis, each at most the subtree's slope over the
+    /// samples' reach (`child_slope`) plus twice the storage rounding over one
+    /// cell; √3 times that bounds the gradient's norm. Bounds per 8-cell cube
+    /// are computed once and kept; long regions take one bound over their box.
+    pub fn lipschitz(
+        &self,
+        region: &Region,
+        child_slope: &impl Fn(&Aabb) -> f32,
+        child_range: &impl Fn(&Aabb) -> Interval,
+    ) -> f32 {
+        let reach = region.bounds();
+        if self.summary.cells_overlapped(&reach) > MAX_SUMMARY_CELLS {
+            return self.slope_over(&reach, child_slope, child_range);
+        }
+        let mut l = 0.0f32;
+        let mut visit = |c: usize| l = l.max(self.summary_slope(c, child_slope, child_range));
+        match region {
+            Region::Segment(a, b) => self.summary.walk_segment(*a, *b, &mut visit),
+            Region::Box(b) => self.summary.for_each_cell(b, &mut visit),
+        }
+        l
+    }
+
+    fn slope_over(
+        &self,
+        b: &Aabb,
+        child_slope: &impl Fn(&Aabb) -> f32,
+        child_range: &impl Fn(&Aabb) -> Interval,
+    ) -> f32 {
+        let reach = self.sample_reach(b);
+        let rounding = match self.spec.storage {
+            Storage::F32 => 0.0,
+            Storage::F16 => {
+                let r = child_range(&reach);
+                2.0 * self.spec.storage.rounding_error(r.lo.abs().max(r.hi.abs())) * self.inv_cell
+            }
+        };
+        SQRT_3 * (child_slope(&reach) + rounding)
+    }
+
+    fn summary_slope(
+        &self,
+        c: usize,
+        child_slope: &impl Fn(&Aabb) -> f32,
+        child_range: &impl Fn(&Aabb) -> Interval,
+    ) -> f32 {
+        let bits = self.slopes[c].load(Ordering::Relaxed);
+        if bits != UNSET_SLOPE {
+            return f32::from_bits(bits);
+        }
+        let l = self.slope_over(&self.summary.cell_box(c), child_slope, child_range);
+        self.slopes[c].store(l.to_bits(), Ordering::Relaxed);
+        l
+    }
+
+    /// Clears the samples at lattice points inside `b` (cache frame) and the
+    /// slope summaries that read them; returns how many held samples were cleared.
+    pub fn invalidate(&mut self, b: &Aabb) -> u64 {
+        let lo = (b.min * self.inv_cell).ceil().as_ivec3();
+        let hi = (b.max * self.inv_cell).floor().as_ivec3();
+        let mut cleared = 0;
+        if lo.cmple(hi).all() && !b.is_empty() {
+            for z in lo.z..=hi.z {
+                for y in lo.y..=hi.y {
+                    for x in lo.x..=hi.x {
+                        cleared += u64::from(self.clear_sample(IVec3::new(x, y, z)));
+                    }
+                }
+            }
+        }
+        let reach = self.sample_reach(b);
+        let slopes = &self.slopes;
+        self.summary.for_each_cell(&reach, |c| slopes[c].store(UNSET_SLOPE, Ordering::Relaxed));
+        cleared
+    }
+
+    fn clear_sample(&self, i: IVec3) -> bool {
+        let block = self.block_of(i);
+        let Some(t) = self.table_index(block) else { return false };
+        // SAFETY: as in `sample`; invalidation has exclusive access to the cache.
+        let Some(slot) = (unsafe { self.table[t].load(Ordering::Relaxed).as_ref() }) else { return false };
+        if slot.owner() != block_key(self.serial, block) {
+            return false;
+        }
+        let (w, half) = self.word_of(i);
+        let word = slot.word(w);
+        let held = self.spec.storage.decode(word, half).is_some();
+        if held {
+            slot.set_word(w, self.spec.storage.clear(word, half));
+        }
+        held
+    }
+
+    /// Gives the cache's slots back to `pool` (the cache is being dropped).
+    pub fn release(&self, pool: &SamplePool) {
+        pool.release(self.serial);
+    }
+
+    /// Counts of what the cache holds and has done.
+    #[must_use]
+    pub fn stats(&self, pool: &SamplePool) -> CacheStats {
+        let blocks = pool.held(self.serial) as u64;
+        let grid_points = if self.child_bounds.is_empty() {
+            0
+        } else {
+            ((self.child_bounds.size() * self.inv_cell).floor() + Vec3A::ONE).as_u64vec3().element_product()
+        };
+        let samples_held = self.samples_held();
+        CacheStats {
+            cell: self.cell,
+            grid_points,
+            samples_evaluated: self.evaluated.load(Ordering::Relaxed),
+            samples_held,
+            touched_fraction: samples_held as f64 / grid_points.max(1) as f64,
+            blocks,
+            bytes: blocks * (SLOT_WORDS * 4) as u64,
+            lookups: self.lookups.total(),
+        }
+    }
+
+    fn samples_held(&self) -> u64 {
+        let mut n = 0;
+        for (i, entry) in self.table.iter().enumerate() {
+            let block = self.table_lo + unlinear(i, self.table_dims).as_ivec3();
+            // SAFETY: as in `sample`.
+            let Some(slot) = (unsafe { entry.load(Ordering::Acquire).as_ref() }) else { continue };
+            if slot.owner() != block_key(self.serial, block) {
+                continue;
+            }
+            for w in 0..SLOT_WORDS {
+                let word = slot.word(w);
+                n += match self.spec.storage {
+                    Storage::F32 => u64::from(word != UNSET),
+                    Storage::F16 => (0..2).filter(|&h| self.spec.storage.decode(word, h).is_some()).count() as u64,
+                };
+            }
+        }
+        n
+    }
+}
+
+fn linear(i: UVec3, dims: UVec3) -> usize {
+    (i.x + dims.x * (i.y + dims.y * i.z)) as usize
+}
+
+fn unlinear(i: usize, dims: UVec3) -> UVec3 {
+    let (nx, ny) = (dims.x as usize, dims.y as usize);
+    UVec3::new((i % nx) as u32, ((i / nx) % ny) as u32, (i / (nx * ny)) as u32)
+}
+
+/// A counter split over cache lines by worker thread, so counting every lookup
+/// from every thread costs no contention.
+#[derive(Default)]
+struct ShardedCounter {
+    shards: [PaddedCounter; 16],
+}
+
+#[derive(Default)]
+#[repr(align(128))]
+struct PaddedCounter(AtomicU64);
+
+impl ShardedCounter {
+    #[inline]
+    fn add(&self, n: u64) {
+        let shard = rayon::current_thread_index().unwrap_or(0) % self.shards.len();
+        self.shards[shard].0.fetch_add(n, Ordering::Relaxed);
+    }
+
+    fn total(&self) -> u64 {
+        self.shards.iter().map(|s| s.0.load(Ordering::Relaxed)).sum()
+    }
+}
