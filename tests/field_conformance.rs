@@ -4,7 +4,7 @@
 
 mod common;
 
-use blobtrace::field::{EvalMode, ModelField, Field, Model, NodeId, Region};
+use blobtrace::field::{EvalMode, Field, Model, ModelField, NodeId, Region};
 use blobtrace::geom::Aabb;
 use blobtrace::scene::Scene;
 use common::{EVERY_NODE, Rng, bundled};

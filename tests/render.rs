@@ -2,7 +2,7 @@
 
 mod common;
 
-use blobtrace::field::{EvalMode, ModelField, Field};
+use blobtrace::field::{EvalMode, Field, ModelField};
 use blobtrace::geom::Ray;
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::{RenderSettings, TraceOptions, render, trace_ray};

@@ -21,6 +21,8 @@ const BLOCK_SHIFT: i32 = 3;
 /// Cells of padding around the subtree's bounds: beyond the filters' support,
 /// so every reconstruction inside the cache's bounds finds its samples here.
 pub const PAD_CELLS: f32 = 2.0;
+/// Segments up to this many cells long take their slope bound from the samples.
+const MAX_SAMPLED_SEGMENT_CELLS: f32 = 8.0;
 /// Summary cells a slope query may visit before falling back to one bound over its box.
 const MAX_SUMMARY_CELLS: usize = 64;
 /// A bound on each gradient component is a bound on the norm divided by √3.
@@ -40,6 +42,10 @@ pub struct CacheGrid {
     table_lo: IVec3,
     table_dims: UVec3,
     table: Box<[AtomicPtr<Slot>]>,
+    /// The lattice's cells over the table's region, for walks along segments.
+    lattice: UniformGrid,
+    /// Lattice coordinates of the first point of `lattice`.
+    lattice_lo: IVec3,
     /// Cubes of 8 cells over the table's region, each with a lazily computed slope bound.
     summary: UniformGrid,
     slopes: Box<[AtomicU32]>,
@@ -96,6 +102,8 @@ impl CacheGrid {
             table_lo: IVec3::ZERO,
             table_dims: UVec3::ZERO,
             table: Box::new([]),
+            lattice: UniformGrid::new(Vec3A::ZERO, 1.0, UVec3::ONE),
+            lattice_lo: IVec3::ZERO,
             summary: UniformGrid::new(Vec3A::ZERO, 1.0, UVec3::ONE),
             slopes: Box::new([]),
             lookups: ShardedCounter::default(),
@@ -183,9 +191,14 @@ impl CacheGrid {
         self.table = table.into_boxed_slice();
         self.table_lo = lo;
         self.table_dims = dims;
-        // Slope summaries: cubes of 8 cells over the same region, all recomputed lazily.
-        let origin = (lo << BLOCK_SHIFT).as_vec3a() * self.cell;
-        let extent = ((hi + IVec3::ONE - lo) << BLOCK_SHIFT).as_vec3a() * self.cell;
+        // The cells over the same region, and slope summaries over cubes of 8
+        // of them, all recomputed lazily.
+        let block_cells = IVec3::new(1, 1, 1 << self.spec.storage.z_extra_shift()) << BLOCK_SHIFT;
+        self.lattice_lo = lo * block_cells;
+        let origin = self.lattice_lo.as_vec3a() * self.cell;
+        let cells = (hi + IVec3::ONE - lo) * block_cells;
+        self.lattice = UniformGrid::new(origin, self.cell, cells.as_uvec3());
+        let extent = cells.as_vec3a() * self.cell;
         let summary_cell = 8.0 * self.cell;
         let summary_dims = (extent / summary_cell).ceil().as_uvec3();
         self.summary = UniformGrid::new(origin, summary_cell, summary_dims);
@@ -262,16 +275,93 @@ impl CacheGrid {
     fn gather(&self, filter: Filter, u: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> [f32; 27] {
         let (first, n) = filter.footprint(u);
         let mut s = [0.0; 27];
-        let mut at = 0;
-        for k in 0..n as i32 {
-            for j in 0..n as i32 {
-                for i in 0..n as i32 {
-                    s[at] = self.sample(first + IVec3::new(i, j, k), pool, eval);
-                    at += 1;
+        self.gather_cube(first, n, &mut s, pool, eval);
+        s
+    }
+
+    /// The `n³` samples from lattice point `first`, x fastest, into `out`. The
+    /// cube spans at most two blocks per axis; each block's part is fetched in
+    /// one consistent read, and only samples not yet held go one by one.
+    fn gather_cube(&self, first: IVec3, n: usize, out: &mut [f32], pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) {
+        let last = first + IVec3::splat(n as i32 - 1);
+        let reach = Aabb::new(first.as_vec3a() * self.cell, last.as_vec3a() * self.cell);
+        if !reach.overlaps(&self.child_bounds) {
+            // Every sample lies outside the subtree's support.
+            out[..n * n * n].fill(0.0);
+            return;
+        }
+        let (b0, b1) = (self.block_of(first), self.block_of(last));
+        let block_cells = self.block_cells();
+        for bz in b0.z..=b1.z {
+            for by in b0.y..=b1.y {
+                for bx in b0.x..=b1.x {
+                    let block = IVec3::new(bx, by, bz);
+                    let lo = first.max(block * block_cells);
+                    let hi = last.min((block + IVec3::ONE) * block_cells - IVec3::ONE);
+                    self.gather_part(block, (lo, hi), first, n, out, pool, eval);
                 }
             }
         }
-        s
+    }
+
+    /// Lattice points per block along each axis.
+    fn block_cells(&self) -> IVec3 {
+        IVec3::new(1, 1, 1 << self.spec.storage.z_extra_shift()) << BLOCK_SHIFT
+    }
+
+    /// The samples of the cube from `first` (edge `n`) in the box `lo..=hi` of `block`.
+    #[allow(clippy::too_many_arguments)]
+    fn gather_part(
+        &self,
+        block: IVec3,
+        (lo, hi): (IVec3, IVec3),
+        first: IVec3,
+        n: usize,
+        out: &mut [f32],
+        pool: &SamplePool,
+        eval: &impl Fn(Vec3A) -> f32,
+    ) {
+        // Small index types keep these scratch arrays (and their clearing) cheap.
+        let mut at = [0u16; 64];
+        let mut halves = [0u8; 64];
+        let mut dest = [0u8; 64];
+        let mut count = 0;
+        for z in lo.z..=hi.z {
+            for y in lo.y..=hi.y {
+                for x in lo.x..=hi.x {
+                    let i = IVec3::new(x, y, z);
+                    let o = (i - first).as_uvec3();
+                    dest[count] = (o.x as usize + n * (o.y as usize + n * o.z as usize)) as u8;
+                    let (w, h) = self.word_of(i);
+                    (at[count], halves[count]) = (w as u16, h as u8);
+                    count += 1;
+                }
+            }
+        }
+        let mut words = [UNSET; 64];
+        let read = self.table_index(block).is_some_and(|t| {
+            // SAFETY: as in `sample`.
+            let Some(slot) = (unsafe { self.table[t].load(Ordering::Acquire).as_ref() }) else { return false };
+            let ok = slot.read_many(block_key(self.serial, block), &at[..count], &mut words[..count]);
+            if ok {
+                pool.touch(slot);
+            }
+            ok
+        });
+        let storage = self.spec.storage;
+        for k in 0..count {
+            let m = usize::from(dest[k]);
+            out[m] = match storage.decode(words[k], u32::from(halves[k])) {
+                Some(v) if read => v,
+                _ => self.sample_at_offset(first, m, n, pool, eval),
+            };
+        }
+    }
+
+    /// The sample at position `m` (x fastest) of the cube of edge `n` from `first`.
+    fn sample_at_offset(&self, first: IVec3, m: usize, n: usize, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+        let o = IVec3::new((m % n) as i32, ((m / n) % n) as i32, (m / (n * n)) as i32);
+        self.sample(first + o, pool, eval)
     }
 
     /// The reconstructed value at `p` (cache frame), with the value filter.
@@ -306,6 +396,36 @@ impl CacheGrid {
         Interval::new(r.lo - e, r.hi + e)
     }
 
+    /// A bound on the reconstruction's slope over the lattice cell with minimum
+    /// corner `i`, from the samples themselves: each axis derivative is a convex
+    /// combination of the differences along that axis between the samples the
+    /// filter reads anywhere in the cell (2 per axis for tri-linear, 4 for the
+    /// quadratic), so the largest such difference bounds it. Tight where the
+    /// tracer needs it most: next to the surface.
+    fn cell_slope(&self, i: IVec3, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+        let reach: usize = match self.spec.value {
+            Filter::Trilinear => 0,
+            Filter::Triquadratic => 1,
+        };
+        let n = 2 + 2 * reach;
+        let mut s = [0.0f32; 64];
+        self.gather_cube(i - IVec3::splat(reach as i32), n, &mut s, pool, eval);
+        let mut g = Vec3A::ZERO;
+        for (at, v) in s.iter().enumerate().take(n * n * n) {
+            let (x, y, z) = (at % n, (at / n) % n, at / (n * n));
+            if x + 1 < n {
+                g.x = g.x.max((s[at + 1] - v).abs());
+            }
+            if y + 1 < n {
+                g.y = g.y.max((s[at + n] - v).abs());
+            }
+            if z + 1 < n {
+                g.z = g.z.max((s[at + n * n] - v).abs());
+            }
+        }
+        g.length() * self.inv_cell
+    }
+
     /// A bound on the reconstruction's slope over `region`. Each axis
     /// derivative of either filter is a convex combination of sample
     /// differences along that axis, each at most the subtree's slope over the
@@ -317,7 +437,13 @@ impl CacheGrid {
         region: &Region,
         child_slope: &impl Fn(&Aabb) -> f32,
         child_range: &impl Fn(&Aabb) -> Interval,
+        sample: (&SamplePool, &impl Fn(Vec3A) -> f32),
     ) -> f32 {
+        if let Region::Segment(a, b) = *region
+            && (b - a).length() * self.inv_cell <= msc()
+        {
+            return self.segment_slope_from_samples(a, b, sample.0, sample.1);
+        }
         let reach = region.bounds();
         if self.summary.cells_overlapped(&reach) > MAX_SUMMARY_CELLS {
             return self.slope_over(&reach, child_slope, child_range);
@@ -328,6 +454,16 @@ impl CacheGrid {
             Region::Segment(a, b) => self.summary.walk_segment(*a, *b, &mut visit),
             Region::Box(b) => self.summary.for_each_cell(b, &mut visit),
         }
+        l
+    }
+
+    /// The largest sampled cell bound along `a..b`.
+    fn segment_slope_from_samples(&self, a: Vec3A, b: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+        let mut l = 0.0f32;
+        self.lattice.walk_segment(a, b, |c| {
+            let i = self.lattice_lo + unlinear(c, self.lattice.dims).as_ivec3();
+            l = l.max(self.cell_slope(i, pool, eval));
+        });
         l
     }
 
@@ -479,4 +615,9 @@ impl ShardedCounter {
     fn total(&self) -> u64 {
         self.shards.iter().map(|s| s.0.load(Ordering::Relaxed)).sum()
     }
+}
+
+fn msc() -> f32 {
+    static M: std::sync::OnceLock<f32> = std::sync::OnceLock::new();
+    *M.get_or_init(|| std::env::var("MSC").ok().and_then(|v| v.parse().ok()).unwrap_or(MAX_SAMPLED_SEGMENT_CELLS))
 }

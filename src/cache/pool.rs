@@ -75,6 +75,21 @@ impl Slot {
         (Read::Word(word), g)
     }
 
+    /// Reads the words at `at` into `out` in one consistent section as block
+    /// `key`; false if the slot belongs to another block (nothing read then).
+    #[inline]
+    pub fn read_many(&self, key: u64, at: &[u16], out: &mut [u32]) -> bool {
+        let g = self.generation.load(Ordering::Acquire);
+        if g & 1 == 1 || self.owner.load(Ordering::Relaxed) != key {
+            return false;
+        }
+        for (o, &w) in out.iter_mut().zip(at) {
+            *o = self.words[usize::from(w)].load(Ordering::Relaxed);
+        }
+        fence(Ordering::Acquire);
+        self.generation.load(Ordering::Relaxed) == g
+    }
+
     /// Stores `update(old)` into word `w` if the slot still has generation `g`.
     /// `update` returns `None` to leave the word alone (another writer was first).
     pub fn write(&self, g: u32, w: usize, update: impl Fn(u32) -> Option<u32>) {

@@ -9,9 +9,11 @@ mod render;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 
-use crate::field::EvalMode;
+use crate::cache::SLOT_BYTES;
+use crate::cache::pool::MIN_BUDGET_SLOTS;
+use crate::field::{EvalMode, Model};
 use crate::scene::Size;
 
 /// blobtrace: ray-trace skeletal implicit models (BlobTrees) on the CPU.
@@ -53,6 +55,52 @@ impl From<EvalArg> for EvalMode {
         }
     }
 }
+
+/// Which field to show: the true one, or the one the scene's caches reconstruct.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ModeArg {
+    /// Exact evaluation of every node (caches pass through).
+    Exact,
+    /// Cache nodes answer from their lattices (lazily filled with exact samples).
+    Cached,
+}
+
+/// How a command evaluates the field: shared by every command that traces or samples it.
+#[derive(Clone, Copy, Debug, Args)]
+pub struct EvalOptions {
+    /// exact or cached (default: cached when the scene has Cache nodes, else exact).
+    #[arg(long, value_enum)]
+    pub mode: Option<ModeArg>,
+    /// How exact evaluation finds nearby primitives (naive only with --mode exact).
+    #[arg(long, value_enum, default_value_t = EvalArg::Indexed)]
+    pub eval: EvalArg,
+    /// Cap the caches' sample storage at this many megabytes (least-recently-used
+    /// blocks are evicted and re-evaluated on demand; the image does not change).
+    #[arg(long, value_name = "MB")]
+    pub cache_budget: Option<f64>,
+}
+
+impl EvalOptions {
+    /// The evaluation mode for `model`; applies the cache budget to it.
+    pub fn apply(&self, model: &mut Model) -> anyhow::Result<EvalMode> {
+        let mode = self.mode.unwrap_or(if model.counts().caches > 0 { ModeArg::Cached } else { ModeArg::Exact });
+        if let Some(mb) = self.cache_budget {
+            let min_mb = (MIN_BUDGET_SLOTS * SLOT_BYTES) as f64 / MB;
+            anyhow::ensure!(mb.is_finite() && mb >= min_mb, "--cache-budget must be at least {min_mb} MB, got {mb}");
+            model.set_cache_budget(Some((mb * MB) as usize));
+        }
+        match (mode, self.eval) {
+            (ModeArg::Exact, eval) => Ok(eval.into()),
+            (ModeArg::Cached, EvalArg::Indexed) => Ok(EvalMode::Cached),
+            (ModeArg::Cached, EvalArg::Naive) => {
+                anyhow::bail!("--eval naive applies to exact evaluation; add --mode exact")
+            }
+        }
+    }
+}
+
+/// Bytes per megabyte, as `--cache-budget` counts them.
+const MB: f64 = 1024.0 * 1024.0;
 
 fn parse_size(s: &str) -> Result<Size, String> {
     Size::parse(s)

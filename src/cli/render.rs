@@ -8,8 +8,9 @@ use clap::Args;
 use serde::Serialize;
 
 use super::progress::Progress;
-use super::{EvalArg, check_output_dir, scene_stem, with_threads};
-use crate::field::ModelField;
+use super::{EvalOptions, check_output_dir, scene_stem, with_threads};
+use crate::cache::{CacheStats, SLOT_BYTES};
+use crate::field::{EvalMode, Model, ModelField, NodeKind};
 use crate::frame::Frame;
 use crate::scene::{Scene, Size};
 use crate::trace::{RenderSettings, RenderStats, render};
@@ -31,9 +32,9 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores). The image is identical for any count.
     #[arg(long)]
     pub threads: Option<usize>,
-    /// How exact evaluation finds nearby primitives.
-    #[arg(long, value_enum, default_value_t = EvalArg::Indexed)]
-    pub eval: EvalArg,
+    /// Field evaluation: exact or cached, and the cache budget.
+    #[command(flatten)]
+    pub field: EvalOptions,
     /// Print one JSON object of statistics on stdout instead of a summary line.
     #[arg(long)]
     pub json: bool,
@@ -55,22 +56,92 @@ pub struct RenderReport {
     pub rays_per_second: f64,
     /// Field evaluations per ray.
     pub evals_per_ray: f64,
-    /// Evaluation mode.
+    /// Evaluation mode: naive, indexed or cached.
     pub eval: String,
     /// Threads used.
     pub threads: usize,
+    /// What the caches hold and did, when rendering cached.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub caches: Option<CacheReport>,
+}
+
+/// Cache statistics of a cached render: totals, then each cache.
+#[derive(Debug, Serialize)]
+pub struct CacheReport {
+    /// Samples evaluated from the subtrees (including re-evaluations after eviction).
+    pub samples_evaluated: u64,
+    /// Blocks held.
+    pub blocks: u64,
+    /// Bytes of sample storage held.
+    pub bytes: u64,
+    /// Lattice points over the caches' subtrees (what dense grids would hold).
+    pub grid_points: u64,
+    /// Samples held over lattice points.
+    pub touched_fraction: f64,
+    /// Reconstructions asked of the caches.
+    pub lookups: u64,
+    /// Blocks evicted to stay within the budget.
+    pub evictions: u64,
+    /// The budget in bytes, if any.
+    pub budget_bytes: Option<u64>,
+    /// Each cache, by the name above it.
+    pub per_cache: Vec<NamedCacheStats>,
+}
+
+/// One cache's statistics.
+#[derive(Debug, Serialize)]
+pub struct NamedCacheStats {
+    /// The nearest name above the cache.
+    pub name: String,
+    /// Its resolution.
+    pub res: u32,
+    /// What it holds and did.
+    #[serde(flatten)]
+    pub stats: CacheStats,
+}
+
+impl CacheReport {
+    /// The statistics of every cache of `model`.
+    #[must_use]
+    pub fn of(model: &Model) -> Self {
+        let per_cache: Vec<NamedCacheStats> = model
+            .cache_stats()
+            .into_iter()
+            .map(|(id, name, stats)| {
+                let res = match model.node(id).kind {
+                    NodeKind::Cache { spec, .. } => spec.res,
+                    _ => 0,
+                };
+                NamedCacheStats { name, res, stats }
+            })
+            .collect();
+        let sum = |f: fn(&CacheStats) -> u64| per_cache.iter().map(|c| f(&c.stats)).sum::<u64>();
+        let (held, grid_points) = (sum(|s| s.samples_held), sum(|s| s.grid_points));
+        Self {
+            samples_evaluated: sum(|s| s.samples_evaluated),
+            blocks: sum(|s| s.blocks),
+            bytes: sum(|s| s.bytes),
+            grid_points,
+            touched_fraction: held as f64 / grid_points.max(1) as f64,
+            lookups: sum(|s| s.lookups),
+            evictions: model.pool().evictions(),
+            budget_bytes: model.pool().budget_slots().map(|n| (n * SLOT_BYTES) as u64),
+            per_cache,
+        }
+    }
 }
 
 /// Runs `blobtrace render`.
 pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
-    let scene = Scene::load(&a.scene)?;
+    let mut scene = Scene::load(&a.scene)?;
+    let mode = a.field.apply(&mut scene.model)?;
     let output = a.output.clone().unwrap_or_else(|| PathBuf::from(format!("{}.png", scene_stem(&a.scene))));
     check_output_dir(&output)?;
     if let Some(exr) = &a.exr {
         check_output_dir(exr)?;
     }
     let size = a.size.unwrap_or(scene.size);
-    let (frame, report) = with_threads(a.threads, || render_scene(&scene, size, a.eval))?;
+    let (frame, report) = with_threads(a.threads, || render_scene(&scene, size, mode))?;
     frame.save_png(&output)?;
     if let Some(exr) = &a.exr {
         frame.save_exr(exr)?;
@@ -92,10 +163,10 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Renders `scene` at `size` with exact evaluation, timing it.
-pub fn render_scene(scene: &Scene, size: Size, eval: EvalArg) -> (Frame, RenderReport) {
+/// Renders `scene` at `size` evaluating its field in `mode`, timing it.
+pub fn render_scene(scene: &Scene, size: Size, mode: EvalMode) -> (Frame, RenderReport) {
     let settings = RenderSettings::for_scene(scene, size);
-    let field = ModelField::new(&scene.model, eval.into());
+    let field = ModelField::new(&scene.model, mode);
     let progress = Progress::new(u64::from(size.1), "tracing");
     let start = Instant::now();
     let (frame, stats) = render(&field, &settings, &|rows| progress.set(rows));
@@ -108,8 +179,9 @@ pub fn render_scene(scene: &Scene, size: Size, eval: EvalArg) -> (Frame, RenderR
         stats,
         rays_per_second: stats.rays as f64 / seconds.max(1e-9),
         evals_per_ray: stats.field_evals as f64 / stats.rays.max(1) as f64,
-        eval: format!("{eval:?}").to_lowercase(),
+        eval: format!("{mode:?}").to_lowercase(),
         threads: rayon::current_num_threads(),
+        caches: (mode == EvalMode::Cached).then(|| CacheReport::of(&scene.model)),
     };
     (frame, report)
 }

@@ -310,6 +310,7 @@ impl Model {
                 region,
                 &|b| self.node_lipschitz(*child, &Region::Box(*b), mode),
                 &|b| self.node_interval(*child, b, mode),
+                (self.pool(), &|q| self.node_value(*child, q, mode)),
             ),
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_lipschitz(*child, region, mode),
         }

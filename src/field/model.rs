@@ -246,6 +246,15 @@ impl Model {
         out
     }
 
+    /// Number of primitives in the subtree under `id`.
+    #[must_use]
+    pub fn primitives_under(&self, id: NodeId) -> usize {
+        match &self.node(id).kind {
+            NodeKind::Primitive(_) => 1,
+            kind => kind.children().iter().map(|&c| self.primitives_under(c)).sum(),
+        }
+    }
+
     /// The name of the nearest `Named` ancestor of `id` (or of `id` itself).
     #[must_use]
     pub fn name_above(&self, mut id: NodeId) -> Option<String> {
@@ -277,7 +286,9 @@ impl Model {
                 bounds,
                 leaves,
                 // Per-cell bounds must hold for exact and cached evaluation alike.
-                |leaf, b| self.leaf_interval(leaf, b, EvalMode::Naive).join(self.leaf_interval(leaf, b, EvalMode::Cached)),
+                |leaf, b| {
+                    self.leaf_interval(leaf, b, EvalMode::Naive).join(self.leaf_interval(leaf, b, EvalMode::Cached))
+                },
                 |leaf, r: &Region| {
                     self.leaf_lipschitz(leaf, r, EvalMode::Naive).max(self.leaf_lipschitz(leaf, r, EvalMode::Cached))
                 },

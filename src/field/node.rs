@@ -3,8 +3,8 @@
 use glam::{Affine3A, Mat3A, Vec3, Vec3A};
 
 use super::index::BlendIndex;
-use crate::cache::CacheSpec;
 use super::primitive::Primitive;
+use crate::cache::CacheSpec;
 use crate::geom::Aabb;
 
 /// Index of a node in [`super::Model`]'s arena.

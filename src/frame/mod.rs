@@ -7,6 +7,19 @@ use glam::Vec3;
 
 pub use exr_io::{ExrChannels, read_exr_channels};
 
+/// Geometric disagreement between two renders of one view.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct GeometryDifference {
+    /// Pixels hit in one frame and missed in the other.
+    pub mismatch_px: usize,
+    /// Pixels hit in both.
+    pub both_hit_px: usize,
+    /// Mean absolute depth difference over pixels hit in both (scene units).
+    pub mean_depth_err: f64,
+    /// 99th percentile of the angle between normals over pixels hit in both (degrees).
+    pub p99_normal_err_deg: f32,
+}
+
 /// A rendered image and its AOVs, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Frame {
@@ -58,6 +71,29 @@ impl Frame {
     #[must_use]
     pub fn hits(&self) -> usize {
         self.alpha.iter().filter(|&&a| a > 0.0).count()
+    }
+
+    /// How this frame's geometry departs from `reference`'s (same size): hit/miss
+    /// disagreements, and depth and normal differences where both hit.
+    #[must_use]
+    pub fn geometry_difference(&self, reference: &Frame) -> GeometryDifference {
+        let mut diff = GeometryDifference::default();
+        let (mut depth_sum, mut angles) = (0.0f64, Vec::new());
+        for i in 0..self.len().min(reference.len()) {
+            let (a, b) = (self.depth[i].is_finite(), reference.depth[i].is_finite());
+            if a != b {
+                diff.mismatch_px += 1;
+            } else if a {
+                depth_sum += f64::from((self.depth[i] - reference.depth[i]).abs());
+                let cos = self.normal[i].dot(reference.normal[i]).clamp(-1.0, 1.0);
+                angles.push(cos.acos().to_degrees());
+            }
+        }
+        diff.both_hit_px = angles.len();
+        diff.mean_depth_err = depth_sum / angles.len().max(1) as f64;
+        angles.sort_by(f32::total_cmp);
+        diff.p99_normal_err_deg = angles.get(angles.len() * 99 / 100).copied().unwrap_or(0.0);
+        diff
     }
 
     /// An extra AOV by channel name.

@@ -158,7 +158,8 @@ mod tests {
         let (a, b) = (Vec3A::new(-1.5, -1.1, 0.7), Vec3A::new(2.9, 0.3, 2.2));
         let mut walked = Vec::new();
         g.walk_segment(a, b, |c| walked.push(c));
-        let mut marched: Vec<usize> = (0..=20000).filter_map(|i| g.cell_of(a + (b - a) * (i as f32 / 20000.0))).collect();
+        let mut marched: Vec<usize> =
+            (0..=20000).filter_map(|i| g.cell_of(a + (b - a) * (i as f32 / 20000.0))).collect();
         marched.dedup();
         for c in &marched {
             assert!(walked.contains(c), "cell {c} missed");
