@@ -39,6 +39,8 @@ fn gradients_match_central_differences_for_every_node_type() {
         let mut compared = 0;
         for _ in 0..400 {
             let p = rng.point_in(b.min, b.max);
+            // Cached gradients come from their own filter, not the value's
+            // derivative: tests/cache.rs checks them against their reconstruction.
             for mode in [EvalMode::Indexed, EvalMode::Naive] {
                 let fd1 = central_difference(m, id, p, 1e-3, mode);
                 let fd2 = central_difference(m, id, p, 5e-4, mode);
@@ -151,7 +153,7 @@ proptest! {
     fn intervals_contain_sampled_values(t in prop::array::uniform6(0.0f32..1.0), thin in 0.01f32..0.6, seed in 0u64..1000) {
         for scene in [every_node(), medusa()] {
             let (a, c) = region_from(&scene.model.bounds(), t, thin);
-            for mode in [EvalMode::Indexed, EvalMode::Naive] {
+            for mode in [EvalMode::Indexed, EvalMode::Naive, EvalMode::Cached] {
                 check_interval(&ModelField::new(&scene.model, mode), a, c, seed)?;
             }
         }
@@ -161,7 +163,7 @@ proptest! {
     fn lipschitz_bounds_dominate_sampled_slopes(t in prop::array::uniform6(0.0f32..1.0), thin in 0.01f32..0.6, seed in 0u64..1000) {
         for scene in [every_node(), medusa()] {
             let (a, c) = region_from(&scene.model.bounds(), t, thin);
-            for mode in [EvalMode::Indexed, EvalMode::Naive] {
+            for mode in [EvalMode::Indexed, EvalMode::Naive, EvalMode::Cached] {
                 check_lipschitz(&ModelField::new(&scene.model, mode), a, c, seed)?;
             }
         }

@@ -2,11 +2,11 @@
 
 mod common;
 
-use blobtrace::field::{EvalMode, Field, ModelField};
+use blobtrace::field::{EvalMode, ModelField};
 use blobtrace::geom::Ray;
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::{RenderSettings, TraceOptions, render, trace_ray};
-use common::bundled;
+use common::{brute_force_hit, bundled};
 use glam::Vec3A;
 
 fn settings(scene: &Scene, w: u32, h: u32) -> RenderSettings {
@@ -68,21 +68,6 @@ const THIN: &str = r#"Scene(
         Point(center: (0.4, 0.4, 0.2), radius: 1.0, weight: 0.45),
     ]),
 )"#;
-
-/// Hit or miss by marching with a tiny fixed step.
-fn brute_force_hit(field: &impl Field, ray: &Ray, step: f32) -> bool {
-    let Some((t0, t1)) = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY) else {
-        return false;
-    };
-    let mut t = t0;
-    while t <= t1 {
-        if field.value(ray.at(t)) > field.threshold() {
-            return true;
-        }
-        t += step;
-    }
-    false
-}
 
 #[test]
 fn no_tunnelling_through_thin_features() {

@@ -359,7 +359,14 @@ impl CacheGrid {
     }
 
     /// The sample at position `m` (x fastest) of the cube of edge `n` from `first`.
-    fn sample_at_offset(&self, first: IVec3, m: usize, n: usize, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+    fn sample_at_offset(
+        &self,
+        first: IVec3,
+        m: usize,
+        n: usize,
+        pool: &SamplePool,
+        eval: &impl Fn(Vec3A) -> f32,
+    ) -> f32 {
         let o = IVec3::new((m % n) as i32, ((m / n) % n) as i32, (m / (n * n)) as i32);
         self.sample(first + o, pool, eval)
     }
@@ -440,7 +447,7 @@ impl CacheGrid {
         sample: (&SamplePool, &impl Fn(Vec3A) -> f32),
     ) -> f32 {
         if let Region::Segment(a, b) = *region
-            && (b - a).length() * self.inv_cell <= msc()
+            && (b - a).length() * self.inv_cell <= MAX_SAMPLED_SEGMENT_CELLS
         {
             return self.segment_slope_from_samples(a, b, sample.0, sample.1);
         }
@@ -615,9 +622,4 @@ impl ShardedCounter {
     fn total(&self) -> u64 {
         self.shards.iter().map(|s| s.0.load(Ordering::Relaxed)).sum()
     }
-}
-
-fn msc() -> f32 {
-    static M: std::sync::OnceLock<f32> = std::sync::OnceLock::new();
-    *M.get_or_init(|| std::env::var("MSC").ok().and_then(|v| v.parse().ok()).unwrap_or(MAX_SAMPLED_SEGMENT_CELLS))
 }

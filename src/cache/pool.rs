@@ -145,7 +145,9 @@ pub struct SamplePool {
 
 #[derive(Default)]
 struct PoolState {
-    /// Every slot ever made; boxed so their addresses never move.
+    /// Every slot ever made; boxed so their addresses never move when the
+    /// vector grows (table entries point at them).
+    #[allow(clippy::vec_box)]
     slots: Vec<Box<Slot>>,
     /// Indices of slots no block holds.
     free: Vec<usize>,

@@ -20,7 +20,7 @@ use glam::{Vec3, Vec3A};
 
 pub use index::{BlendIndex, IndexedLeaf, Leaf};
 pub use kernel::Kernel;
-pub use model::{Model, ModelBuilder, ModelCounts, ModelError};
+pub use model::{Change, Model, ModelBuilder, ModelCounts, ModelError};
 pub use node::{Node, NodeId, NodeKind, Placement};
 pub use primitive::{Primitive, Skeleton};
 pub use region::Region;

@@ -6,7 +6,8 @@ use glam::Vec3;
 
 use super::EvalMode;
 use super::index::{BlendIndex, IndexedLeaf, Leaf, MIN_INDEXED_LEAVES};
-use super::node::{Node, NodeId, NodeKind};
+use super::node::{Node, NodeId, NodeKind, Placement};
+use super::primitive::Primitive;
 use super::region::Region;
 use crate::cache::{CacheGrid, CacheSpec, CacheStats, SLOT_BYTES, SamplePool};
 use crate::geom::Aabb;
@@ -26,6 +27,30 @@ pub enum ModelError {
     /// A transform scales an axis by zero: it has no inverse.
     #[error("a Transform scale factor is zero")]
     ZeroScale,
+    /// An edit addressed a node of another kind than it changes.
+    #[error("node {node} is a {found}, not a {expected}")]
+    WrongKind {
+        /// The node addressed.
+        node: NodeId,
+        /// The kind the edit changes.
+        expected: &'static str,
+        /// The node's kind.
+        found: &'static str,
+    },
+}
+
+/// What an edit changed: the edited node and its bounds before and after, in
+/// the frame its parent sees. Outside `old ∪ new` no node's field changed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Change {
+    /// The edited node.
+    pub node: NodeId,
+    /// Its bounds before the edit.
+    pub old: Aabb,
+    /// Its bounds after the edit.
+    pub new: Aabb,
+    /// Cached samples cleared above it.
+    pub samples_cleared: u64,
 }
 
 /// A BlobTree: nodes in an arena, children before parents' use, parents known,
@@ -246,6 +271,58 @@ impl Model {
         out
     }
 
+    /// Moves Transform node `id` to `placement`. Caches below it keep their
+    /// samples (their frame moves with them); caches above clear the samples
+    /// inside the old and new bounds.
+    pub fn set_placement(&mut self, id: NodeId, placement: Placement) -> Result<Change, ModelError> {
+        let old = self.node(id).bounds;
+        match &mut self.nodes[id as usize].kind {
+            NodeKind::Transform { placement: p, .. } => *p = placement,
+            other => return Err(wrong_kind(id, "Transform", other)),
+        }
+        Ok(self.edited(id, old))
+    }
+
+    /// Replaces primitive node `id` by `primitive`; caches above it clear the
+    /// samples inside the old and new bounds.
+    pub fn set_primitive(&mut self, id: NodeId, primitive: Primitive) -> Result<Change, ModelError> {
+        let old = self.node(id).bounds;
+        match &mut self.nodes[id as usize].kind {
+            NodeKind::Primitive(p) => *p = primitive,
+            other => return Err(wrong_kind(id, "Primitive", other)),
+        }
+        Ok(self.edited(id, old))
+    }
+
+    /// Brings bounds, indices and caches up to date after node `id` changed.
+    fn edited(&mut self, id: NodeId, old: Aabb) -> Change {
+        self.refresh();
+        let new = self.node(id).bounds;
+        let samples_cleared = self.invalidate_above(id, old.union(&new));
+        Change { node: id, old, new, samples_cleared }
+    }
+
+    /// Clears, in every cache above node `id`, the samples inside `changed` (a
+    /// box in the frame `id`'s parent sees), carrying the box up through the
+    /// transforms on the way. Returns how many held samples were cleared.
+    pub fn invalidate_above(&mut self, id: NodeId, changed: Aabb) -> u64 {
+        let (mut at, mut region, mut cleared) = (id, changed, 0);
+        while let Some(parent) = self.node(at).parent {
+            match &self.node(parent).kind {
+                NodeKind::Transform { placement, .. } => region = region.transformed(&placement.to_world),
+                NodeKind::Cache { grid, .. } => {
+                    let grid = *grid;
+                    if let Some(g) = self.grids[grid].as_mut() {
+                        cleared += g.invalidate(&region);
+                    }
+                }
+                _ => {}
+            }
+            at = parent;
+        }
+        cleared
+    }
+
     /// Number of primitives in the subtree under `id`.
     #[must_use]
     pub fn primitives_under(&self, id: NodeId) -> usize {
@@ -328,6 +405,10 @@ impl Model {
         }
         c
     }
+}
+
+fn wrong_kind(node: NodeId, expected: &'static str, found: &NodeKind) -> ModelError {
+    ModelError::WrongKind { node, expected, found: found.type_name() }
 }
 
 /// How many of each kind of node a model holds.

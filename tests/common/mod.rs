@@ -1,6 +1,8 @@
 //! Shared helpers for the integration tests.
 #![allow(dead_code)]
 
+use blobtrace::field::Field;
+use blobtrace::geom::Ray;
 use blobtrace::scene::Scene;
 use glam::Vec3A;
 
@@ -52,4 +54,19 @@ impl Rng {
 #[track_caller]
 pub fn assert_close(a: f32, b: f32, tol: f32, what: &str) {
     assert!((a - b).abs() <= tol, "{what}: {a} vs {b}, difference {} > {tol}", (a - b).abs());
+}
+
+/// Hit or miss by marching with a tiny fixed step.
+pub fn brute_force_hit(field: &impl Field, ray: &Ray, step: f32) -> bool {
+    let Some((t0, t1)) = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY) else {
+        return false;
+    };
+    let mut t = t0;
+    while t <= t1 {
+        if field.value(ray.at(t)) > field.threshold() {
+            return true;
+        }
+        t += step;
+    }
+    false
 }

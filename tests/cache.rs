@@ -1,0 +1,301 @@
+//! Cache nodes: reconstruction, convergence, invalidation, the resize rule,
+//! determinism, the memory budget and conservative tracing on cached fields.
+
+mod common;
+
+use blobtrace::cache::{CacheGrid, CacheSpec, Filter, Refit, SamplePool, Storage};
+use blobtrace::field::{EvalMode, Field, Model, ModelField, NodeId, NodeKind, Placement, Primitive, Skeleton};
+use blobtrace::geom::Aabb;
+use blobtrace::scene::{Scene, Size};
+use blobtrace::trace::{RenderSettings, TraceOptions, render, trace_ray};
+use common::{Rng, brute_force_hit, bundled};
+use glam::{Vec3, Vec3A};
+
+/// A smooth blobby pair under one cache, with a named point inside it to edit.
+fn cached_scene(res: u32, value: &str, gradient: &str, storage: &str) -> Scene {
+    Scene::parse(
+        &format!(
+            r#"Scene(
+    camera: Camera(eye: (0.0, 0.5, 5.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
+    size: (64, 48),
+    model: Cache(res: {res}, value: {value}, gradient: {gradient}, storage: {storage}, child: Blend([
+        Point(center: (-0.5, 0.0, 0.0), radius: 1.2),
+        Point(center: (0.6, 0.1, 0.0), radius: 1.0),
+        Named("probe", Point(center: (0.0, 0.6, 0.3), radius: 0.5)),
+    ])),
+)"#
+        ),
+        "cached",
+    )
+    .expect("test scene parses")
+}
+
+fn default_scene(res: u32) -> Scene {
+    cached_scene(res, "Trilinear", "Triquadratic", "F32")
+}
+
+fn cache_node(model: &Model) -> (NodeId, usize, NodeId) {
+    model
+        .nodes()
+        .iter()
+        .enumerate()
+        .find_map(|(id, n)| match n.kind {
+            NodeKind::Cache { grid, child, .. } => Some((id as NodeId, grid, child)),
+            _ => None,
+        })
+        .expect("a cache node")
+}
+
+fn samples_evaluated(model: &Model) -> u64 {
+    model.cache_stats().iter().map(|(_, _, s)| s.samples_evaluated).sum()
+}
+
+fn random_points(model: &Model, n: usize, seed: u64) -> Vec<Vec3A> {
+    let b = model.bounds();
+    let mut rng = Rng(seed);
+    (0..n).map(|_| rng.point_in(b.min, b.max)).collect()
+}
+
+#[test]
+fn trilinear_reproduces_the_samples_at_lattice_points() {
+    let scene = default_scene(24);
+    let (cache, grid, child) = cache_node(&scene.model);
+    let c = scene.model.cache(grid).cell();
+    let mut rng = Rng(7);
+    for _ in 0..300 {
+        let p = rng.point_in(Vec3A::splat(-1.5), Vec3A::splat(1.5));
+        let lattice = (p / c).round() * c;
+        let exact = scene.model.node_value(child, lattice, EvalMode::Indexed);
+        let cached = scene.model.node_value(cache, lattice, EvalMode::Cached);
+        assert_eq!(cached, exact, "at lattice point {lattice}");
+    }
+}
+
+#[test]
+fn gradients_match_central_differences_of_the_reconstruction() {
+    for filter in ["Trilinear", "Triquadratic"] {
+        let scene = cached_scene(20, filter, filter, "F32");
+        let field = ModelField::new(&scene.model, EvalMode::Cached);
+        let c = scene.model.cache(cache_node(&scene.model).1).cell();
+        let h = c * 1e-2;
+        let mut rng = Rng(11);
+        let mut checked = 0;
+        while checked < 200 {
+            let p = rng.point_in(Vec3A::splat(-1.2), Vec3A::splat(1.2));
+            // Stay clear of the trilinear's kinks at cell faces.
+            let frac = (p / c).fract_gl();
+            if filter == "Trilinear" && (frac.min_element() < 0.05 || frac.max_element() > 0.95) {
+                continue;
+            }
+            let cd = Vec3A::new(
+                field.value(p + Vec3A::X * h) - field.value(p - Vec3A::X * h),
+                field.value(p + Vec3A::Y * h) - field.value(p - Vec3A::Y * h),
+                field.value(p + Vec3A::Z * h) - field.value(p - Vec3A::Z * h),
+            ) / (2.0 * h);
+            let g = field.gradient(p);
+            assert!((g - cd).length() <= 2e-2 * (1.0 + cd.length()), "{filter} at {p}: {g} vs {cd}");
+            checked += 1;
+        }
+    }
+}
+
+#[test]
+fn cached_error_shrinks_as_resolution_grows() {
+    let mut previous = f64::INFINITY;
+    for res in [16, 32, 64, 128] {
+        let scene = default_scene(res);
+        let (cache, _, child) = cache_node(&scene.model);
+        let points = random_points(&scene.model, 4000, 3);
+        let err: f64 = points
+            .iter()
+            .map(|&p| {
+                let e = scene.model.node_value(child, p, EvalMode::Indexed);
+                f64::from((scene.model.node_value(cache, p, EvalMode::Cached) - e).abs())
+            })
+            .sum::<f64>()
+            / points.len() as f64;
+        assert!(err < previous * 0.6, "res {res}: mean error {err} did not drop enough from {previous}");
+        previous = err;
+    }
+}
+
+fn probe(model: &Model) -> NodeId {
+    match model.node(model.find("probe").expect("probe")).kind {
+        NodeKind::Named { child, .. } => child,
+        _ => unreachable!(),
+    }
+}
+
+fn moved_probe() -> Primitive {
+    Primitive::new(Skeleton::Point { center: Vec3A::new(0.2, 0.4, 0.1) }, 0.5, 1.0, Default::default())
+}
+
+#[test]
+fn invalidation_after_an_edit_matches_a_fresh_cache_and_spares_the_rest() {
+    let mut scene = default_scene(32);
+    let (cache, _, _) = cache_node(&scene.model);
+    let points = random_points(&scene.model, 5000, 5);
+    for &p in &points {
+        scene.model.node_value(cache, p, EvalMode::Cached);
+    }
+    let before = samples_evaluated(&scene.model);
+    let id = probe(&scene.model);
+    let change = scene.model.set_primitive(id, moved_probe()).unwrap();
+    assert!(change.samples_cleared > 0);
+    // A fresh model with the probe already moved.
+    let mut fresh = default_scene(32).model;
+    fresh.set_primitive(probe(&fresh), moved_probe()).unwrap();
+    for &p in &points {
+        let (a, b) = (scene.model.node_value(cache, p, EvalMode::Cached), fresh.node_value(cache, p, EvalMode::Cached));
+        assert_eq!(a, b, "at {p}");
+    }
+    let refilled = samples_evaluated(&scene.model) - before;
+    assert!(
+        refilled <= change.samples_cleared,
+        "{refilled} samples re-evaluated, only {} cleared",
+        change.samples_cleared
+    );
+    assert!(refilled > 0);
+}
+
+#[test]
+fn moving_a_cached_subtree_rigidly_costs_no_samples() {
+    let mut scene = Scene::parse(
+        r#"Scene(
+    camera: Camera(eye: (0.0, 0.5, 5.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
+    size: (64, 48),
+    model: Blend([
+        Point(center: (2.0, 0.0, 0.0), radius: 1.0),
+        Named("part", Transform(translate: (0.0, 0.0, 0.0), child: Cache(res: 32, child: Blend([
+            Point(center: (-0.5, 0.0, 0.0), radius: 1.2), Point(center: (0.6, 0.1, 0.0), radius: 1.0)])))),
+    ]),
+)"#,
+        "rigid",
+    )
+    .unwrap();
+    let named = scene.model.find("part").unwrap();
+    let NodeKind::Named { child: transform, .. } = scene.model.node(named).kind else { unreachable!() };
+    let local_points = random_points(&scene.model, 3000, 9);
+    let field = ModelField::new(&scene.model, EvalMode::Cached);
+    let before: Vec<f32> = local_points.iter().map(|&p| field.value(p)).collect();
+    let filled = samples_evaluated(&scene.model);
+    let placement = Placement::new(Vec3::new(0.3, -0.2, 0.5), Vec3::new(0.0, 30.0, 10.0), Vec3::ONE).unwrap();
+    scene.model.set_placement(transform, placement).unwrap();
+    // The same local points, seen through the new placement: all samples are already there.
+    let field = ModelField::new(&scene.model, EvalMode::Cached);
+    let other = Primitive::new(Skeleton::Point { center: Vec3A::new(2.0, 0.0, 0.0) }, 1.0, 1.0, Default::default());
+    for (&p, &v) in local_points.iter().zip(&before) {
+        let world = placement.to_world.transform_point3a(p);
+        let moved = field.value(world) - other.value(world);
+        let unmoved = v - other.value(p);
+        assert!((moved - unmoved).abs() < 1e-5, "at {p}: {moved} vs {unmoved}");
+    }
+    assert_eq!(samples_evaluated(&scene.model), filled, "a rigid move evaluated new samples");
+}
+
+#[test]
+fn the_resize_rule_fires_at_the_thresholds_and_not_between() {
+    let pool = SamplePool::default();
+    let unit = Aabb::new(Vec3A::ZERO, Vec3A::ONE);
+    let scaled = |s: f32| Aabb::new(Vec3A::ZERO, Vec3A::splat(s));
+    for (factor, expected) in
+        [(1.9, Refit::Kept), (2.1, Refit::Rebuilt), (0.55, Refit::Kept), (0.45, Refit::Rebuilt), (1.0, Refit::Kept)]
+    {
+        let mut grid = CacheGrid::new(CacheSpec::new(64), unit, &pool);
+        assert_eq!(grid.fit(scaled(factor), &pool), expected, "bounds scaled by {factor}");
+        let c = grid.cell();
+        let wanted = if expected == Refit::Rebuilt { factor / 64.0 } else { 1.0 / 64.0 };
+        assert!((c - wanted).abs() < 1e-6, "cell {c} after scaling by {factor}");
+    }
+}
+
+fn render_cached(scene: &Scene, threads: usize, size: (u32, u32)) -> blobtrace::frame::Frame {
+    let field = ModelField::new(&scene.model, EvalMode::Cached);
+    let s = RenderSettings::for_scene(scene, Size(size.0, size.1));
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    pool.install(|| render(&field, &s, &|_| {}).0)
+}
+
+#[test]
+fn cached_renders_are_identical_for_any_thread_count_cold_or_warm() {
+    let medusa = bundled("medusa.ron");
+    let one_cold = render_cached(&medusa, 1, (80, 60));
+    let one_warm = render_cached(&medusa, 1, (80, 60));
+    let fresh = bundled("medusa.ron");
+    let many_cold = render_cached(&fresh, 4, (80, 60));
+    let many_warm = render_cached(&fresh, 4, (80, 60));
+    assert!(one_cold.hits() > 200, "{} hits", one_cold.hits());
+    assert_eq!(one_cold, one_warm);
+    assert_eq!(one_cold, many_cold);
+    assert_eq!(one_cold, many_warm);
+}
+
+#[test]
+fn a_small_budget_stays_under_it_and_changes_nothing() {
+    let unbounded = render_cached(&bundled("medusa.ron"), 2, (96, 72));
+    let mut tight = bundled("medusa.ron");
+    let budget = 256 * blobtrace::cache::SLOT_BYTES;
+    tight.model.set_cache_budget(Some(budget));
+    let bounded = render_cached(&tight, 2, (96, 72));
+    assert_eq!(bounded, unbounded);
+    assert!(tight.model.pool().bytes() <= budget, "{} bytes held", tight.model.pool().bytes());
+    assert!(tight.model.pool().evictions() > 0, "the budget never bit");
+}
+
+#[test]
+fn two_byte_storage_stays_close_and_halves_the_memory() {
+    let full = default_scene(48);
+    let half = cached_scene(48, "Trilinear", "Triquadratic", "F16");
+    let points = random_points(&full.model, 4000, 13);
+    let (mut worst, mut scale) = (0.0f32, 0.0f32);
+    for &p in &points {
+        let a = ModelField::new(&full.model, EvalMode::Cached).value(p);
+        let b = ModelField::new(&half.model, EvalMode::Cached).value(p);
+        worst = worst.max((a - b).abs());
+        scale = scale.max(a.abs());
+    }
+    assert!(worst <= scale * 1e-3 + 1e-6, "F16 error {worst} for values up to {scale}");
+    let held = |m: &Model| m.cache_stats()[0].2;
+    let (f32s, f16s) = (held(&full.model), held(&half.model));
+    let per_sample = |s: blobtrace::cache::CacheStats| s.bytes as f64 / s.samples_held as f64;
+    assert!(per_sample(f16s) < 0.75 * per_sample(f32s), "{f16s:?} vs {f32s:?}");
+    assert_eq!(Storage::F16.round_trip(0.5), 0.5);
+    assert_eq!(Filter::default(), Filter::Trilinear);
+}
+
+#[test]
+fn cached_tracing_misses_no_crossing_of_the_cached_field() {
+    let scene = Scene::parse(
+        r#"Scene(
+    camera: Camera(eye: (0.3, 0.4, 3.0), target: (0.0, 0.0, 0.0), fov_y: 45.0),
+    size: (40, 40),
+    model: Cache(res: 48, child: Blend([
+        Segment(a: (-1.0, -0.8, 0.0), b: (1.0, 0.9, 0.1), radius: 0.12),
+        Circle(center: (0.0, 0.0, 0.0), normal: (0.2, 0.3, 1.0), ring: 0.8, radius: 0.1),
+        Point(center: (0.4, 0.4, 0.2), radius: 1.0, weight: 0.45),
+    ])),
+)"#,
+        "thin-cached",
+    )
+    .unwrap();
+    let field = ModelField::new(&scene.model, EvalMode::Cached);
+    let (w, h) = (40u32, 40u32);
+    let (mut compared, mut hits) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let at = |dx: f32, dy: f32| scene.camera.ray_at(x as f32 + 0.5 + dx, y as f32 + 0.5 + dy, w, h);
+            let brute = brute_force_hit(&field, &at(0.0, 0.0), 2e-3);
+            let straddles = [(-0.25, 0.0), (0.25, 0.0), (0.0, -0.25), (0.0, 0.25)]
+                .iter()
+                .any(|&(dx, dy)| brute_force_hit(&field, &at(dx, dy), 2e-3) != brute);
+            if straddles {
+                continue;
+            }
+            let traced = trace_ray(&field, &at(0.0, 0.0), &TraceOptions::default()).hit.is_some();
+            assert_eq!(traced, brute, "pixel {x},{y}");
+            compared += 1;
+            hits += usize::from(brute);
+        }
+    }
+    assert!(compared > 1000 && hits > 100, "compared {compared}, hits {hits}");
+}
