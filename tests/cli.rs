@@ -151,6 +151,14 @@ fn bad_scenes_give_positions_and_no_panic() {
         Some((5, 40)),
         "scale",
     );
+    let cached = |opts: &str| {
+        GOOD.replace(
+            "Point(center: (0.0, 0.0, 0.0), radius: 1.0)",
+            &format!("Cache(res: 32, {opts}child: Point(center: (0.0, 0.0, 0.0), radius: 1.0))"),
+        )
+    };
+    assert_rejected("bad-filter", &cached("value: Cubic, "), Some((5, 31)), "cubic");
+    assert_rejected("bad-res", &cached("").replace("res: 32", "res: 5000"), Some((5, 20)), "resolution");
     assert_rejected("eye-on-target", &GOOD.replace("eye: (0.0, 0.0, 3.0)", "eye: (0.0, 0.0, 0.0)"), None, "coincide");
     assert_rejected("duplicate-name", &GOOD.replace("Point(center: (0.0, 0.0, 0.0), radius: 1.0),", "Named(\"a\", Point(center: (0.0, 0.0, 0.0), radius: 1.0)), Named(\"a\", Point(center: (1.0, 0.0, 0.0), radius: 1.0)),"), None, "used twice");
 }
@@ -171,4 +179,65 @@ fn missing_scene_and_bad_options_fail_cleanly() {
         assert!(!err.contains("panicked") && !err.is_empty(), "{args:?}: {err}");
     }
     assert!(!Path::new("/tmp/blobtrace-never.png").exists());
+}
+
+#[test]
+fn cached_render_reports_cache_statistics_and_exact_mode_omits_them() {
+    let dir = scratch("cached");
+    let png = dir.join("medusa.png");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", "scenes/medusa.ron", "-o", png.to_str().unwrap(), "--size", "64x48", "--json"];
+        args.extend_from_slice(extra);
+        json(&blobtrace(&args))
+    };
+    let cached = run(&[]);
+    assert_eq!(cached["eval"], "cached", "caches are the default where the scene has them");
+    let caches = &cached["caches"];
+    for key in ["samples_evaluated", "blocks", "bytes", "touched_fraction", "lookups", "per_cache"] {
+        assert!(caches.get(key).is_some(), "missing cache key {key} in {caches}");
+    }
+    assert_eq!(caches["per_cache"].as_array().map(Vec::len), Some(7));
+    assert!(caches["samples_evaluated"].as_u64() > Some(0));
+    let budgeted = run(&["--cache-budget", "0.5"]);
+    assert!(budgeted["caches"]["bytes"].as_u64() <= Some(512 * 1024), "{}", budgeted["caches"]);
+    assert_eq!(budgeted["hits"], cached["hits"]);
+    let exact = run(&["--mode", "exact"]);
+    assert_eq!(exact["eval"], "indexed");
+    assert!(exact.get("caches").is_none());
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn conflicting_or_bad_cache_options_are_refused() {
+    for args in [
+        &["render", "scenes/medusa.ron", "--mode", "cached", "--eval", "naive"][..],
+        &["render", "scenes/medusa.ron", "--cache-budget", "0.01"],
+        &["render", "scenes/medusa.ron", "--cache-budget", "NaN"],
+        &["render", "scenes/medusa.ron", "--mode", "fuzzy"],
+    ] {
+        let out = blobtrace(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+        assert!(err.contains("--") || err.contains("mode"), "{args:?}: unclear message {err}");
+    }
+}
+
+#[test]
+fn bench_cache_reports_its_keys() {
+    let v = json(&blobtrace(&["bench", "cache", "--size", "32x24", "--json"]));
+    for key in [
+        "exact_naive_s",
+        "exact_s",
+        "cached_cold_s",
+        "cached_warm_s",
+        "mismatch_px",
+        "mean_depth_err",
+        "p99_normal_err_deg",
+        "cache_bytes",
+    ] {
+        assert!(v.get(key).is_some(), "missing key {key} in {v}");
+    }
+    assert!(v["mismatch_px"].as_u64() < Some(32 * 24 / 20), "{}", v["mismatch_px"]);
+    assert_eq!(v["lookups"].as_array().map(Vec::len), Some(7));
 }
