@@ -147,6 +147,10 @@ impl CacheGrid {
             return Refit::Rebuilt;
         }
         self.child_bounds = child_bounds;
+        if child_bounds.is_empty() {
+            // The subtree's field is zero everywhere: no sample is read.
+            return Refit::Kept;
+        }
         let (lo, hi) = self.block_range(&child_bounds);
         let (old_lo, old_hi) = (self.table_lo, self.table_lo + self.table_dims.as_ivec3() - IVec3::ONE);
         if self.table_dims.cmpgt(UVec3::ZERO).all() && lo.cmpge(old_lo).all() && hi.cmple(old_hi).all() {
