@@ -14,7 +14,7 @@ use super::filter::{Filter, MAX_SUPPORT_CELLS};
 use super::pool::{Read, SLOT_WORDS, SamplePool, Slot, UNSET, block_key};
 use super::{CacheSpec, Storage};
 use crate::field::Region;
-use crate::geom::{Aabb, Interval, UniformGrid};
+use crate::geom::{Aabb, Interval, UniformGrid, cell_coords, linear_index};
 
 /// Lattice points per block edge along x and y (z doubles for two-byte storage).
 const BLOCK_SHIFT: i32 = 3;
@@ -152,12 +152,14 @@ impl CacheGrid {
             return Refit::Kept;
         }
         let (lo, hi) = self.block_range(&child_bounds);
-        let (old_lo, old_hi) = (self.table_lo, self.table_lo + self.table_dims.as_ivec3() - IVec3::ONE);
-        if self.table_dims.cmpgt(UVec3::ZERO).all() && lo.cmpge(old_lo).all() && hi.cmple(old_hi).all() {
+        if self.table.is_empty() {
+            self.resize_table(lo, hi);
             return Refit::Kept;
         }
-        let (lo, hi) = if self.table.is_empty() { (lo, hi) } else { (lo.min(old_lo), hi.max(old_hi)) };
-        self.resize_table(lo, hi);
+        let (old_lo, old_hi) = (self.table_lo, self.table_lo + self.table_dims.as_ivec3() - IVec3::ONE);
+        if lo.cmplt(old_lo).any() || hi.cmpgt(old_hi).any() {
+            self.resize_table(lo.min(old_lo), hi.max(old_hi));
+        }
         Refit::Kept
     }
 
@@ -189,23 +191,19 @@ impl CacheGrid {
         let mut table: Vec<AtomicPtr<Slot>> =
             (0..dims.as_usizevec3().element_product()).map(|_| AtomicPtr::new(std::ptr::null_mut())).collect();
         for (i, entry) in self.table.iter().enumerate() {
-            let b = self.table_lo + unlinear(i, self.table_dims).as_ivec3();
-            table[linear((b - lo).as_uvec3(), dims)] = AtomicPtr::new(entry.load(Ordering::Relaxed));
+            let b = self.table_lo + cell_coords(i, self.table_dims).as_ivec3();
+            table[linear_index((b - lo).as_uvec3(), dims)] = AtomicPtr::new(entry.load(Ordering::Relaxed));
         }
         self.table = table.into_boxed_slice();
         self.table_lo = lo;
         self.table_dims = dims;
         // The cells over the same region, and slope summaries over cubes of 8
-        // of them, all recomputed lazily.
-        let block_cells = IVec3::new(1, 1, 1 << self.spec.storage.z_extra_shift()) << BLOCK_SHIFT;
-        self.lattice_lo = lo * block_cells;
+        // of them (blocks are multiples of 8 cells), all recomputed lazily.
+        self.lattice_lo = lo * self.block_cells();
         let origin = self.lattice_lo.as_vec3a() * self.cell;
-        let cells = (hi + IVec3::ONE - lo) * block_cells;
-        self.lattice = UniformGrid::new(origin, self.cell, cells.as_uvec3());
-        let extent = cells.as_vec3a() * self.cell;
-        let summary_cell = 8.0 * self.cell;
-        let summary_dims = (extent / summary_cell).ceil().as_uvec3();
-        self.summary = UniformGrid::new(origin, summary_cell, summary_dims);
+        let cells = (dims.as_ivec3() * self.block_cells()).as_uvec3();
+        self.lattice = UniformGrid::new(origin, self.cell, cells);
+        self.summary = UniformGrid::new(origin, 8.0 * self.cell, cells / 8);
         self.slopes = (0..self.summary.cell_count()).map(|_| AtomicU32::new(UNSET_SLOPE)).collect();
     }
 
@@ -233,7 +231,7 @@ impl CacheGrid {
         if r.cmplt(IVec3::ZERO).any() || r.as_uvec3().cmpge(self.table_dims).any() {
             return None;
         }
-        Some(linear(r.as_uvec3(), self.table_dims))
+        Some(linear_index(r.as_uvec3(), self.table_dims))
     }
 
     /// Sample `i`: held, or evaluated now with `eval` (in the cache's frame) and stored.
@@ -472,7 +470,7 @@ impl CacheGrid {
     fn segment_slope_from_samples(&self, a: Vec3A, b: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
         let mut l = 0.0f32;
         self.lattice.walk_segment(a, b, |c| {
-            let i = self.lattice_lo + unlinear(c, self.lattice.dims).as_ivec3();
+            let i = self.lattice_lo + self.lattice.coords(c).as_ivec3();
             l = l.max(self.cell_slope(i, pool, eval));
         });
         l
@@ -548,11 +546,6 @@ impl CacheGrid {
         held
     }
 
-    /// Gives the cache's slots back to `pool` (the cache is being dropped).
-    pub fn release(&self, pool: &SamplePool) {
-        pool.release(self.serial);
-    }
-
     /// Counts of what the cache holds and has done.
     #[must_use]
     pub fn stats(&self, pool: &SamplePool) -> CacheStats {
@@ -578,7 +571,7 @@ impl CacheGrid {
     fn samples_held(&self) -> u64 {
         let mut n = 0;
         for (i, entry) in self.table.iter().enumerate() {
-            let block = self.table_lo + unlinear(i, self.table_dims).as_ivec3();
+            let block = self.table_lo + cell_coords(i, self.table_dims).as_ivec3();
             // SAFETY: as in `sample`.
             let Some(slot) = (unsafe { entry.load(Ordering::Acquire).as_ref() }) else { continue };
             if slot.owner() != block_key(self.serial, block) {
@@ -594,15 +587,6 @@ impl CacheGrid {
         }
         n
     }
-}
-
-fn linear(i: UVec3, dims: UVec3) -> usize {
-    (i.x + dims.x * (i.y + dims.y * i.z)) as usize
-}
-
-fn unlinear(i: usize, dims: UVec3) -> UVec3 {
-    let (nx, ny) = (dims.x as usize, dims.y as usize);
-    UVec3::new((i % nx) as u32, ((i / nx) % ny) as u32, (i / (nx * ny)) as u32)
 }
 
 /// A counter split over cache lines by worker thread, so counting every lookup

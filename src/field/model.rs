@@ -75,9 +75,9 @@ impl Clone for Model {
             threshold: self.threshold,
             names: self.names.clone(),
             grids: self.grids.iter().map(|_| None).collect(),
-            pool: SamplePool::new(self.pool.budget_slots()),
+            pool: SamplePool::default(),
         };
-        model.update_bounds(model.root);
+        model.empty_caches(SamplePool::new(self.pool.budget_slots()));
         model
     }
 }
@@ -250,10 +250,12 @@ impl Model {
     /// Caps the caches' sample storage at `bytes` (unbounded for `None`),
     /// evicting least-recently-used blocks beyond it. Empties every cache.
     pub fn set_cache_budget(&mut self, bytes: Option<usize>) {
-        for g in self.grids.iter().flatten() {
-            g.release(&self.pool);
-        }
-        self.pool = SamplePool::new(bytes.map(|b| b / SLOT_BYTES));
+        self.empty_caches(SamplePool::new(bytes.map(|b| b / SLOT_BYTES)));
+    }
+
+    /// Replaces the pool by `pool` and lays fresh, empty lattices on every cache.
+    fn empty_caches(&mut self, pool: SamplePool) {
+        self.pool = pool;
         self.grids.iter_mut().for_each(|g| *g = None);
         self.update_bounds(self.root);
     }

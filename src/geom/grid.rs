@@ -42,15 +42,19 @@ impl UniformGrid {
     #[inline]
     #[must_use]
     pub fn linear(&self, i: UVec3) -> usize {
-        (i.x + self.dims.x * (i.y + self.dims.y * i.z)) as usize
+        linear_index(i, self.dims)
+    }
+
+    /// Coordinates of the cell with linear index `c`.
+    #[must_use]
+    pub fn coords(&self, c: usize) -> UVec3 {
+        cell_coords(c, self.dims)
     }
 
     /// The box of the cell with linear index `c`.
     #[must_use]
     pub fn cell_box(&self, c: usize) -> Aabb {
-        let (nx, ny) = (self.dims.x as usize, self.dims.y as usize);
-        let ijk = Vec3A::new((c % nx) as f32, ((c / nx) % ny) as f32, (c / (nx * ny)) as f32);
-        let min = self.origin + ijk * self.cell;
+        let min = self.origin + self.coords(c).as_vec3a() * self.cell;
         Aabb::new(min, min + Vec3A::splat(self.cell))
     }
 
@@ -136,6 +140,20 @@ impl UniformGrid {
             t_max[axis] += t_delta[axis];
         }
     }
+}
+
+/// The linear index (x fastest) of cell `i` in a block of `dims` cells.
+#[inline]
+#[must_use]
+pub fn linear_index(i: UVec3, dims: UVec3) -> usize {
+    (i.x + dims.x * (i.y + dims.y * i.z)) as usize
+}
+
+/// The cell coordinates of linear index `c` in a block of `dims` cells.
+#[must_use]
+pub fn cell_coords(c: usize, dims: UVec3) -> UVec3 {
+    let (nx, ny) = (dims.x as usize, dims.y as usize);
+    UVec3::new((c % nx) as u32, ((c / nx) % ny) as u32, (c / (nx * ny)) as u32)
 }
 
 fn sign(v: f32) -> i32 {

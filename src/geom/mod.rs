@@ -7,6 +7,6 @@ mod interval;
 mod ray;
 
 pub use aabb::Aabb;
-pub use grid::UniformGrid;
+pub use grid::{UniformGrid, cell_coords, linear_index};
 pub use interval::Interval;
 pub use ray::Ray;
