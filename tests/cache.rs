@@ -7,8 +7,8 @@ use blobtrace::cache::{CacheGrid, CacheSpec, Filter, Refit, SamplePool, Storage}
 use blobtrace::field::{EvalMode, Field, Model, ModelField, NodeId, NodeKind, Placement, Primitive, Skeleton};
 use blobtrace::geom::Aabb;
 use blobtrace::scene::{Scene, Size};
-use blobtrace::trace::{RenderSettings, TraceOptions, render, trace_ray};
-use common::{Rng, brute_force_hit, bundled};
+use blobtrace::trace::{RenderSettings, render};
+use common::{Rng, assert_traces_like_brute_force, bundled};
 use glam::{Vec3, Vec3A};
 
 /// A smooth blobby pair under one cache, with a named point inside it to edit.
@@ -279,23 +279,6 @@ fn cached_tracing_misses_no_crossing_of_the_cached_field() {
     )
     .unwrap();
     let field = ModelField::new(&scene.model, EvalMode::Cached);
-    let (w, h) = (40u32, 40u32);
-    let (mut compared, mut hits) = (0, 0);
-    for y in 0..h {
-        for x in 0..w {
-            let at = |dx: f32, dy: f32| scene.camera.ray_at(x as f32 + 0.5 + dx, y as f32 + 0.5 + dy, w, h);
-            let brute = brute_force_hit(&field, &at(0.0, 0.0), 2e-3);
-            let straddles = [(-0.25, 0.0), (0.25, 0.0), (0.0, -0.25), (0.0, 0.25)]
-                .iter()
-                .any(|&(dx, dy)| brute_force_hit(&field, &at(dx, dy), 2e-3) != brute);
-            if straddles {
-                continue;
-            }
-            let traced = trace_ray(&field, &at(0.0, 0.0), &TraceOptions::default()).hit.is_some();
-            assert_eq!(traced, brute, "pixel {x},{y}");
-            compared += 1;
-            hits += usize::from(brute);
-        }
-    }
+    let (compared, hits) = assert_traces_like_brute_force(&field, &scene.camera, (40, 40), 2e-3);
     assert!(compared > 1000 && hits > 100, "compared {compared}, hits {hits}");
 }

@@ -5,8 +5,8 @@ mod common;
 use blobtrace::field::{EvalMode, ModelField};
 use blobtrace::geom::Ray;
 use blobtrace::scene::{Scene, Size};
-use blobtrace::trace::{RenderSettings, TraceOptions, render, trace_ray};
-use common::{brute_force_hit, bundled};
+use blobtrace::trace::{RenderSettings, render};
+use common::{assert_traces_like_brute_force, bundled};
 use glam::Vec3A;
 
 fn settings(scene: &Scene, w: u32, h: u32) -> RenderSettings {
@@ -73,26 +73,7 @@ const THIN: &str = r#"Scene(
 fn no_tunnelling_through_thin_features() {
     let scene = Scene::parse(THIN, "thin").unwrap();
     let field = ModelField::new(&scene.model, EvalMode::Indexed);
-    let (w, h) = (48u32, 48u32);
-    let step = 1e-3;
-    let (mut compared, mut hits) = (0, 0);
-    for y in 0..h {
-        for x in 0..w {
-            let at = |dx: f32, dy: f32| scene.camera.ray_at(x as f32 + 0.5 + dx, y as f32 + 0.5 + dy, w, h);
-            let brute = brute_force_hit(&field, &at(0.0, 0.0), step);
-            // Pixels whose quarter-pixel neighbours disagree straddle a silhouette.
-            let straddles = [(-0.25, 0.0), (0.25, 0.0), (0.0, -0.25), (0.0, 0.25)]
-                .iter()
-                .any(|&(dx, dy)| brute_force_hit(&field, &at(dx, dy), step) != brute);
-            if straddles {
-                continue;
-            }
-            let traced = trace_ray(&field, &at(0.0, 0.0), &TraceOptions::default()).hit.is_some();
-            assert_eq!(traced, brute, "pixel {x},{y}: traced hit {traced}, brute force {brute}");
-            compared += 1;
-            hits += usize::from(brute);
-        }
-    }
+    let (compared, hits) = assert_traces_like_brute_force(&field, &scene.camera, (48, 48), 1e-3);
     assert!(compared > 1500 && hits > 100, "compared {compared}, hits {hits}");
 }
 

@@ -1,9 +1,11 @@
 //! Shared helpers for the integration tests.
 #![allow(dead_code)]
 
+use blobtrace::camera::Camera;
 use blobtrace::field::Field;
 use blobtrace::geom::Ray;
 use blobtrace::scene::Scene;
+use blobtrace::trace::{TraceOptions, trace_ray};
 use glam::Vec3A;
 
 /// A scene using every node type, with transforms that rotate and scale unevenly.
@@ -69,4 +71,34 @@ pub fn brute_force_hit(field: &impl Field, ray: &Ray, step: f32) -> bool {
         t += step;
     }
     false
+}
+
+/// Traces every pixel of a `w`×`h` view and asserts that hit/miss equals a
+/// brute-force march with `step`, except at pixels whose quarter-pixel
+/// neighbours disagree (they straddle a silhouette). Returns the pixels
+/// compared and how many of them hit.
+pub fn assert_traces_like_brute_force(
+    field: &impl Field,
+    camera: &Camera,
+    (w, h): (u32, u32),
+    step: f32,
+) -> (usize, usize) {
+    let (mut compared, mut hits) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let at = |dx: f32, dy: f32| camera.ray_at(x as f32 + 0.5 + dx, y as f32 + 0.5 + dy, w, h);
+            let brute = brute_force_hit(field, &at(0.0, 0.0), step);
+            let straddles = [(-0.25, 0.0), (0.25, 0.0), (0.0, -0.25), (0.0, 0.25)]
+                .iter()
+                .any(|&(dx, dy)| brute_force_hit(field, &at(dx, dy), step) != brute);
+            if straddles {
+                continue;
+            }
+            let traced = trace_ray(field, &at(0.0, 0.0), &TraceOptions::default()).hit.is_some();
+            assert_eq!(traced, brute, "pixel {x},{y}: traced hit {traced}, brute force {brute}");
+            compared += 1;
+            hits += usize::from(brute);
+        }
+    }
+    (compared, hits)
 }
