@@ -204,6 +204,7 @@ fn cached_render_reports_cache_statistics_and_exact_mode_omits_them() {
     let exact = run(&["--mode", "exact"]);
     assert_eq!(exact["eval"], "indexed");
     assert!(exact.get("caches").is_none());
+    assert_eq!(run(&["--eval", "naive"])["eval"], "naive", "--eval naive alone means exact evaluation");
     std::fs::remove_dir_all(dir).unwrap();
 }
 

@@ -68,7 +68,7 @@ pub enum ModeArg {
 /// How a command evaluates the field: shared by every command that traces or samples it.
 #[derive(Clone, Copy, Debug, Args)]
 pub struct EvalOptions {
-    /// exact or cached (default: cached when the scene has Cache nodes, else exact).
+    /// exact or cached (default: cached when the scene has Cache nodes and --eval is not naive).
     #[arg(long, value_enum)]
     pub mode: Option<ModeArg>,
     /// How exact evaluation finds nearby primitives (naive only with --mode exact).
@@ -83,7 +83,9 @@ pub struct EvalOptions {
 impl EvalOptions {
     /// The evaluation mode for `model`; applies the cache budget to it.
     pub fn apply(&self, model: &mut Model) -> anyhow::Result<EvalMode> {
-        let mode = self.mode.unwrap_or(if model.counts().caches > 0 { ModeArg::Cached } else { ModeArg::Exact });
+        // Asking for the naive baseline asks for exact evaluation.
+        let cached_by_default = model.counts().caches > 0 && self.eval != EvalArg::Naive;
+        let mode = self.mode.unwrap_or(if cached_by_default { ModeArg::Cached } else { ModeArg::Exact });
         if let Some(mb) = self.cache_budget {
             let min_mb = (MIN_BUDGET_SLOTS * SLOT_BYTES) as f64 / MB;
             anyhow::ensure!(mb.is_finite() && mb >= min_mb, "--cache-budget must be at least {min_mb} MB, got {mb}");
