@@ -36,6 +36,7 @@ pub mod cli;
 pub mod field;
 pub mod frame;
 pub mod geom;
+pub mod mesh;
 pub mod output;
 pub mod scene;
 pub mod trace;

@@ -69,6 +69,10 @@ pub trait Field: Sync {
     fn bounds(&self) -> Aabb;
     /// The iso-value `T`.
     fn threshold(&self) -> f32;
+    /// False when [`Field::color`] is the same everywhere, so callers may skip asking.
+    fn varies_in_color(&self) -> bool {
+        true
+    }
 }
 
 /// Evaluation of a [`Model`]: exact (indexed or naive) or through its caches.
@@ -104,6 +108,9 @@ impl Field for ModelField<'_> {
     }
     fn bounds(&self) -> Aabb {
         self.model.bounds()
+    }
+    fn varies_in_color(&self) -> bool {
+        self.model.nodes().iter().any(|n| n.color.is_some())
     }
     fn threshold(&self) -> f32 {
         self.model.threshold()

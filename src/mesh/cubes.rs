@@ -1,0 +1,181 @@
+//! Cubical cells: the marching-cubes case table, generated rather than typed in.
+//!
+//! Each of the 256 sign cases is built face by face. On a face with two
+//! crossed edges one segment joins them; on an *ambiguous* face (inside corners
+//! diagonally opposite) the rule is always the same: each inside corner is cut
+//! off on its own. The rule reads only the face's four signs, so the two cubes
+//! sharing a face draw the same segments there and the surface is watertight.
+//! Segments are oriented with the inside on their right as seen from outside
+//! the cube; chained, they form closed loops, one polygon each, whose normals
+//! point out of the surface (towards lower field values).
+
+use std::sync::OnceLock;
+
+use glam::{IVec3, Vec3};
+
+use super::lattice::{Cell, LatticePoint};
+
+/// Corner `i` of a cube sits at offset `(i & 1, i >> 1 & 1, i >> 2 & 1)`.
+#[must_use]
+pub fn corner_offset(i: usize) -> IVec3 {
+    IVec3::new((i & 1) as i32, (i >> 1 & 1) as i32, (i >> 2 & 1) as i32)
+}
+
+/// The twelve edges as corner pairs, lower corner first.
+const EDGES: [(u8, u8); 12] =
+    [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)];
+
+/// The edge joining corners `a` and `b`.
+fn edge_between(a: usize, b: usize) -> u8 {
+    let (lo, hi) = (a.min(b) as u8, a.max(b) as u8);
+    EDGES.iter().position(|&e| e == (lo, hi)).expect("corners of one face edge") as u8
+}
+
+/// The four corners of face `(axis, side)` in cyclic order, and its outward normal.
+fn face(axis: usize, side: usize) -> ([usize; 4], Vec3) {
+    let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+    let corner = |du: usize, dv: usize| side << axis | du << u | dv << v;
+    let mut normal = Vec3::ZERO;
+    normal[axis] = if side == 1 { 1.0 } else { -1.0 };
+    ([corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)], normal)
+}
+
+/// For every sign case (bit `i` set when corner `i` is inside), the surface's
+/// polygons as loops of edge indices.
+fn case_table() -> &'static [Vec<Vec<u8>>] {
+    static TABLE: OnceLock<Vec<Vec<Vec<u8>>>> = OnceLock::new();
+    TABLE.get_or_init(|| (0..256).map(|mask| case_loops(mask as u8)).collect())
+}
+
+fn case_loops(mask: u8) -> Vec<Vec<u8>> {
+    let inside = |c: usize| mask >> c & 1 == 1;
+    let mut next = [u8::MAX; 12];
+    for axis in 0..3 {
+        for side in 0..2 {
+            for (from, to) in face_segments(axis, side, &inside) {
+                next[from as usize] = to;
+            }
+        }
+    }
+    let mut loops = vec![];
+    let mut used = [false; 12];
+    for start in 0..12 {
+        if next[start] == u8::MAX || used[start] {
+            continue;
+        }
+        let mut polygon = vec![];
+        let mut e = start;
+        while !used[e] {
+            used[e] = true;
+            polygon.push(e as u8);
+            e = next[e] as usize;
+        }
+        loops.push(polygon);
+    }
+    loops
+}
+
+/// The oriented segments a face contributes, as (from edge, to edge).
+fn face_segments(axis: usize, side: usize, inside: &impl Fn(usize) -> bool) -> Vec<(u8, u8)> {
+    let (c, normal) = face(axis, side);
+    let crossed: Vec<usize> = (0..4).filter(|&k| inside(c[k]) != inside(c[(k + 1) % 4])).collect();
+    let edge = |k: usize| edge_between(c[k], c[(k + 1) % 4]);
+    let pairs: Vec<(usize, usize, Vec3)> = match crossed.len() {
+        2 => {
+            let inner: Vec<Vec3> = c.iter().filter(|&&i| inside(i)).map(|&i| corner_offset(i).as_vec3()).collect();
+            let centroid = inner.iter().sum::<Vec3>() / inner.len() as f32;
+            vec![(crossed[0], crossed[1], centroid)]
+        }
+        // Ambiguous face: cut off each inside corner k with its two face edges k-1 and k.
+        4 => (0..4).filter(|&k| inside(c[k])).map(|k| ((k + 3) % 4, k, corner_offset(c[k]).as_vec3())).collect(),
+        _ => vec![],
+    };
+    pairs
+        .into_iter()
+        .map(|(ka, kb, inner)| {
+            let (ea, eb) = (edge(ka), edge(kb));
+            let (p, q) = (edge_midpoint(ea), edge_midpoint(eb));
+            // Inside on the right of p → q seen from outside the cube.
+            if (q - p).cross(inner - p).dot(normal) < 0.0 { (ea, eb) } else { (eb, ea) }
+        })
+        .collect()
+}
+
+fn edge_midpoint(e: u8) -> Vec3 {
+    let (a, b) = EDGES[e as usize];
+    (corner_offset(a as usize) + corner_offset(b as usize)).as_vec3() * 0.5
+}
+
+/// The eight corners of a cube cell in half-cell coordinates.
+#[must_use]
+pub fn vertices(cell: Cell) -> [LatticePoint; 8] {
+    std::array::from_fn(|i| (cell.cube + corner_offset(i)) * 2)
+}
+
+/// The cube cells sharing the corner `q` (even coordinates).
+pub fn cells_touching(q: LatticePoint, out: &mut Vec<Cell>) {
+    let base = q / 2;
+    out.extend((0..8).map(|i| Cell { cube: base - corner_offset(i), sub: 0 }));
+}
+
+/// The cubes across every face of `cell` whose corners differ in sign.
+pub fn neighbours(cell: Cell, mask: u8, out: &mut Vec<Cell>) {
+    for axis in 0..3 {
+        for side in 0..2 {
+            let (c, _) = face(axis, side);
+            let signs = c.iter().map(|&i| mask >> i & 1).sum::<u8>();
+            if signs != 0 && signs != 4 {
+                let mut step = IVec3::ZERO;
+                step[axis] = if side == 1 { 1 } else { -1 };
+                out.push(Cell { cube: cell.cube + step, sub: 0 });
+            }
+        }
+    }
+}
+
+/// Emits the cell's polygons as loops of edges (each edge as its two lattice
+/// endpoints), oriented outwards.
+pub fn polygons(cell: Cell, mask: u8, emit: &mut impl FnMut(&[[LatticePoint; 2]])) {
+    let v = vertices(cell);
+    let mut loop_edges = Vec::with_capacity(12);
+    for polygon in &case_table()[mask as usize] {
+        loop_edges.clear();
+        loop_edges.extend(polygon.iter().map(|&e| {
+            let (a, b) = EDGES[e as usize];
+            [v[a as usize], v[b as usize]]
+        }));
+        emit(&loop_edges);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_crossed_edge_lies_on_exactly_one_loop() {
+        for mask in 0..=255u8 {
+            let mut count = [0; 12];
+            for polygon in &case_table()[mask as usize] {
+                assert!(polygon.len() >= 3, "case {mask:#010b}: {polygon:?}");
+                for &e in polygon {
+                    count[e as usize] += 1;
+                }
+            }
+            for (e, &(a, b)) in EDGES.iter().enumerate() {
+                let crossed = (mask >> a & 1) != (mask >> b & 1);
+                assert_eq!(count[e], usize::from(crossed), "case {mask:#010b} edge {e}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_single_inside_corner_gives_one_outward_triangle() {
+        let loops = &case_table()[1];
+        assert_eq!(loops.len(), 1);
+        let p: Vec<Vec3> = loops[0].iter().map(|&e| edge_midpoint(e)).collect();
+        let normal = (p[1] - p[0]).cross(p[2] - p[0]);
+        // Corner 0 is inside, so the normal points away from it.
+        assert!(normal.dot(Vec3::ONE) > 0.0, "{normal}");
+    }
+}

@@ -1,0 +1,387 @@
+//! The continuation polygonizer.
+//!
+//! Starting from cells found by marching from every skeleton, it grows across
+//! the faces the surface crosses, one wave at a time: the new corners of a
+//! wave are evaluated in parallel, then the wave's crossed cells name the next.
+//! Corner values, visited cells and edge vertices live in hash maps keyed by
+//! integer lattice coordinates, so each corner is evaluated once and each
+//! crossed edge gets one vertex, shared by every cell around it.
+//!
+//! Everything the polygonizer keeps is a pure function of the field and the
+//! lattice, so [`Polygonizer::repolygonize`] can drop what lies near an edit,
+//! grow again from the boundary of the hole, and end with exactly the cells,
+//! corners and vertices a fresh polygonization of the edited field would have.
+
+use glam::{IVec3, Vec3, Vec3A};
+use rayon::prelude::*;
+use rustc_hash::{FxHashMap, FxHashSet};
+
+use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key};
+use super::vertex::{VertexPlacement, place_on_edge};
+use super::{Mesh, bcc, cubes};
+use crate::field::Field;
+use crate::geom::Aabb;
+
+/// How space is cut into cells.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CellShape {
+    /// Cubes with a generated, watertight marching-cubes case table.
+    #[default]
+    Cubes,
+    /// The body-centred-cubic tetrahedra of Levinski and Sourin.
+    Bcc,
+}
+
+impl CellShape {
+    /// The cell's vertices (8 for a cube, 4 for a tetrahedron) in half-cell coordinates.
+    fn vertices(self, cell: Cell) -> ([LatticePoint; 8], usize) {
+        match self {
+            CellShape::Cubes => (cubes::vertices(cell), 8),
+            CellShape::Bcc => {
+                let v = bcc::vertices(cell);
+                ([v[0], v[1], v[2], v[3], v[0], v[0], v[0], v[0]], 4)
+            }
+        }
+    }
+
+    fn cells_touching(self, corner: LatticePoint, out: &mut Vec<Cell>) {
+        match self {
+            CellShape::Cubes => cubes::cells_touching(corner, out),
+            CellShape::Bcc => bcc::cells_touching(corner, out),
+        }
+    }
+
+    fn neighbours(self, cell: Cell, mask: u8, out: &mut Vec<Cell>) {
+        match self {
+            CellShape::Cubes => cubes::neighbours(cell, mask, out),
+            CellShape::Bcc => bcc::neighbours(cell, mask, out),
+        }
+    }
+
+    fn polygons(self, cell: Cell, mask: u8, emit: &mut impl FnMut(&[[LatticePoint; 2]])) {
+        match self {
+            CellShape::Cubes => cubes::polygons(cell, mask, emit),
+            CellShape::Bcc => bcc::polygons(cell, mask, emit),
+        }
+    }
+
+    /// The inside mask of a cell whose vertices are all inside.
+    fn full_mask(self) -> u8 {
+        match self {
+            CellShape::Cubes => 0xff,
+            CellShape::Bcc => 0x0f,
+        }
+    }
+}
+
+/// The polygonizer's knobs.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PolygonizeOptions {
+    /// Cell decomposition.
+    pub cells: CellShape,
+    /// Vertex placement on crossed edges.
+    pub vertex: VertexPlacement,
+}
+
+/// Work done so far, by kind of evaluation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct PolygonizeStats {
+    /// Field values at lattice corners (and body centres).
+    pub corner_evals: u64,
+    /// Field values spent placing vertices on edges.
+    pub root_evals: u64,
+    /// Gradients for vertex normals.
+    pub gradient_evals: u64,
+    /// Colour queries for vertex colours (none when the model has one colour).
+    pub color_evals: u64,
+    /// Cells examined.
+    pub cells_visited: u64,
+}
+
+impl PolygonizeStats {
+    /// Every evaluation of the field: values, gradients and colours.
+    #[must_use]
+    pub fn field_evals(&self) -> u64 {
+        self.corner_evals + self.root_evals + self.gradient_evals + self.color_evals
+    }
+}
+
+/// A vertex on a crossed edge.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct EdgeVertex {
+    position: Vec3,
+    normal: Vec3,
+    color: Vec3,
+}
+
+/// The mask value of a visited cell whose corners are not known yet.
+const PENDING: u8 = 0;
+
+/// A continuation polygonizer with its lattice and everything it has learned
+/// about one field.
+#[derive(Clone, Debug)]
+pub struct Polygonizer {
+    lattice: Lattice,
+    options: PolygonizeOptions,
+    corners: FxHashMap<LatticePoint, f32>,
+    /// Visited cells and their inside masks.
+    cells: FxHashMap<Cell, u8>,
+    vertices: FxHashMap<EdgeKey, EdgeVertex>,
+    with_colors: bool,
+    threshold: f32,
+    stats: PolygonizeStats,
+}
+
+impl Polygonizer {
+    /// An empty polygonizer on `lattice`.
+    #[must_use]
+    pub fn new(lattice: Lattice, options: PolygonizeOptions) -> Self {
+        Self {
+            lattice,
+            options,
+            corners: FxHashMap::default(),
+            cells: FxHashMap::default(),
+            vertices: FxHashMap::default(),
+            with_colors: false,
+            threshold: 0.0,
+            stats: PolygonizeStats::default(),
+        }
+    }
+
+    /// The lattice.
+    #[must_use]
+    pub fn lattice(&self) -> Lattice {
+        self.lattice
+    }
+
+    /// Evaluations and cells so far.
+    #[must_use]
+    pub fn stats(&self) -> PolygonizeStats {
+        self.stats
+    }
+
+    /// Polygonizes the surface of `field` reachable from the `seeds` (points on
+    /// skeletons, see [`super::skeleton_points`]).
+    pub fn polygonize<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Vec3A]) {
+        self.with_colors = field.varies_in_color();
+        self.threshold = field.threshold();
+        let frontier = self.seed(field, seeds);
+        self.grow(field, frontier);
+        self.place_vertices(field);
+    }
+
+    /// Re-polygonizes after the field changed inside `region` (and nowhere
+    /// else): forgets every corner, vertex and cell within one cell of it, then
+    /// grows back from the surface around the hole and from the `seeds`. The
+    /// result equals a fresh polygonization of the changed field.
+    pub fn repolygonize<F: Field + ?Sized>(&mut self, field: &F, region: &Aabb, seeds: &[Vec3A]) {
+        self.with_colors = field.varies_in_color();
+        self.threshold = field.threshold();
+        let cell = self.lattice.cell;
+        let near = region.padded(cell);
+        let lattice = self.lattice;
+        self.corners.retain(|&q, _| !near.contains(lattice.position(q)));
+        // An edge meeting `near` has its midpoint within one cell of it.
+        let midpoints = near.padded(cell);
+        self.vertices.retain(|&k, _| !midpoints.contains(lattice.position(k) * 0.5));
+        // A cell with a vertex in `near` has its cube (or, for a tetrahedron, its
+        // owning cube) within one cube of it.
+        let (lo, hi) = lattice.cubes_overlapping(&near.padded(cell));
+        let inside = |c: IVec3, margin: i32| c.cmpge(lo - margin).all() && c.cmple(hi + margin).all();
+        self.cells.retain(|c, _| !inside(c.cube, 0));
+        let mut frontier = vec![];
+        let mut around = vec![];
+        let shape = self.options.cells;
+        for (&c, &mask) in &self.cells {
+            if inside(c.cube, 2) && crossed(mask, shape) {
+                shape.neighbours(c, mask, &mut around);
+            }
+        }
+        for c in around {
+            if let std::collections::hash_map::Entry::Vacant(e) = self.cells.entry(c) {
+                e.insert(PENDING);
+                frontier.push(c);
+            }
+        }
+        frontier.extend(self.seed(field, seeds));
+        self.grow(field, frontier);
+        self.place_vertices(field);
+    }
+
+    /// Marches from each seed along +x to the first sign change and returns
+    /// the unvisited cells around it. Seeds march in parallel.
+    fn seed<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Vec3A]) -> Vec<Cell> {
+        let lattice = self.lattice;
+        let end_x = lattice.nearest_corner(field.bounds().max).x + 2;
+        let t = field.threshold();
+        let corners = &self.corners;
+        let marches: Vec<(Option<LatticePoint>, Vec<(LatticePoint, f32)>)> = seeds
+            .par_iter()
+            .map(|&p| {
+                let mut fresh = vec![];
+                let mut value = |q: LatticePoint| {
+                    corners.get(&q).copied().unwrap_or_else(|| {
+                        let v = field.value(lattice.position(q));
+                        fresh.push((q, v));
+                        v
+                    })
+                };
+                let mut q = lattice.nearest_corner(p);
+                let start_inside = value(q) > t;
+                let mut crossing = None;
+                while q.x <= end_x {
+                    let next = q + IVec3::X * 2;
+                    if (value(next) > t) != start_inside {
+                        crossing = Some(q);
+                        break;
+                    }
+                    q = next;
+                }
+                (crossing, fresh)
+            })
+            .collect();
+        let mut cells = vec![];
+        for (crossing, fresh) in marches {
+            self.stats.corner_evals += fresh.len() as u64;
+            self.corners.extend(fresh);
+            if let Some(q) = crossing {
+                self.options.cells.cells_touching(q, &mut cells);
+            }
+        }
+        cells.retain(|&c| match self.cells.entry(c) {
+            std::collections::hash_map::Entry::Vacant(e) => {
+                e.insert(PENDING);
+                true
+            }
+            std::collections::hash_map::Entry::Occupied(_) => false,
+        });
+        cells
+    }
+
+    /// Continuation: examine the frontier, keep its crossed cells, and move on to
+    /// their unvisited neighbours across crossed faces, until none are left.
+    fn grow<F: Field + ?Sized>(&mut self, field: &F, mut frontier: Vec<Cell>) {
+        let shape = self.options.cells;
+        let mut neighbours = vec![];
+        while !frontier.is_empty() {
+            self.evaluate_corners(field, &frontier);
+            let mut next = vec![];
+            for &cell in &frontier {
+                let mask = self.mask(cell);
+                self.cells.insert(cell, mask);
+                self.stats.cells_visited += 1;
+                if !crossed(mask, shape) {
+                    continue;
+                }
+                neighbours.clear();
+                shape.neighbours(cell, mask, &mut neighbours);
+                for &n in &neighbours {
+                    if let std::collections::hash_map::Entry::Vacant(e) = self.cells.entry(n) {
+                        e.insert(PENDING);
+                        next.push(n);
+                    }
+                }
+            }
+            frontier = next;
+        }
+    }
+
+    /// Evaluates, in parallel, the corners of `cells` not known yet.
+    fn evaluate_corners<F: Field + ?Sized>(&mut self, field: &F, cells: &[Cell]) {
+        let mut missing: Vec<LatticePoint> = vec![];
+        let mut seen = FxHashSet::default();
+        for &cell in cells {
+            let (v, n) = self.options.cells.vertices(cell);
+            for &q in &v[..n] {
+                if !self.corners.contains_key(&q) && seen.insert(q) {
+                    missing.push(q);
+                }
+            }
+        }
+        let lattice = self.lattice;
+        let values: Vec<f32> = missing.par_iter().map(|&q| field.value(lattice.position(q))).collect();
+        self.stats.corner_evals += missing.len() as u64;
+        self.corners.extend(missing.into_iter().zip(values));
+    }
+
+    /// Bit `i` set when vertex `i` of `cell` is inside.
+    fn mask(&self, cell: Cell) -> u8 {
+        let t = self.threshold;
+        let (v, n) = self.options.cells.vertices(cell);
+        (0..n).filter(|&i| self.corners[&v[i]] > t).fold(0u8, |m, i| m | 1 << i)
+    }
+
+    /// Places a vertex, with its normal and colour, on every crossed edge of a
+    /// crossed cell that has none yet; in parallel.
+    fn place_vertices<F: Field + ?Sized>(&mut self, field: &F) {
+        let mut edges: Vec<[LatticePoint; 2]> = vec![];
+        let mut seen = FxHashSet::default();
+        let shape = self.options.cells;
+        for (&cell, &mask) in &self.cells {
+            if !crossed(mask, shape) {
+                continue;
+            }
+            shape.polygons(cell, mask, &mut |polygon| {
+                for &[a, b] in polygon {
+                    let key = edge_key(a, b);
+                    if !self.vertices.contains_key(&key) && seen.insert(key) {
+                        // Ordered ends, so the root never depends on which cell asked.
+                        edges.push(if a.to_array() < b.to_array() { [a, b] } else { [b, a] });
+                    }
+                }
+            });
+        }
+        let (lattice, placement, with_colors) = (self.lattice, self.options.vertex, self.with_colors);
+        let corners = &self.corners;
+        let placed: Vec<(EdgeKey, EdgeVertex, u32)> = edges
+            .par_iter()
+            .map(|&[a, b]| {
+                let ends = |q: LatticePoint| (lattice.position(q), corners[&q]);
+                let (p, evals) = place_on_edge(field, ends(a), ends(b), placement);
+                let normal = Vec3::from(-field.gradient(p)).normalize_or_zero();
+                let color = if with_colors { field.color(p) } else { Vec3::ZERO };
+                (edge_key(a, b), EdgeVertex { position: p.into(), normal, color }, evals)
+            })
+            .collect();
+        self.stats.gradient_evals += placed.len() as u64;
+        if with_colors {
+            self.stats.color_evals += placed.len() as u64;
+        }
+        for (key, vertex, evals) in placed {
+            self.stats.root_evals += u64::from(evals);
+            self.vertices.insert(key, vertex);
+        }
+    }
+
+    /// The mesh of the crossed cells, in a canonical order (cells by lattice
+    /// position), so equal polygonizations give equal meshes.
+    #[must_use]
+    pub fn mesh(&self) -> Mesh {
+        let shape = self.options.cells;
+        let mut crossed_cells: Vec<(Cell, u8)> =
+            self.cells.iter().filter(|&(_, &m)| crossed(m, shape)).map(|(&c, &m)| (c, m)).collect();
+        crossed_cells.sort_unstable_by_key(|(c, _)| c.order_key());
+        let mut mesh = Mesh::default();
+        let mut index: FxHashMap<EdgeKey, u32> = FxHashMap::default();
+        let mut ids = Vec::with_capacity(12);
+        for &(cell, mask) in &crossed_cells {
+            shape.polygons(cell, mask, &mut |polygon| {
+                ids.clear();
+                ids.extend(polygon.iter().map(|&[a, b]| {
+                    let key = edge_key(a, b);
+                    *index.entry(key).or_insert_with(|| {
+                        let v = &self.vertices[&key];
+                        mesh.push_vertex(v.position, v.normal, self.with_colors.then_some(v.color))
+                    })
+                }));
+                mesh.push_polygon(&ids);
+            });
+        }
+        mesh
+    }
+}
+
+/// True when a cell's vertices differ in sign.
+fn crossed(mask: u8, shape: CellShape) -> bool {
+    mask != 0 && mask != shape.full_mask()
+}
