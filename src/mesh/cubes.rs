@@ -41,10 +41,56 @@ fn face(axis: usize, side: usize) -> ([usize; 4], Vec3) {
 }
 
 /// For every sign case (bit `i` set when corner `i` is inside), the surface's
-/// polygons as loops of edge indices.
-fn case_table() -> &'static [Vec<Vec<u8>>] {
-    static TABLE: OnceLock<Vec<Vec<Vec<u8>>>> = OnceLock::new();
-    TABLE.get_or_init(|| (0..256).map(|mask| case_loops(mask as u8)).collect())
+/// triangles as triples of edge indices.
+fn case_table() -> &'static [Vec<[u8; 3]>] {
+    static TABLE: OnceLock<Vec<Vec<[u8; 3]>>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        (0..256)
+            .map(|mask| {
+                let mut triangles = vec![];
+                for polygon in case_loops(mask as u8) {
+                    assert!(triangulate(&polygon, &mut triangles), "case {mask:#010b} has a triangulation");
+                }
+                triangles
+            })
+            .collect()
+    })
+}
+
+/// Cuts a loop into triangles using only diagonals between edges that share
+/// no cube face. A diagonal between two points of one face would be drawn by
+/// the neighbouring cube too, and the mesh would no longer be a manifold.
+fn triangulate(polygon: &[u8], out: &mut Vec<[u8; 3]>) -> bool {
+    let n = polygon.len();
+    if n == 3 {
+        out.push([polygon[0], polygon[1], polygon[2]]);
+        return true;
+    }
+    for i in 0..n {
+        for j in i + 2..n {
+            if (i == 0 && j == n - 1) || share_a_face(polygon[i], polygon[j]) {
+                continue;
+            }
+            let mark = out.len();
+            let (left, right): (Vec<u8>, Vec<u8>) =
+                (polygon[i..=j].to_vec(), polygon[j..].iter().chain(&polygon[..=i]).copied().collect());
+            if triangulate(&left, out) && triangulate(&right, out) {
+                return true;
+            }
+            out.truncate(mark);
+        }
+    }
+    false
+}
+
+/// True when cube edges `a` and `b` lie on a common face.
+fn share_a_face(a: u8, b: u8) -> bool {
+    let (ea, eb) = (EDGES[a as usize], EDGES[b as usize]);
+    let corners = [ea.0, ea.1, eb.0, eb.1];
+    (0..3).any(|axis| {
+        let bit = |c: u8| c >> axis & 1;
+        corners.iter().all(|&c| bit(c) == bit(corners[0]))
+    })
 }
 
 fn case_loops(mask: u8) -> Vec<Vec<u8>> {
@@ -133,18 +179,15 @@ pub fn neighbours(cell: Cell, mask: u8, out: &mut Vec<Cell>) {
     }
 }
 
-/// Emits the cell's polygons as loops of edges (each edge as its two lattice
-/// endpoints), oriented outwards.
+/// Emits the cell's triangles, each as its three edges (an edge as its two
+/// lattice endpoints), oriented outwards.
 pub fn polygons(cell: Cell, mask: u8, emit: &mut impl FnMut(&[[LatticePoint; 2]])) {
     let v = vertices(cell);
-    let mut loop_edges = Vec::with_capacity(12);
-    for polygon in &case_table()[mask as usize] {
-        loop_edges.clear();
-        loop_edges.extend(polygon.iter().map(|&e| {
+    for triangle in &case_table()[mask as usize] {
+        emit(&triangle.map(|e| {
             let (a, b) = EDGES[e as usize];
             [v[a as usize], v[b as usize]]
         }));
-        emit(&loop_edges);
     }
 }
 
@@ -156,9 +199,9 @@ mod tests {
     fn every_crossed_edge_lies_on_exactly_one_loop() {
         for mask in 0..=255u8 {
             let mut count = [0; 12];
-            for polygon in &case_table()[mask as usize] {
+            for polygon in case_loops(mask) {
                 assert!(polygon.len() >= 3, "case {mask:#010b}: {polygon:?}");
-                for &e in polygon {
+                for &e in &polygon {
                     count[e as usize] += 1;
                 }
             }
@@ -170,10 +213,26 @@ mod tests {
     }
 
     #[test]
+    fn no_triangle_joins_two_points_of_one_face_unless_the_face_joins_them() {
+        for mask in 0..=255u8 {
+            let loops = case_loops(mask);
+            let consecutive = |a: u8, b: u8| {
+                loops.iter().any(|l| (0..l.len()).any(|i| (l[i], l[(i + 1) % l.len()]) == (a, b) || (l[i], l[(i + 1) % l.len()]) == (b, a)))
+            };
+            for t in &case_table()[mask as usize] {
+                for k in 0..3 {
+                    let (a, b) = (t[k], t[(k + 1) % 3]);
+                    assert!(consecutive(a, b) || !share_a_face(a, b), "case {mask:#010b}: {t:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn a_single_inside_corner_gives_one_outward_triangle() {
-        let loops = &case_table()[1];
-        assert_eq!(loops.len(), 1);
-        let p: Vec<Vec3> = loops[0].iter().map(|&e| edge_midpoint(e)).collect();
+        let triangles = &case_table()[1];
+        assert_eq!(triangles.len(), 1);
+        let p: Vec<Vec3> = triangles[0].iter().map(|&e| edge_midpoint(e)).collect();
         let normal = (p[1] - p[0]).cross(p[2] - p[0]);
         // Corner 0 is inside, so the normal points away from it.
         assert!(normal.dot(Vec3::ONE) > 0.0, "{normal}");

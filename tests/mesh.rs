@@ -1,0 +1,134 @@
+//! The polygonizer: accuracy on the analytic sphere, watertightness on the
+//! bundled scenes, determinism, and local re-polygonization equal to full.
+
+mod common;
+
+use blobtrace::field::{EvalMode, Field, Model, ModelField, NodeKind, Placement};
+use blobtrace::mesh::{CellShape, Lattice, Mesh, PolygonizeOptions, Polygonizer, VertexPlacement, skeleton_points};
+use blobtrace::scene::Scene;
+use common::{EVERY_NODE, bundled};
+use glam::Vec3;
+
+const SHAPES: [CellShape; 2] = [CellShape::Cubes, CellShape::Bcc];
+
+fn sphere() -> Scene {
+    bundled("sphere.ron")
+}
+
+/// Iso radius of a point primitive of support radius `r` at threshold 0.5.
+fn iso_radius(r: f32) -> f32 {
+    r * (1.0 - 0.5f32.cbrt()).sqrt()
+}
+
+fn polygonize(model: &Model, mode: EvalMode, res: u32, options: PolygonizeOptions) -> (Polygonizer, Mesh) {
+    let field = ModelField::new(model, mode);
+    let mut p = Polygonizer::new(Lattice::across(&model.bounds(), res), options);
+    p.polygonize(&field, &skeleton_points(model, model.root()));
+    let mesh = p.mesh();
+    (p, mesh)
+}
+
+/// The triangles as sets of exact vertex positions, each rotated to start at its smallest corner.
+fn triangle_set(mesh: &Mesh) -> Vec<[[u32; 3]; 3]> {
+    let mut set: Vec<[[u32; 3]; 3]> = (0..mesh.triangles.len())
+        .map(|t| {
+            let c = mesh.corners(t).map(|p| p.to_array().map(f32::to_bits));
+            let first = (0..3).min_by_key(|&i| c[i]).unwrap();
+            [c[first], c[(first + 1) % 3], c[(first + 2) % 3]]
+        })
+        .collect();
+    set.sort_unstable();
+    set
+}
+
+#[test]
+fn sphere_vertices_lie_on_the_iso_sphere_and_the_mesh_is_closed_with_outward_normals() {
+    let scene = sphere();
+    let radius = iso_radius(2.0);
+    for cells in SHAPES {
+        let (p, mesh) = polygonize(&scene.model, EvalMode::Indexed, 32, PolygonizeOptions { cells, ..Default::default() });
+        assert!(mesh.triangles.len() > 500, "{cells:?}: {} triangles", mesh.triangles.len());
+        let worst = mesh.positions.iter().map(|v| (v.length() - radius).abs()).fold(0.0f32, f32::max);
+        assert!(worst <= 1e-4 * radius, "{cells:?}: vertex off the sphere by {worst}");
+        let topo = mesh.topology();
+        assert!(topo.is_closed_manifold(), "{cells:?}: {topo:?}");
+        assert_eq!(topo.euler_characteristic, 2, "{cells:?}: a sphere");
+        for t in 0..mesh.triangles.len() {
+            let [a, b, c] = mesh.corners(t);
+            let n = (b - a).cross(c - a);
+            assert!(n.dot(a + b + c) >= 0.0, "{cells:?}: triangle {t} faces inwards");
+        }
+        for (v, n) in mesh.positions.iter().zip(&mesh.normals) {
+            assert!(n.dot(v.normalize()) > 0.9999, "{cells:?}: normal {n} at {v}");
+        }
+        let evals = p.stats().field_evals() as f64 / mesh.triangles.len() as f64;
+        assert!(evals < 4.0, "{cells:?}: {evals} evaluations per triangle");
+    }
+}
+
+#[test]
+fn linear_placement_spends_no_evaluation_on_vertices() {
+    let scene = sphere();
+    let options = PolygonizeOptions { vertex: VertexPlacement::Linear, ..Default::default() };
+    let (p, mesh) = polygonize(&scene.model, EvalMode::Indexed, 32, options);
+    assert_eq!(p.stats().root_evals, 0);
+    assert!(mesh.topology().is_closed_manifold());
+    let worst = mesh.positions.iter().map(|v| (v.length() - iso_radius(2.0)).abs()).fold(0.0f32, f32::max);
+    // Within a small fraction of a cell (cell = 8 / 32), but not exact.
+    assert!(worst < 0.25 * 0.1 && worst > 1e-4, "{worst}");
+}
+
+#[test]
+fn every_bundled_scene_gives_a_closed_manifold_mesh() {
+    for name in ["every_node", "pair.ron", "bottle.ron", "sharp.ron", "example.ron"] {
+        let scene = if name == "every_node" { Scene::parse(EVERY_NODE, name).unwrap() } else { bundled(name) };
+        for cells in SHAPES {
+            let (_, mesh) = polygonize(&scene.model, EvalMode::Indexed, 48, PolygonizeOptions { cells, ..Default::default() });
+            let topo = mesh.topology();
+            assert!(!mesh.triangles.is_empty() && topo.is_closed_manifold(), "{name} {cells:?}: {topo:?}");
+        }
+    }
+}
+
+#[test]
+fn medusa_at_res_128_is_closed_and_manifold() {
+    let scene = bundled("medusa.ron");
+    let (_, mesh) = polygonize(&scene.model, EvalMode::Cached, 128, PolygonizeOptions::default());
+    let topo = mesh.topology();
+    assert!(mesh.triangles.len() > 100_000, "{}", mesh.triangles.len());
+    assert!(topo.is_closed_manifold(), "{topo:?}");
+}
+
+#[test]
+fn the_mesh_does_not_depend_on_the_thread_count() {
+    let scene = Scene::parse(EVERY_NODE, "every").unwrap();
+    let run = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| polygonize(&scene.model, EvalMode::Cached, 40, PolygonizeOptions::default()).1)
+    };
+    assert_eq!(run(1), run(3));
+}
+
+#[test]
+fn local_repolygonization_after_a_move_equals_a_full_polygonization() {
+    for cells in SHAPES {
+        let options = PolygonizeOptions { cells, ..Default::default() };
+        let mut scene = Scene::parse(EVERY_NODE, "every").unwrap();
+        let model = &mut scene.model;
+        let (mut local, before) = polygonize(model, EvalMode::Indexed, 40, options);
+        let arm = model.find("arm").unwrap();
+        let NodeKind::Named { child, .. } = model.node(arm).kind else { panic!("arm is named") };
+        let moved = Placement::new(Vec3::new(-0.4, 0.9, -0.6), Vec3::new(20.0, -35.0, 80.0), Vec3::new(1.5, 0.7, 1.1));
+        let change = model.set_placement(child, moved.unwrap()).unwrap();
+        let field = ModelField::new(model, EvalMode::Indexed);
+        let evals_before = local.stats().field_evals();
+        local.repolygonize(&field, &change.old.union(&change.new), &skeleton_points(model, model.root()));
+        let after = local.mesh();
+        let (full, fresh) = polygonize(model, EvalMode::Indexed, 40, options);
+        assert_ne!(triangle_set(&before), triangle_set(&fresh), "{cells:?}: the edit changes the surface");
+        assert_eq!(triangle_set(&after), triangle_set(&fresh), "{cells:?}");
+        assert!(after.topology().is_closed_manifold());
+        let spent = local.stats().field_evals() - evals_before;
+        assert!(spent * 2 < full.stats().field_evals(), "{cells:?}: local {spent} vs full {}", full.stats().field_evals());
+    }
+}
