@@ -30,6 +30,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod bvh;
 pub mod cache;
 pub mod camera;
 pub mod cli;

@@ -3,6 +3,7 @@
 
 mod bench;
 mod info;
+mod mesh;
 mod progress;
 mod render;
 
@@ -30,6 +31,8 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene by tracing rays through its field; write a PNG (and an EXR of all AOVs).
     Render(render::RenderArgs),
+    /// Polygonize a scene's surface and write it as PLY, OBJ or STL.
+    Mesh(mesh::MeshArgs),
     /// Print what a scene holds: node, primitive and cache counts, names, bounds.
     Info(info::InfoArgs),
     /// Measure performance figures in one process, as ratios against a baseline.
@@ -119,6 +122,7 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Exi
     };
     let result = match cli.command {
         Command::Render(a) => render::run(&a),
+        Command::Mesh(a) => mesh::run(&a),
         Command::Info(a) => info::run(&a),
         Command::Bench(b) => bench::run(&b),
     };

@@ -4,7 +4,7 @@
 //!
 //! ```
 //! use blobtrace::field::{EvalMode, ModelField};
-//! use blobtrace::mesh::{Lattice, Polygonizer, PolygonizeOptions, skeleton_points};
+//! use blobtrace::mesh::{Lattice, Polygonizer, PolygonizeOptions, skeleton_seeds};
 //! use blobtrace::scene::Scene;
 //!
 //! let scene = Scene::parse(
@@ -14,7 +14,7 @@
 //! )?;
 //! let field = ModelField::new(&scene.model, EvalMode::Indexed);
 //! let mut polygonizer = Polygonizer::new(Lattice::across(&scene.model.bounds(), 16), PolygonizeOptions::default());
-//! polygonizer.polygonize(&field, &skeleton_points(&scene.model, scene.model.root()));
+//! polygonizer.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
 //! let mesh = polygonizer.mesh();
 //! assert!(mesh.topology().is_closed_manifold());
 //! // Every vertex lies on the sphere of radius R·sqrt(1 - T^(1/3)).
@@ -36,7 +36,7 @@ use glam::Vec3;
 pub use export::{MeshFormat, write_mesh};
 pub use lattice::{Cell, Lattice};
 pub use polygonizer::{CellShape, PolygonizeOptions, PolygonizeStats, Polygonizer};
-pub use seeds::skeleton_points;
+pub use seeds::{Seed, skeleton_seeds};
 pub use topology::Topology;
 pub use vertex::VertexPlacement;
 

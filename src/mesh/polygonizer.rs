@@ -12,12 +12,13 @@
 //! grow again from the boundary of the hole, and end with exactly the cells,
 //! corners and vertices a fresh polygonization of the edited field would have.
 
-use glam::{IVec3, Vec3, Vec3A};
+use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 use rustc_hash::{FxHashMap, FxHashSet};
 
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key};
 use super::vertex::{VertexPlacement, place_on_edge};
+use super::seeds::Seed;
 use super::{Mesh, bcc, cubes};
 use crate::field::Field;
 use crate::geom::Aabb;
@@ -160,9 +161,15 @@ impl Polygonizer {
         self.stats
     }
 
+    /// Cells the surface crosses.
+    #[must_use]
+    pub fn crossed_cells(&self) -> usize {
+        self.cells.values().filter(|&&m| crossed(m, self.options.cells)).count()
+    }
+
     /// Polygonizes the surface of `field` reachable from the `seeds` (points on
-    /// skeletons, see [`super::skeleton_points`]).
-    pub fn polygonize<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Vec3A]) {
+    /// skeletons, see [`super::skeleton_seeds`]).
+    pub fn polygonize<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Seed]) {
         self.with_colors = field.varies_in_color();
         self.threshold = field.threshold();
         let frontier = self.seed(field, seeds);
@@ -174,7 +181,7 @@ impl Polygonizer {
     /// else): forgets every corner, vertex and cell within one cell of it, then
     /// grows back from the surface around the hole and from the `seeds`. The
     /// result equals a fresh polygonization of the changed field.
-    pub fn repolygonize<F: Field + ?Sized>(&mut self, field: &F, region: &Aabb, seeds: &[Vec3A]) {
+    pub fn repolygonize<F: Field + ?Sized>(&mut self, field: &F, region: &Aabb, seeds: &[Seed]) {
         self.with_colors = field.varies_in_color();
         self.threshold = field.threshold();
         let cell = self.lattice.cell;
@@ -209,42 +216,36 @@ impl Polygonizer {
     }
 
     /// Marches from each seed along +x to the first sign change and returns
-    /// the unvisited cells around it. Seeds march in parallel.
-    fn seed<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Vec3A]) -> Vec<Cell> {
+    /// the unvisited cells around it.
+    ///
+    /// Seeds start at their nearest lattice corner. Seeds starting outside the
+    /// surface march no farther than their primitive's support reaches. Starts
+    /// in one lattice row march in order, and a start lying on a stretch an
+    /// earlier march crossed to a sign change is skipped, since it would find
+    /// that same change; rows march in parallel.
+    fn seed<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Seed]) -> Vec<Cell> {
         let lattice = self.lattice;
-        let end_x = lattice.nearest_corner(field.bounds().max).x + 2;
-        let t = field.threshold();
-        let corners = &self.corners;
-        let marches: Vec<(Option<LatticePoint>, Vec<(LatticePoint, f32)>)> = seeds
-            .par_iter()
-            .map(|&p| {
-                let mut fresh = vec![];
-                let mut value = |q: LatticePoint| {
-                    corners.get(&q).copied().unwrap_or_else(|| {
-                        let v = field.value(lattice.position(q));
-                        fresh.push((q, v));
-                        v
-                    })
-                };
-                let mut q = lattice.nearest_corner(p);
-                let start_inside = value(q) > t;
-                let mut crossing = None;
-                while q.x <= end_x {
-                    let next = q + IVec3::X * 2;
-                    if (value(next) > t) != start_inside {
-                        crossing = Some(q);
-                        break;
-                    }
-                    q = next;
-                }
-                (crossing, fresh)
-            })
+        let mut starts: Vec<(LatticePoint, i32)> = seeds
+            .iter()
+            .map(|s| (lattice.nearest_corner(s.point), 2 * (s.reach / lattice.cell).ceil() as i32 + 2))
             .collect();
+        // One start per corner, with the longest reach; rows of equal (z, y) by x.
+        starts.sort_unstable_by_key(|&(q, reach)| (q.z, q.y, q.x, std::cmp::Reverse(reach)));
+        starts.dedup_by_key(|(q, _)| *q);
+        let rows: Vec<&[(LatticePoint, i32)]> = starts.chunk_by(|a, b| (a.0.y, a.0.z) == (b.0.y, b.0.z)).collect();
+        let march = RowMarch {
+            lattice,
+            threshold: field.threshold(),
+            end_x: lattice.nearest_corner(field.bounds().max).x + 2,
+            known: &self.corners,
+        };
+        let marched: Vec<(Vec<LatticePoint>, Vec<(LatticePoint, f32)>)> =
+            rows.par_iter().map(|row| march.row(field, row)).collect();
         let mut cells = vec![];
-        for (crossing, fresh) in marches {
+        for (crossings, fresh) in marched {
             self.stats.corner_evals += fresh.len() as u64;
             self.corners.extend(fresh);
-            if let Some(q) = crossing {
+            for q in crossings {
                 self.options.cells.cells_touching(q, &mut cells);
             }
         }
@@ -378,6 +379,59 @@ impl Polygonizer {
             });
         }
         mesh
+    }
+}
+
+/// Marching seeds along lattice rows (+x) to their first sign change.
+struct RowMarch<'a> {
+    lattice: Lattice,
+    threshold: f32,
+    /// No surface lies beyond this x (half-cell units).
+    end_x: i32,
+    /// Corner values known before seeding.
+    known: &'a FxHashMap<LatticePoint, f32>,
+}
+
+impl RowMarch<'_> {
+    /// Marches the starts (with their reach, in half cells) of one row, in x
+    /// order; returns the corners where a march met a sign change (the change
+    /// is on the edge to the next corner in +x) and the corners it evaluated.
+    fn row<F: Field + ?Sized>(
+        &self,
+        field: &F,
+        starts: &[(LatticePoint, i32)],
+    ) -> (Vec<LatticePoint>, Vec<(LatticePoint, f32)>) {
+        let mut fresh: FxHashMap<i32, f32> = FxHashMap::default();
+        let mut value = |q: LatticePoint| {
+            if let Some(&v) = self.known.get(&q) {
+                return v;
+            }
+            *fresh.entry(q.x).or_insert_with(|| field.value(self.lattice.position(q)))
+        };
+        let mut crossings = vec![];
+        let mut crossed_up_to = i32::MIN;
+        for &(start, reach) in starts {
+            if start.x <= crossed_up_to {
+                continue;
+            }
+            let inside = value(start) > self.threshold;
+            let limit = if inside { self.end_x } else { (start.x + reach).min(self.end_x) };
+            let mut q = start;
+            while q.x < limit {
+                let next = q + IVec3::X * 2;
+                if (value(next) > self.threshold) != inside {
+                    crossings.push(q);
+                    crossed_up_to = q.x;
+                    break;
+                }
+                q = next;
+            }
+        }
+        let row = starts[0].0;
+        let mut evaluated: Vec<(LatticePoint, f32)> =
+            fresh.into_iter().map(|(x, v)| (IVec3::new(x, row.y, row.z), v)).collect();
+        evaluated.sort_unstable_by_key(|(q, _)| q.x);
+        (crossings, evaluated)
     }
 }
 

@@ -6,17 +6,32 @@ use glam::{Affine3A, Vec3A};
 
 use crate::field::{Model, NodeId, NodeKind, Skeleton};
 
-/// Points on the skeletons of the primitives under `id`, mapped to world space.
+/// A point on a skeleton and how far its primitive's support reaches from it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Seed {
+    /// World position.
+    pub point: Vec3A,
+    /// A bound on the world distance from `point` to the edge of the support.
+    pub reach: f32,
+}
+
+/// Seeds on the skeletons of the primitives under `id`, mapped to world space.
 #[must_use]
-pub fn skeleton_points(model: &Model, id: NodeId) -> Vec<Vec3A> {
+pub fn skeleton_seeds(model: &Model, id: NodeId) -> Vec<Seed> {
     let mut out = vec![];
     collect(model, id, Affine3A::IDENTITY, &mut out);
     out
 }
 
-fn collect(model: &Model, id: NodeId, to_world: Affine3A, out: &mut Vec<Vec3A>) {
+fn collect(model: &Model, id: NodeId, to_world: Affine3A, out: &mut Vec<Seed>) {
     match &model.node(id).kind {
-        NodeKind::Primitive(p) => out.extend(skeleton_samples(&p.skeleton).map(|x| to_world.transform_point3a(x))),
+        NodeKind::Primitive(p) => {
+            // The Frobenius norm bounds how far the map stretches any length.
+            let m = to_world.matrix3;
+            let stretch = (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt();
+            let reach = p.radius * stretch;
+            out.extend(skeleton_samples(&p.skeleton).map(|x| Seed { point: to_world.transform_point3a(x), reach }));
+        }
         NodeKind::Transform { placement, child } => collect(model, *child, to_world * placement.to_world, out),
         kind => {
             for c in kind.children() {

@@ -5,6 +5,6 @@ mod render;
 mod segment;
 mod shade;
 
-pub use render::{RenderSettings, RenderStats, outward_normal, render};
+pub use render::{PixelSample, RenderSettings, RenderStats, assemble, outward_normal, render, render_pixels};
 pub use segment::{TraceOptions, TraceResult, trace_ray};
 pub use shade::Lighting;

@@ -46,14 +46,25 @@ impl RenderSettings {
     }
 }
 
-/// One traced pixel.
+/// One traced pixel: what it shows and two per-pixel work counters.
 #[derive(Clone, Copy, Debug)]
-struct PixelSample {
-    color: Vec3,
-    depth: f32,
-    normal: Vec3,
-    steps: u32,
-    evals: u32,
+pub struct PixelSample {
+    /// Shaded colour (linear RGB).
+    pub color: Vec3,
+    /// Distance to the hit; `+inf` on a miss.
+    pub depth: f32,
+    /// Unit world normal at the hit; zero on a miss.
+    pub normal: Vec3,
+    /// Work counters, written to the frame's extra channels.
+    pub counts: [u32; 2],
+}
+
+impl PixelSample {
+    /// A missed pixel.
+    #[must_use]
+    pub fn miss(background: Vec3, counts: [u32; 2]) -> Self {
+        Self { color: background, depth: f32::INFINITY, normal: Vec3::ZERO, counts }
+    }
 }
 
 /// Totals over a render.
@@ -69,6 +80,9 @@ pub struct RenderStats {
     pub steps: u64,
 }
 
+/// Names of the frame channels holding the field tracer's counters.
+const FIELD_COUNTERS: [&str; 2] = ["steps.Y", "evals.Y"];
+
 /// Renders `field` with `settings`; `progress` is called with the number of
 /// finished rows (from worker threads).
 pub fn render<F: Field + ?Sized>(
@@ -76,34 +90,49 @@ pub fn render<F: Field + ?Sized>(
     settings: &RenderSettings,
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Frame, RenderStats) {
+    let samples = render_pixels(settings, progress, |x, y| trace_pixel(field, settings, x, y));
+    let mut stats = RenderStats { rays: samples.len() as u64, ..Default::default() };
+    for p in &samples {
+        stats.hits += u64::from(p.depth.is_finite());
+        stats.steps += u64::from(p.counts[0]);
+        stats.field_evals += u64::from(p.counts[1]);
+    }
+    (assemble(&samples, settings, FIELD_COUNTERS), stats)
+}
+
+/// Calls `pixel` for every pixel, rows in parallel, in row-major order.
+pub fn render_pixels(
+    settings: &RenderSettings,
+    progress: &(dyn Fn(usize) + Sync),
+    pixel: impl Fn(u32, u32) -> PixelSample + Sync,
+) -> Vec<PixelSample> {
     let (w, h) = (settings.width, settings.height);
     let done = AtomicUsize::new(0);
-    let samples: Vec<PixelSample> = (0..h)
+    (0..h)
         .into_par_iter()
         .flat_map_iter(|y| {
-            let row: Vec<PixelSample> = (0..w).map(|x| trace_pixel(field, settings, x, y)).collect();
+            let row: Vec<PixelSample> = (0..w).map(|x| pixel(x, y)).collect();
             progress(done.fetch_add(1, Ordering::Relaxed) + 1);
             row
         })
-        .collect();
-    assemble(samples, settings)
+        .collect()
 }
 
 fn trace_pixel<F: Field + ?Sized>(field: &F, s: &RenderSettings, x: u32, y: u32) -> PixelSample {
     let ray = s.camera.ray(x, y, s.width, s.height);
     let r = trace_ray(field, &ray, &s.trace);
-    let mut sample =
-        PixelSample { color: s.background, depth: f32::INFINITY, normal: Vec3::ZERO, steps: r.steps, evals: r.evals };
-    if let Some(t) = r.hit {
-        let p = ray.at(t);
-        let normal = outward_normal(field.gradient(p), ray.dir);
-        let albedo = field.color(p);
-        sample.color = s.lighting.shade(&s.camera, ray.dir, normal, albedo);
-        sample.depth = t;
-        sample.normal = normal.into();
-        sample.evals += 2;
+    let Some(t) = r.hit else {
+        return PixelSample::miss(s.background, [r.steps, r.evals]);
+    };
+    let p = ray.at(t);
+    let normal = outward_normal(field.gradient(p), ray.dir);
+    let albedo = field.color(p);
+    PixelSample {
+        color: s.lighting.shade(&s.camera, ray.dir, normal, albedo),
+        depth: t,
+        normal: normal.into(),
+        counts: [r.steps, r.evals + 2],
     }
-    sample
 }
 
 /// The unit outward normal `-∇f / |∇f|`; where the gradient vanishes (a flat
@@ -113,25 +142,19 @@ pub fn outward_normal(gradient: Vec3A, dir: Vec3A) -> Vec3A {
     (-gradient).try_normalize().unwrap_or(-dir)
 }
 
-fn assemble(samples: Vec<PixelSample>, s: &RenderSettings) -> (Frame, RenderStats) {
+/// The frame of `samples` (row-major), with the two counters as the extra
+/// channels named `counters`.
+#[must_use]
+pub fn assemble(samples: &[PixelSample], s: &RenderSettings, counters: [&str; 2]) -> Frame {
     let mut frame = Frame::new(s.width, s.height, s.background);
-    let mut stats = RenderStats { rays: samples.len() as u64, ..Default::default() };
-    let mut steps = Vec::with_capacity(samples.len());
-    let mut evals = Vec::with_capacity(samples.len());
     for (i, p) in samples.iter().enumerate() {
         frame.color[i] = p.color;
         frame.depth[i] = p.depth;
         frame.normal[i] = p.normal;
-        if p.depth.is_finite() {
-            frame.alpha[i] = 1.0;
-            stats.hits += 1;
-        }
-        steps.push(p.steps as f32);
-        evals.push(p.evals as f32);
-        stats.steps += u64::from(p.steps);
-        stats.field_evals += u64::from(p.evals);
+        frame.alpha[i] = if p.depth.is_finite() { 1.0 } else { 0.0 };
     }
-    frame.extra.push(("steps.Y".into(), steps));
-    frame.extra.push(("evals.Y".into(), evals));
-    (frame, stats)
+    for (k, name) in counters.into_iter().enumerate() {
+        frame.extra.push((name.into(), samples.iter().map(|p| p.counts[k] as f32).collect()));
+    }
+    frame
 }
