@@ -71,7 +71,7 @@ impl MeshBvh {
         });
         let result = found.then(|| {
             let id = hit.primitive_id as usize;
-            MeshHit { t: hit.t, triangle: self.mesh_index[id], uv: self.triangles[id].compute_barycentric(&r) }
+            MeshHit { t: hit.t, triangle: self.mesh_index[id], uv: barycentric(&self.triangles[id], ray.at(hit.t)) }
         });
         (result, tests)
     }
@@ -106,10 +106,22 @@ pub fn brute_force_intersect(mesh: &Mesh, ray: &Ray) -> Option<MeshHit> {
     for (t, tri) in obvhs_triangles(mesh).iter().enumerate() {
         let d = tri.intersect(&r);
         if d.is_finite() && best.is_none_or(|b| d < b.t) {
-            best = Some(MeshHit { t: d, triangle: t as u32, uv: tri.compute_barycentric(&r) });
+            best = Some(MeshHit { t: d, triangle: t as u32, uv: barycentric(tri, ray.at(d)) });
         }
     }
     best
+}
+
+/// The weights of `v1` and `v2` of the point `p` in the triangle's plane.
+fn barycentric(tri: &Triangle, p: Vec3A) -> Vec2 {
+    let (e1, e2, q) = (tri.v1 - tri.v0, tri.v2 - tri.v0, p - tri.v0);
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (q1, q2) = (q.dot(e1), q.dot(e2));
+    let det = d11 * d22 - d12 * d12;
+    if det <= 0.0 {
+        return Vec2::ZERO;
+    }
+    Vec2::new(d22 * q1 - d12 * q2, d11 * q2 - d12 * q1) / det
 }
 
 /// Interpolates a per-vertex attribute of `mesh` at a hit.

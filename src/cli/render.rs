@@ -7,11 +7,14 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 
+use super::mesh::{MeshReport, PolygonizeArgs, polygonize_scene};
 use super::progress::Progress;
 use super::{EvalOptions, check_output_dir, scene_stem, with_threads};
+use crate::bvh::{MeshBvh, MeshRenderStats, render_mesh};
 use crate::cache::{CacheStats, SLOT_BYTES};
 use crate::field::{EvalMode, Model, ModelField, NodeKind};
 use crate::frame::Frame;
+use crate::mesh::Mesh;
 use crate::scene::{Scene, Size};
 use crate::trace::{RenderSettings, RenderStats, render};
 
@@ -35,9 +38,35 @@ pub struct RenderArgs {
     /// Field evaluation: exact or cached, and the cache budget.
     #[command(flatten)]
     pub field: EvalOptions,
+    /// Render the polygonized surface (ray cast through a BVH) instead of the field.
+    #[arg(long)]
+    pub mesh: bool,
+    /// Polygonizer options, with --mesh.
+    #[command(flatten)]
+    pub polygonize: PolygonizeArgs,
     /// Print one JSON object of statistics on stdout instead of a summary line.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Statistics printed by `render --mesh --json`.
+#[derive(Debug, Serialize)]
+pub struct MeshRenderReport {
+    /// Wall-clock seconds spent ray casting the mesh.
+    pub seconds: f64,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Rays, hits and triangle tests.
+    #[serde(flatten)]
+    pub stats: MeshRenderStats,
+    /// Rays cast per second.
+    pub rays_per_second: f64,
+    /// Seconds building the BVH.
+    pub bvh_build_seconds: f64,
+    /// The polygonization.
+    pub mesh: MeshReport,
 }
 
 /// Statistics printed by `render --json`.
@@ -141,11 +170,11 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         check_output_dir(exr)?;
     }
     let size = a.size.unwrap_or(scene.size);
-    let (frame, report) = with_threads(a.threads, || render_scene(&scene, size, mode))?;
-    frame.save_png(&output)?;
-    if let Some(exr) = &a.exr {
-        frame.save_exr(exr)?;
+    if a.mesh {
+        return render_mesh_scene(a, &scene, mode, size, &output);
     }
+    let (frame, report) = with_threads(a.threads, || render_scene(&scene, size, mode))?;
+    save_frame(&frame, &output, a.exr.as_deref())?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
     } else {
@@ -161,6 +190,69 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+fn save_frame(frame: &Frame, png: &std::path::Path, exr: Option<&std::path::Path>) -> anyhow::Result<()> {
+    frame.save_png(png)?;
+    if let Some(exr) = exr {
+        frame.save_exr(exr)?;
+    }
+    Ok(())
+}
+
+/// `render --mesh`: polygonize, build the BVH, ray cast the mesh.
+fn render_mesh_scene(
+    a: &RenderArgs,
+    scene: &Scene,
+    mode: EvalMode,
+    size: Size,
+    output: &std::path::Path,
+) -> anyhow::Result<()> {
+    let (frame, report) = with_threads(a.threads, || -> anyhow::Result<_> {
+        a.polygonize.check(scene)?;
+        let (mesh, mesh_report) = polygonize_scene(scene, mode, &a.polygonize);
+        Ok(render_polygonized(scene, &mesh, mesh_report, size))
+    })??;
+    save_frame(&frame, output, a.exr.as_deref())?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
+    } else {
+        eprintln!(
+            "{}: {}x{} mesh of {} triangles (res {}) in {:.3} s, ray cast in {:.3} s, {} of {} rays hit",
+            output.display(),
+            report.width,
+            report.height,
+            report.mesh.triangles,
+            report.mesh.res,
+            report.mesh.seconds,
+            report.seconds,
+            report.stats.hits,
+            report.stats.rays
+        );
+    }
+    Ok(())
+}
+
+/// Builds the BVH over `mesh` and ray casts it with `scene`'s camera at `size`, timing it.
+#[must_use]
+pub fn render_polygonized(scene: &Scene, mesh: &Mesh, mesh_report: MeshReport, size: Size) -> (Frame, MeshRenderReport) {
+    let settings = RenderSettings::for_scene(scene, size);
+    let bvh = MeshBvh::build(mesh);
+    let progress = Progress::new(u64::from(size.1), "ray casting the mesh");
+    let start = Instant::now();
+    let (frame, stats) = render_mesh(mesh, &bvh, &settings, &|rows| progress.set(rows));
+    let seconds = start.elapsed().as_secs_f64();
+    progress.finish();
+    let report = MeshRenderReport {
+        seconds,
+        width: size.0,
+        height: size.1,
+        stats,
+        rays_per_second: stats.rays as f64 / seconds.max(1e-9),
+        bvh_build_seconds: bvh.build_seconds,
+        mesh: mesh_report,
+    };
+    (frame, report)
 }
 
 /// Renders `scene` at `size` evaluating its field in `mode`, timing it.
