@@ -242,3 +242,63 @@ fn bench_cache_reports_its_keys() {
     assert!(v["mismatch_px"].as_u64() < Some(32 * 24 / 20), "{}", v["mismatch_px"]);
     assert_eq!(v["lookups"].as_array().map(Vec::len), Some(7));
 }
+
+#[test]
+fn mesh_writes_every_format_and_reports_json() {
+    let dir = scratch("mesh");
+    for ext in ["ply", "obj", "stl"] {
+        let path = dir.join(format!("pair.{ext}"));
+        let out = blobtrace(&["mesh", "scenes/pair.ron", "--res", "24", "-o", path.to_str().unwrap(), "--json"]);
+        let v = json(&out);
+        for key in ["triangles", "vertices", "field_evals", "seconds", "evals_per_triangle", "quality"] {
+            assert!(v.get(key).is_some(), "missing key {key} in {v}");
+        }
+        assert_eq!(v["closed_manifold"], true);
+        let bytes = std::fs::read(&path).expect("the mesh was written");
+        let triangles = v["triangles"].as_u64().unwrap();
+        match ext {
+            "ply" => assert!(String::from_utf8_lossy(&bytes[..300]).contains(&format!("element face {triangles}"))),
+            "obj" => assert_eq!(String::from_utf8_lossy(&bytes).lines().filter(|l| l.starts_with("f ")).count() as u64, triangles),
+            _ => assert_eq!(bytes.len() as u64, 84 + 50 * triangles),
+        }
+    }
+    let bcc = blobtrace(&["mesh", "scenes/pair.ron", "--res", "24", "--cells", "bcc", "-o", dir.join("b.ply").to_str().unwrap(), "--json"]);
+    assert_eq!(json(&bcc)["cells"], "bcc");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn bad_mesh_options_fail_before_any_work_and_keep_existing_outputs() {
+    let dir = scratch("mesh-bad");
+    let existing = dir.join("keep.ply");
+    std::fs::write(&existing, b"old").unwrap();
+    let keep = existing.to_str().unwrap();
+    let cases: [(&[&str], &str); 4] = [
+        (&["-o", keep, "--res", "0"], "--res"),
+        (&["-o", keep, "--res", "8000"], "GiB"),
+        (&["-o", keep, "--res", "100000"], "--res"),
+        (&["-o", "out.gltf"], "unknown mesh format"),
+    ];
+    for (extra, words) in cases {
+        let mut args = vec!["mesh", "scenes/medusa.ron"];
+        args.extend_from_slice(extra);
+        let out = blobtrace(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(words), "{extra:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    assert_eq!(std::fs::read(&existing).unwrap(), b"old");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn render_mesh_draws_the_polygonized_surface() {
+    let dir = scratch("render-mesh");
+    let png = dir.join("m.png");
+    let out = blobtrace(&["render", "scenes/pair.ron", "--mesh", "--res", "32", "--size", "64x48", "-o", png.to_str().unwrap(), "--json"]);
+    let v = json(&out);
+    assert!(v["hits"].as_u64().unwrap() > 300, "{v}");
+    assert!(v["mesh"]["triangles"].as_u64().unwrap() > 100, "{v}");
+    assert_eq!(image::open(&png).unwrap().to_rgb8().dimensions(), (64, 48));
+    std::fs::remove_dir_all(dir).unwrap();
+}

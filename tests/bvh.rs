@@ -1,0 +1,78 @@
+//! The mesh ray caster: BVH hits against a brute-force loop, the obvhs
+//! validator, and the rendered depth of the polygonized sphere.
+
+mod common;
+
+use blobtrace::bvh::{MeshBvh, brute_force_intersect, render_mesh};
+use blobtrace::field::{EvalMode, ModelField};
+use blobtrace::geom::Ray;
+use blobtrace::mesh::{Lattice, Mesh, PolygonizeOptions, Polygonizer, skeleton_seeds};
+use blobtrace::scene::{Scene, Size};
+use blobtrace::trace::RenderSettings;
+use common::{EVERY_NODE, Rng, bundled};
+use glam::Vec3A;
+
+fn polygonized(scene: &Scene, res: u32) -> (Mesh, Lattice) {
+    let field = ModelField::new(&scene.model, EvalMode::Indexed);
+    let lattice = Lattice::across(&scene.model.bounds(), res);
+    let mut p = Polygonizer::new(lattice, PolygonizeOptions::default());
+    p.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
+    (p.mesh(), lattice)
+}
+
+#[test]
+fn bvh_hits_equal_a_brute_force_loop_over_every_triangle() {
+    let scene = Scene::parse(EVERY_NODE, "every").unwrap();
+    let (mesh, _) = polygonized(&scene, 24);
+    let bvh = MeshBvh::build(&mesh);
+    assert!(bvh.is_valid());
+    let bounds = scene.model.bounds();
+    let mut rng = Rng(7);
+    let mut hits = 0;
+    for _ in 0..3000 {
+        // From outside the bounds towards a random point inside them.
+        let target = rng.point_in(bounds.min, bounds.max);
+        let origin = bounds.center() + (rng.point_in(Vec3A::splat(-1.0), Vec3A::ONE)).normalize() * bounds.diagonal();
+        let ray = Ray::new(origin, target - origin);
+        let (fast, tests) = bvh.intersect(&ray);
+        let slow = brute_force_intersect(&mesh, &ray);
+        assert_eq!(fast.is_some(), slow.is_some(), "ray {ray:?}");
+        if let (Some(f), Some(s)) = (fast, slow) {
+            assert_eq!(f.t, s.t, "ray {ray:?}: triangle {} vs {}", f.triangle, s.triangle);
+            assert!((tests as usize) < mesh.triangles.len() / 10, "{tests} tests");
+            hits += 1;
+        }
+    }
+    assert!(hits > 300, "{hits} of the rays hit");
+}
+
+#[test]
+fn sphere_mesh_depth_is_within_one_cell_of_the_analytic_depth() {
+    let scene = bundled("sphere.ron");
+    let (mesh, lattice) = polygonized(&scene, 48);
+    let settings = RenderSettings::for_scene(&scene, Size(96, 72));
+    let (frame, stats) = render_mesh(&mesh, &MeshBvh::build(&mesh), &settings, &|_| {});
+    let radius = 2.0 * (1.0 - 0.5f32.cbrt()).sqrt();
+    let (mut compared, mut silhouette_disagreements) = (0, 0);
+    for y in 0..72 {
+        for x in 0..96 {
+            let ray = settings.camera.ray(x, y, 96, 72);
+            // |o + t d|² = r² with the sphere at the origin.
+            let b = ray.origin.dot(ray.dir);
+            let disc = b * b - (ray.origin.length_squared() - radius * radius);
+            let analytic = (disc >= 0.0).then(|| -b - disc.sqrt());
+            let depth = frame.depth[(y * 96 + x) as usize];
+            match analytic {
+                Some(t) if depth.is_finite() => {
+                    assert!((depth - t).abs() <= lattice.cell, "pixel {x},{y}: {depth} vs {t}");
+                    compared += 1;
+                }
+                Some(_) | None if depth.is_finite() != analytic.is_some() => silhouette_disagreements += 1,
+                _ => {}
+            }
+        }
+    }
+    assert!(compared > 1500, "{compared}");
+    assert!(silhouette_disagreements < 40, "{silhouette_disagreements}");
+    assert_eq!(stats.hits as usize, frame.hits());
+}
