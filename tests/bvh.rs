@@ -3,14 +3,15 @@
 
 mod common;
 
-use blobtrace::bvh::{MeshBvh, brute_force_intersect, render_mesh};
+use blobtrace::bvh::{DynamicMesh, MeshBvh, RayTarget, StaticMesh, brute_force_intersect, render_mesh};
 use blobtrace::field::{EvalMode, ModelField};
+use blobtrace::field::{NodeKind, Placement};
 use blobtrace::geom::Ray;
 use blobtrace::mesh::{Lattice, Mesh, PolygonizeOptions, Polygonizer, skeleton_seeds};
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::RenderSettings;
 use common::{EVERY_NODE, Rng, bundled};
-use glam::Vec3A;
+use glam::{Vec3, Vec3A};
 
 fn polygonized(scene: &Scene, res: u32) -> (Mesh, Lattice) {
     let field = ModelField::new(&scene.model, EvalMode::Indexed);
@@ -51,7 +52,7 @@ fn sphere_mesh_depth_is_within_one_cell_of_the_analytic_depth() {
     let scene = bundled("sphere.ron");
     let (mesh, lattice) = polygonized(&scene, 48);
     let settings = RenderSettings::for_scene(&scene, Size(96, 72));
-    let (frame, stats) = render_mesh(&mesh, &MeshBvh::build(&mesh), &settings, &|_| {});
+    let (frame, stats) = render_mesh(&StaticMesh { mesh: &mesh, bvh: &MeshBvh::build(&mesh) }, &settings, &|_| {});
     let radius = 2.0 * (1.0 - 0.5f32.cbrt()).sqrt();
     let (mut compared, mut silhouette_disagreements) = (0, 0);
     for y in 0..72 {
@@ -75,4 +76,55 @@ fn sphere_mesh_depth_is_within_one_cell_of_the_analytic_depth() {
     assert!(compared > 1500, "{compared}");
     assert!(silhouette_disagreements < 40, "{silhouette_disagreements}");
     assert_eq!(stats.hits as usize, frame.hits());
+}
+
+/// Triangles as exact position triples, each rotated to start at its smallest corner, sorted.
+fn canonical(triangles: impl Iterator<Item = [Vec3; 3]>) -> Vec<[[u32; 3]; 3]> {
+    let mut set: Vec<[[u32; 3]; 3]> = triangles
+        .map(|t| {
+            let c = t.map(|p| p.to_array().map(f32::to_bits));
+            let first = (0..3).min_by_key(|&i| c[i]).unwrap();
+            [c[first], c[(first + 1) % 3], c[(first + 2) % 3]]
+        })
+        .collect();
+    set.sort_unstable();
+    set
+}
+
+#[test]
+fn the_dynamic_bvh_follows_local_updates_and_stays_valid() {
+    let mut scene = Scene::parse(EVERY_NODE, "every").unwrap();
+    let lattice = Lattice::across(&scene.model.bounds(), 32);
+    let mut polygonizer = Polygonizer::new(lattice, PolygonizeOptions::default());
+    {
+        let field = ModelField::new(&scene.model, EvalMode::Indexed);
+        polygonizer.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
+    }
+    let mut dynamic = DynamicMesh::build(&polygonizer);
+    assert!(dynamic.is_valid());
+    let arm = scene.model.find("arm").unwrap();
+    let NodeKind::Named { child, .. } = scene.model.node(arm).kind else { panic!("arm is named") };
+    let mut rng = Rng(11);
+    for step in 0..4 {
+        let to = Vec3::new(0.5 - 0.3 * step as f32, 0.3 + 0.4 * step as f32, -1.0 + 0.2 * step as f32);
+        let placement = Placement::new(to, Vec3::new(20.0, -35.0, 50.0 + 10.0 * step as f32), Vec3::new(1.5, 0.7, 1.1));
+        let change = scene.model.set_placement(child, placement.unwrap()).unwrap();
+        let field = ModelField::new(&scene.model, EvalMode::Indexed);
+        let seeds = skeleton_seeds(&scene.model, scene.model.root());
+        let changed = polygonizer.repolygonize(&field, &change.old.union(&change.new), &seeds);
+        assert!(!changed.added.is_empty() && !changed.removed.is_empty());
+        dynamic.update(&polygonizer, &changed);
+        assert!(dynamic.is_valid(), "step {step}");
+        let (fresh, _) = polygonized(&scene, 32);
+        let fresh_set = canonical((0..fresh.triangles.len()).map(|t| fresh.corners(t)));
+        assert_eq!(canonical(dynamic.triangles().into_iter()), fresh_set, "step {step}");
+        let bounds = scene.model.bounds();
+        for _ in 0..300 {
+            let target = rng.point_in(bounds.min, bounds.max);
+            let origin = bounds.center() + rng.point_in(Vec3A::splat(-1.0), Vec3A::ONE).normalize() * bounds.diagonal();
+            let ray = Ray::new(origin, target - origin);
+            let expected = brute_force_intersect(&fresh, &ray).map(|h| h.t);
+            assert_eq!(dynamic.hit(&ray).0.map(|h| h.t), expected, "step {step}, ray {ray:?}");
+        }
+    }
 }

@@ -258,11 +258,24 @@ fn mesh_writes_every_format_and_reports_json() {
         let triangles = v["triangles"].as_u64().unwrap();
         match ext {
             "ply" => assert!(String::from_utf8_lossy(&bytes[..300]).contains(&format!("element face {triangles}"))),
-            "obj" => assert_eq!(String::from_utf8_lossy(&bytes).lines().filter(|l| l.starts_with("f ")).count() as u64, triangles),
+            "obj" => assert_eq!(
+                String::from_utf8_lossy(&bytes).lines().filter(|l| l.starts_with("f ")).count() as u64,
+                triangles
+            ),
             _ => assert_eq!(bytes.len() as u64, 84 + 50 * triangles),
         }
     }
-    let bcc = blobtrace(&["mesh", "scenes/pair.ron", "--res", "24", "--cells", "bcc", "-o", dir.join("b.ply").to_str().unwrap(), "--json"]);
+    let bcc = blobtrace(&[
+        "mesh",
+        "scenes/pair.ron",
+        "--res",
+        "24",
+        "--cells",
+        "bcc",
+        "-o",
+        dir.join("b.ply").to_str().unwrap(),
+        "--json",
+    ]);
     assert_eq!(json(&bcc)["cells"], "bcc");
     std::fs::remove_dir_all(dir).unwrap();
 }
@@ -295,7 +308,18 @@ fn bad_mesh_options_fail_before_any_work_and_keep_existing_outputs() {
 fn render_mesh_draws_the_polygonized_surface() {
     let dir = scratch("render-mesh");
     let png = dir.join("m.png");
-    let out = blobtrace(&["render", "scenes/pair.ron", "--mesh", "--res", "32", "--size", "64x48", "-o", png.to_str().unwrap(), "--json"]);
+    let out = blobtrace(&[
+        "render",
+        "scenes/pair.ron",
+        "--mesh",
+        "--res",
+        "32",
+        "--size",
+        "64x48",
+        "-o",
+        png.to_str().unwrap(),
+        "--json",
+    ]);
     let v = json(&out);
     assert!(v["hits"].as_u64().unwrap() > 300, "{v}");
     assert!(v["mesh"]["triangles"].as_u64().unwrap() > 100, "{v}");

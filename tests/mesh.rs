@@ -3,7 +3,7 @@
 
 mod common;
 
-use blobtrace::field::{EvalMode, Field, Model, ModelField, NodeKind, Placement};
+use blobtrace::field::{EvalMode, Model, ModelField, NodeKind, Placement};
 use blobtrace::mesh::{CellShape, Lattice, Mesh, PolygonizeOptions, Polygonizer, VertexPlacement, skeleton_seeds};
 use blobtrace::scene::Scene;
 use common::{EVERY_NODE, bundled};
@@ -46,7 +46,8 @@ fn sphere_vertices_lie_on_the_iso_sphere_and_the_mesh_is_closed_with_outward_nor
     let scene = sphere();
     let radius = iso_radius(2.0);
     for cells in SHAPES {
-        let (p, mesh) = polygonize(&scene.model, EvalMode::Indexed, 32, PolygonizeOptions { cells, ..Default::default() });
+        let (p, mesh) =
+            polygonize(&scene.model, EvalMode::Indexed, 32, PolygonizeOptions { cells, ..Default::default() });
         assert!(mesh.triangles.len() > 500, "{cells:?}: {} triangles", mesh.triangles.len());
         let worst = mesh.positions.iter().map(|v| (v.length() - radius).abs()).fold(0.0f32, f32::max);
         assert!(worst <= 1e-4 * radius, "{cells:?}: vertex off the sphere by {worst}");
@@ -83,7 +84,8 @@ fn every_bundled_scene_gives_a_closed_manifold_mesh() {
     for name in ["every_node", "pair.ron", "bottle.ron", "sharp.ron", "example.ron"] {
         let scene = if name == "every_node" { Scene::parse(EVERY_NODE, name).unwrap() } else { bundled(name) };
         for cells in SHAPES {
-            let (_, mesh) = polygonize(&scene.model, EvalMode::Indexed, 48, PolygonizeOptions { cells, ..Default::default() });
+            let (_, mesh) =
+                polygonize(&scene.model, EvalMode::Indexed, 48, PolygonizeOptions { cells, ..Default::default() });
             let topo = mesh.topology();
             assert!(!mesh.triangles.is_empty() && topo.is_closed_manifold(), "{name} {cells:?}: {topo:?}");
         }
@@ -129,6 +131,10 @@ fn local_repolygonization_after_a_move_equals_a_full_polygonization() {
         assert_eq!(triangle_set(&after), triangle_set(&fresh), "{cells:?}");
         assert!(after.topology().is_closed_manifold());
         let spent = local.stats().field_evals() - evals_before;
-        assert!(spent * 2 < full.stats().field_evals(), "{cells:?}: local {spent} vs full {}", full.stats().field_evals());
+        assert!(
+            spent * 2 < full.stats().field_evals(),
+            "{cells:?}: local {spent} vs full {}",
+            full.stats().field_evals()
+        );
     }
 }

@@ -2,6 +2,7 @@
 //! (CWBVH) over a [`Mesh`]'s triangles, the closest-hit query the renderer
 //! needs, and a brute-force loop that tests check it against.
 
+mod dynamic;
 mod render;
 
 use std::time::{Duration, Instant};
@@ -13,7 +14,8 @@ use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::ray::RayHit;
 use obvhs::triangle::Triangle;
 
-pub use render::{MeshRenderStats, render_mesh};
+pub use dynamic::DynamicMesh;
+pub use render::{MeshRenderStats, render_mesh, surface_at};
 
 use crate::geom::Ray;
 use crate::mesh::Mesh;
@@ -27,6 +29,49 @@ pub struct MeshHit {
     pub triangle: u32,
     /// Barycentric weights of the triangle's second and third vertex.
     pub uv: Vec2,
+}
+
+/// What a primary ray sees on a triangle surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceHit {
+    /// Distance along the unit ray.
+    pub t: f32,
+    /// Which triangle (an index for AOVs).
+    pub triangle: u32,
+    /// Unit shading normal.
+    pub normal: Vec3A,
+    /// Linear RGB albedo.
+    pub albedo: Vec3,
+}
+
+/// A triangle surface a ray can be cast against.
+pub trait RayTarget: Sync {
+    /// The nearest hit along `ray`, and the number of triangles tested.
+    fn hit(&self, ray: &Ray) -> (Option<SurfaceHit>, u32);
+}
+
+/// A static mesh with its CWBVH.
+#[derive(Clone, Copy)]
+pub struct StaticMesh<'a> {
+    /// The mesh.
+    pub mesh: &'a Mesh,
+    /// Its BVH.
+    pub bvh: &'a MeshBvh,
+}
+
+impl RayTarget for StaticMesh<'_> {
+    fn hit(&self, ray: &Ray) -> (Option<SurfaceHit>, u32) {
+        let (hit, tests) = self.bvh.intersect(ray);
+        let surface = hit.map(|h| {
+            let ids = self.mesh.triangles[h.triangle as usize];
+            let attr = |v: &[Vec3]| ids.map(|i| v[i as usize]);
+            let colors = self.mesh.colors.as_deref().map(attr);
+            let (normal, albedo) =
+                surface_at(attr(&self.mesh.positions), attr(&self.mesh.normals), colors, h.uv, ray.dir);
+            SurfaceHit { t: h.t, triangle: h.triangle, normal, albedo }
+        });
+        (surface, tests)
+    }
 }
 
 /// A CWBVH over a mesh's triangles, the triangles stored in the BVH's order.
@@ -113,7 +158,7 @@ pub fn brute_force_intersect(mesh: &Mesh, ray: &Ray) -> Option<MeshHit> {
 }
 
 /// The weights of `v1` and `v2` of the point `p` in the triangle's plane.
-fn barycentric(tri: &Triangle, p: Vec3A) -> Vec2 {
+pub(crate) fn barycentric(tri: &Triangle, p: Vec3A) -> Vec2 {
     let (e1, e2, q) = (tri.v1 - tri.v0, tri.v2 - tri.v0, p - tri.v0);
     let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
     let (q1, q2) = (q.dot(e1), q.dot(e2));
@@ -122,11 +167,4 @@ fn barycentric(tri: &Triangle, p: Vec3A) -> Vec2 {
         return Vec2::ZERO;
     }
     Vec2::new(d22 * q1 - d12 * q2, d11 * q2 - d12 * q1) / det
-}
-
-/// Interpolates a per-vertex attribute of `mesh` at a hit.
-#[must_use]
-pub fn interpolate(mesh: &Mesh, values: &[Vec3], hit: &MeshHit) -> Vec3 {
-    let [a, b, c] = mesh.triangles[hit.triangle as usize].map(|i| values[i as usize]);
-    a * (1.0 - hit.uv.x - hit.uv.y) + b * hit.uv.x + c * hit.uv.y
 }

@@ -2,12 +2,11 @@
 //! the surface taken from a triangle mesh, so the two images differ only where
 //! the geometry does.
 
-use glam::Vec3A;
+use glam::{Vec2, Vec3, Vec3A};
 
-use super::{MeshBvh, interpolate};
+use super::RayTarget;
 use crate::field::DEFAULT_COLOR;
 use crate::frame::Frame;
-use crate::mesh::Mesh;
 use crate::trace::{PixelSample, RenderSettings, assemble, render_pixels};
 
 /// Totals over a mesh render.
@@ -24,14 +23,14 @@ pub struct MeshRenderStats {
 /// Names of the extra channels: triangle tests per ray, and the triangle hit (index + 1, 0 on a miss).
 const MESH_COUNTERS: [&str; 2] = ["tests.Y", "triangle.Y"];
 
-/// Renders `mesh` through its `bvh` with `settings`; `progress` gets finished rows.
+/// Renders a triangle surface (a static mesh with its BVH, or a dynamic
+/// mesh) with `settings`; `progress` gets finished rows.
 pub fn render_mesh(
-    mesh: &Mesh,
-    bvh: &MeshBvh,
+    target: &impl RayTarget,
     settings: &RenderSettings,
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Frame, MeshRenderStats) {
-    let samples = render_pixels(settings, progress, |x, y| shade_pixel(mesh, bvh, settings, x, y));
+    let samples = render_pixels(settings, progress, |x, y| shade_pixel(target, settings, x, y));
     let mut stats = MeshRenderStats { rays: samples.len() as u64, ..Default::default() };
     for p in &samples {
         stats.hits += u64::from(p.depth.is_finite());
@@ -40,31 +39,31 @@ pub fn render_mesh(
     (assemble(&samples, settings, MESH_COUNTERS), stats)
 }
 
-fn shade_pixel(mesh: &Mesh, bvh: &MeshBvh, s: &RenderSettings, x: u32, y: u32) -> PixelSample {
+fn shade_pixel(target: &impl RayTarget, s: &RenderSettings, x: u32, y: u32) -> PixelSample {
     let ray = s.camera.ray(x, y, s.width, s.height);
-    let (hit, tests) = bvh.intersect(&ray);
+    let (hit, tests) = target.hit(&ray);
     let Some(hit) = hit else {
         return PixelSample::miss(s.background, [tests, 0]);
     };
-    let normal = smooth_normal(mesh, &hit).unwrap_or_else(|| geometric_normal(mesh, hit.triangle, ray.dir));
-    let albedo = mesh.colors.as_deref().map_or(DEFAULT_COLOR, |c| interpolate(mesh, c, &hit));
     PixelSample {
-        color: s.lighting.shade(&s.camera, ray.dir, normal, albedo),
+        color: s.lighting.shade(&s.camera, ray.dir, hit.normal, hit.albedo),
         depth: hit.t,
-        normal: normal.into(),
+        normal: hit.normal.into(),
         counts: [tests, hit.triangle + 1],
     }
 }
 
-/// The vertex normals interpolated at the hit, if they do not cancel.
-fn smooth_normal(mesh: &Mesh, hit: &super::MeshHit) -> Option<Vec3A> {
-    Vec3A::from(interpolate(mesh, &mesh.normals, hit)).try_normalize()
+/// Normal and albedo at barycentric `uv` of a triangle with per-vertex
+/// normals and colours: the interpolated normal, or the triangle's own (by
+/// its winding) where the vertex normals cancel, or one facing the viewer on
+/// a degenerate triangle.
+#[must_use]
+pub fn surface_at(p: [Vec3; 3], n: [Vec3; 3], c: Option<[Vec3; 3]>, uv: Vec2, dir: Vec3A) -> (Vec3A, Vec3) {
+    let w = [1.0 - uv.x - uv.y, uv.x, uv.y];
+    let mix = |v: [Vec3; 3]| v[0] * w[0] + v[1] * w[1] + v[2] * w[2];
+    let normal = Vec3A::from(mix(n))
+        .try_normalize()
+        .or_else(|| Vec3A::from((p[1] - p[0]).cross(p[2] - p[0])).try_normalize())
+        .unwrap_or(-dir);
+    (normal, c.map_or(DEFAULT_COLOR, mix))
 }
-
-/// The triangle's own normal (outward by the mesh's winding), or one facing
-/// the viewer for a degenerate triangle.
-fn geometric_normal(mesh: &Mesh, t: u32, dir: Vec3A) -> Vec3A {
-    let [a, b, c] = mesh.corners(t as usize);
-    Vec3A::from((b - a).cross(c - a)).try_normalize().unwrap_or(-dir)
-}
-

@@ -25,6 +25,9 @@ pub enum BenchCommand {
     /// Cached rendering (cold and warm) against exact rendering (naive and
     /// indexed), with the cached image's accuracy and the cost of one lookup.
     Cache(EvalBenchArgs),
+    /// Polygonization with and without caches over resolutions (the paper's
+    /// Table 1), evaluations per triangle, triangle and ray rates.
+    Mesh(super::bench_mesh::MeshBenchArgs),
 }
 
 /// Options of `blobtrace bench eval`.
@@ -62,6 +65,7 @@ pub fn run(c: &BenchCommand) -> anyhow::Result<()> {
     match c {
         BenchCommand::Eval(a) => eval(a),
         BenchCommand::Cache(a) => cache(a),
+        BenchCommand::Mesh(a) => super::bench_mesh::run(a),
     }
 }
 

@@ -12,8 +12,8 @@ use super::render::CacheReport;
 use super::{EvalOptions, check_output_dir, scene_stem, with_threads};
 use crate::field::{EvalMode, ModelField};
 use crate::mesh::{
-    CellShape, Lattice, Mesh, MeshFormat, PolygonizeOptions, PolygonizeStats, Polygonizer, Topology,
-    TriangleQuality, VertexPlacement, skeleton_seeds, write_mesh,
+    CellShape, Lattice, Mesh, MeshFormat, PolygonizeOptions, PolygonizeStats, Polygonizer, Topology, TriangleQuality,
+    VertexPlacement, skeleton_seeds, write_mesh,
 };
 use crate::scene::Scene;
 

@@ -10,7 +10,7 @@ use serde::Serialize;
 use super::mesh::{MeshReport, PolygonizeArgs, polygonize_scene};
 use super::progress::Progress;
 use super::{EvalOptions, check_output_dir, scene_stem, with_threads};
-use crate::bvh::{MeshBvh, MeshRenderStats, render_mesh};
+use crate::bvh::{MeshBvh, MeshRenderStats, StaticMesh, render_mesh};
 use crate::cache::{CacheStats, SLOT_BYTES};
 use crate::field::{EvalMode, Model, ModelField, NodeKind};
 use crate::frame::Frame;
@@ -235,12 +235,17 @@ fn render_mesh_scene(
 
 /// Builds the BVH over `mesh` and ray casts it with `scene`'s camera at `size`, timing it.
 #[must_use]
-pub fn render_polygonized(scene: &Scene, mesh: &Mesh, mesh_report: MeshReport, size: Size) -> (Frame, MeshRenderReport) {
+pub fn render_polygonized(
+    scene: &Scene,
+    mesh: &Mesh,
+    mesh_report: MeshReport,
+    size: Size,
+) -> (Frame, MeshRenderReport) {
     let settings = RenderSettings::for_scene(scene, size);
     let bvh = MeshBvh::build(mesh);
     let progress = Progress::new(u64::from(size.1), "ray casting the mesh");
     let start = Instant::now();
-    let (frame, stats) = render_mesh(mesh, &bvh, &settings, &|rows| progress.set(rows));
+    let (frame, stats) = render_mesh(&StaticMesh { mesh, bvh: &bvh }, &settings, &|rows| progress.set(rows));
     let seconds = start.elapsed().as_secs_f64();
     progress.finish();
     let report = MeshRenderReport {

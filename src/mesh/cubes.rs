@@ -217,7 +217,10 @@ mod tests {
         for mask in 0..=255u8 {
             let loops = case_loops(mask);
             let consecutive = |a: u8, b: u8| {
-                loops.iter().any(|l| (0..l.len()).any(|i| (l[i], l[(i + 1) % l.len()]) == (a, b) || (l[i], l[(i + 1) % l.len()]) == (b, a)))
+                loops.iter().any(|l| {
+                    (0..l.len())
+                        .any(|i| (l[i], l[(i + 1) % l.len()]) == (a, b) || (l[i], l[(i + 1) % l.len()]) == (b, a))
+                })
             };
             for t in &case_table()[mask as usize] {
                 for k in 0..3 {

@@ -35,7 +35,7 @@ use glam::Vec3;
 
 pub use export::{MeshFormat, write_mesh};
 pub use lattice::{Cell, Lattice};
-pub use polygonizer::{CellShape, PolygonizeOptions, PolygonizeStats, Polygonizer};
+pub use polygonizer::{CellShape, EdgeVertex, PolygonizeOptions, PolygonizeStats, Polygonizer, Repolygonized};
 pub use seeds::{Seed, skeleton_seeds};
 pub use topology::Topology;
 pub use vertex::VertexPlacement;
@@ -51,6 +51,26 @@ pub struct Mesh {
     pub colors: Option<Vec<Vec3>>,
     /// Triangles as vertex indices, counter-clockwise seen from outside.
     pub triangles: Vec<[u32; 3]>,
+}
+
+/// Cuts a polygon (a loop of vertex ids) into triangles: a quadrilateral along
+/// its shorter diagonal, larger loops as a fan.
+pub fn triangulate(ids: &[u32], position: impl Fn(u32) -> Vec3, out: &mut Vec<[u32; 3]>) {
+    match *ids {
+        [a, b, c] => out.push([a, b, c]),
+        [a, b, c, d] => {
+            if position(a).distance_squared(position(c)) <= position(b).distance_squared(position(d)) {
+                out.extend([[a, b, c], [a, c, d]]);
+            } else {
+                out.extend([[a, b, d], [b, c, d]]);
+            }
+        }
+        _ => {
+            for i in 1..ids.len().saturating_sub(1) {
+                out.push([ids[0], ids[i], ids[i + 1]]);
+            }
+        }
+    }
 }
 
 /// Shape quality of a mesh's triangles: `q = 4√3·A / Σl²`, 1 for equilateral, 0 for degenerate.
@@ -73,25 +93,10 @@ impl Mesh {
         (self.positions.len() - 1) as u32
     }
 
-    /// Adds a polygon (a loop of vertex indices), cut into triangles: a
-    /// quadrilateral along its shorter diagonal, larger loops as a fan.
+    /// Adds a polygon (a loop of vertex indices), cut by [`triangulate`].
     pub fn push_polygon(&mut self, ids: &[u32]) {
-        match *ids {
-            [a, b, c] => self.triangles.push([a, b, c]),
-            [a, b, c, d] => {
-                let p = |i: u32| self.positions[i as usize];
-                if p(a).distance_squared(p(c)) <= p(b).distance_squared(p(d)) {
-                    self.triangles.extend([[a, b, c], [a, c, d]]);
-                } else {
-                    self.triangles.extend([[a, b, d], [b, c, d]]);
-                }
-            }
-            _ => {
-                for i in 1..ids.len().saturating_sub(1) {
-                    self.triangles.push([ids[0], ids[i], ids[i + 1]]);
-                }
-            }
-        }
+        let positions = &self.positions;
+        triangulate(ids, |i| positions[i as usize], &mut self.triangles);
     }
 
     /// The three corners of triangle `t`.

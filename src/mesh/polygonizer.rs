@@ -17,10 +17,10 @@ use rayon::prelude::*;
 use rustc_hash::{FxHashMap, FxHashSet};
 
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key};
-use super::vertex::{VertexPlacement, place_on_edge};
 use super::seeds::Seed;
+use super::vertex::{VertexPlacement, place_on_edge};
 use super::{Mesh, bcc, cubes};
-use crate::field::Field;
+use crate::field::{DEFAULT_COLOR, Field};
 use crate::geom::Aabb;
 
 /// How space is cut into cells.
@@ -107,12 +107,24 @@ impl PolygonizeStats {
     }
 }
 
-/// A vertex on a crossed edge.
+/// A vertex on a crossed edge: position, unit outward normal, colour.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct EdgeVertex {
-    position: Vec3,
-    normal: Vec3,
-    color: Vec3,
+pub struct EdgeVertex {
+    /// Position on the surface.
+    pub position: Vec3,
+    /// Unit outward normal from the field gradient (zero where it vanished).
+    pub normal: Vec3,
+    /// Linear RGB colour ([`crate::field::DEFAULT_COLOR`] when the model has one colour).
+    pub color: Vec3,
+}
+
+/// What a local re-polygonization changed, cell by cell.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Repolygonized {
+    /// Crossed cells dropped (their triangles are gone).
+    pub removed: Vec<Cell>,
+    /// Crossed cells grown back or newly found (their triangles are new).
+    pub added: Vec<Cell>,
 }
 
 /// The mask value of a visited cell whose corners are not known yet.
@@ -181,7 +193,7 @@ impl Polygonizer {
     /// else): forgets every corner, vertex and cell within one cell of it, then
     /// grows back from the surface around the hole and from the `seeds`. The
     /// result equals a fresh polygonization of the changed field.
-    pub fn repolygonize<F: Field + ?Sized>(&mut self, field: &F, region: &Aabb, seeds: &[Seed]) {
+    pub fn repolygonize<F: Field + ?Sized>(&mut self, field: &F, region: &Aabb, seeds: &[Seed]) -> Repolygonized {
         self.with_colors = field.varies_in_color();
         self.threshold = field.threshold();
         let cell = self.lattice.cell;
@@ -195,10 +207,17 @@ impl Polygonizer {
         // owning cube) within one cube of it.
         let (lo, hi) = lattice.cubes_overlapping(&near.padded(cell));
         let inside = |c: IVec3, margin: i32| c.cmpge(lo - margin).all() && c.cmple(hi + margin).all();
-        self.cells.retain(|c, _| !inside(c.cube, 0));
+        let shape = self.options.cells;
+        let mut removed = vec![];
+        self.cells.retain(|&c, &mut mask| {
+            let keep = !inside(c.cube, 0);
+            if !keep && crossed(mask, shape) {
+                removed.push(c);
+            }
+            keep
+        });
         let mut frontier = vec![];
         let mut around = vec![];
-        let shape = self.options.cells;
         for (&c, &mask) in &self.cells {
             if inside(c.cube, 2) && crossed(mask, shape) {
                 shape.neighbours(c, mask, &mut around);
@@ -211,8 +230,9 @@ impl Polygonizer {
             }
         }
         frontier.extend(self.seed(field, seeds));
-        self.grow(field, frontier);
+        let added = self.grow(field, frontier);
         self.place_vertices(field);
+        Repolygonized { removed, added }
     }
 
     /// Marches from each seed along +x to the first sign change and returns
@@ -261,9 +281,11 @@ impl Polygonizer {
 
     /// Continuation: examine the frontier, keep its crossed cells, and move on to
     /// their unvisited neighbours across crossed faces, until none are left.
-    fn grow<F: Field + ?Sized>(&mut self, field: &F, mut frontier: Vec<Cell>) {
+    /// Returns the crossed cells found.
+    fn grow<F: Field + ?Sized>(&mut self, field: &F, mut frontier: Vec<Cell>) -> Vec<Cell> {
         let shape = self.options.cells;
         let mut neighbours = vec![];
+        let mut found = vec![];
         while !frontier.is_empty() {
             self.evaluate_corners(field, &frontier);
             let mut next = vec![];
@@ -274,6 +296,7 @@ impl Polygonizer {
                 if !crossed(mask, shape) {
                     continue;
                 }
+                found.push(cell);
                 neighbours.clear();
                 shape.neighbours(cell, mask, &mut neighbours);
                 for &n in &neighbours {
@@ -285,6 +308,7 @@ impl Polygonizer {
             }
             frontier = next;
         }
+        found
     }
 
     /// Evaluates, in parallel, the corners of `cells` not known yet.
@@ -340,7 +364,7 @@ impl Polygonizer {
                 let ends = |q: LatticePoint| (lattice.position(q), corners[&q]);
                 let (p, evals) = place_on_edge(field, ends(a), ends(b), placement);
                 let normal = Vec3::from(-field.gradient(p)).normalize_or_zero();
-                let color = if with_colors { field.color(p) } else { Vec3::ZERO };
+                let color = if with_colors { field.color(p) } else { DEFAULT_COLOR };
                 (edge_key(a, b), EdgeVertex { position: p.into(), normal, color }, evals)
             })
             .collect();
@@ -352,6 +376,34 @@ impl Polygonizer {
             self.stats.root_evals += u64::from(evals);
             self.vertices.insert(key, vertex);
         }
+    }
+
+    /// The crossed cells, sorted by lattice position.
+    #[must_use]
+    pub fn crossed_cell_list(&self) -> Vec<Cell> {
+        let shape = self.options.cells;
+        let mut cells: Vec<Cell> = self.cells.iter().filter(|&(_, &m)| crossed(m, shape)).map(|(&c, _)| c).collect();
+        cells.sort_unstable_by_key(Cell::order_key);
+        cells
+    }
+
+    /// The triangles of one crossed cell (none for a cell not crossed), each
+    /// as its three vertices, exactly as [`Polygonizer::mesh`] cuts them.
+    #[must_use]
+    pub fn cell_triangles(&self, cell: Cell) -> Vec<[EdgeVertex; 3]> {
+        let mut out = vec![];
+        let Some(&mask) = self.cells.get(&cell).filter(|&&m| crossed(m, self.options.cells)) else {
+            return out;
+        };
+        let mut local = Vec::with_capacity(12);
+        self.options.cells.polygons(cell, mask, &mut |polygon| {
+            let vertices: Vec<EdgeVertex> = polygon.iter().map(|&[a, b]| self.vertices[&edge_key(a, b)]).collect();
+            let ids: Vec<u32> = (0..vertices.len() as u32).collect();
+            local.clear();
+            super::triangulate(&ids, |i| vertices[i as usize].position, &mut local);
+            out.extend(local.iter().map(|t| t.map(|i| vertices[i as usize])));
+        });
+        out
     }
 
     /// The mesh of the crossed cells, in a canonical order (cells by lattice
