@@ -259,12 +259,11 @@ impl Polygonizer {
             end_x: lattice.nearest_corner(field.bounds().max).x + 2,
             known: &self.corners,
         };
-        let marched: Vec<(Vec<LatticePoint>, Vec<(LatticePoint, f32)>)> =
-            rows.par_iter().map(|row| march.row(field, row)).collect();
+        let marched: Vec<RowMarched> = rows.par_iter().map(|row| march.row(field, row)).collect();
         let mut cells = vec![];
-        for (crossings, fresh) in marched {
-            self.stats.corner_evals += fresh.len() as u64;
-            self.corners.extend(fresh);
+        for RowMarched { crossings, evaluated } in marched {
+            self.stats.corner_evals += evaluated.len() as u64;
+            self.corners.extend(evaluated);
             for q in crossings {
                 self.options.cells.cells_touching(q, &mut cells);
             }
@@ -434,6 +433,14 @@ impl Polygonizer {
     }
 }
 
+/// What the seeds of one lattice row found.
+struct RowMarched {
+    /// Corners whose +x edge has a sign change.
+    crossings: Vec<LatticePoint>,
+    /// Corners evaluated on the way, with their values.
+    evaluated: Vec<(LatticePoint, f32)>,
+}
+
 /// Marching seeds along lattice rows (+x) to their first sign change.
 struct RowMarch<'a> {
     lattice: Lattice,
@@ -448,11 +455,7 @@ impl RowMarch<'_> {
     /// Marches the starts (with their reach, in half cells) of one row, in x
     /// order; returns the corners where a march met a sign change (the change
     /// is on the edge to the next corner in +x) and the corners it evaluated.
-    fn row<F: Field + ?Sized>(
-        &self,
-        field: &F,
-        starts: &[(LatticePoint, i32)],
-    ) -> (Vec<LatticePoint>, Vec<(LatticePoint, f32)>) {
+    fn row<F: Field + ?Sized>(&self, field: &F, starts: &[(LatticePoint, i32)]) -> RowMarched {
         let mut fresh: FxHashMap<i32, f32> = FxHashMap::default();
         let mut value = |q: LatticePoint| {
             if let Some(&v) = self.known.get(&q) {
@@ -483,7 +486,7 @@ impl RowMarch<'_> {
         let mut evaluated: Vec<(LatticePoint, f32)> =
             fresh.into_iter().map(|(x, v)| (IVec3::new(x, row.y, row.z), v)).collect();
         evaluated.sort_unstable_by_key(|(q, _)| q.x);
-        (crossings, evaluated)
+        RowMarched { crossings, evaluated }
     }
 }
 
