@@ -72,7 +72,8 @@ fn linear_placement_spends_no_evaluation_on_vertices() {
     let scene = sphere();
     let options = PolygonizeOptions { vertex: VertexPlacement::Linear, ..Default::default() };
     let (p, mesh) = polygonize(&scene.model, EvalMode::Indexed, 32, options);
-    assert_eq!(p.stats().root_evals, 0);
+    assert_eq!((p.stats().root_evals, p.stats().gradient_evals), (0, 0));
+    assert!(mesh.normals.iter().zip(&mesh.positions).all(|(n, v)| n.dot(v.normalize()) > 0.99));
     assert!(mesh.topology().is_closed_manifold());
     let worst = mesh.positions.iter().map(|v| (v.length() - iso_radius(2.0)).abs()).fold(0.0f32, f32::max);
     // Within a small fraction of a cell (cell = 8 / 32), but not exact.

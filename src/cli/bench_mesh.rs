@@ -68,7 +68,7 @@ pub struct TableRow {
 pub struct PlacementCost {
     /// Resolution.
     pub res: u32,
-    /// With root finding (vertices to 1e-5 of an edge).
+    /// With root finding (vertices to 1e-4 of an edge).
     pub root: f64,
     /// With linear interpolation of corner values.
     pub linear: f64,

@@ -30,7 +30,7 @@ pub enum CellsArg {
 /// Vertex placement on crossed edges.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
 pub enum VertexArg {
-    /// Illinois root finding to 1e-5 of the edge.
+    /// Illinois root finding to 1e-4 of the edge.
     #[default]
     Root,
     /// Linear interpolation of the corner values (no evaluation; a preview).

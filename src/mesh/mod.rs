@@ -45,7 +45,8 @@ pub use vertex::VertexPlacement;
 pub struct Mesh {
     /// Vertex positions.
     pub positions: Vec<Vec3>,
-    /// Unit outward normals (from the field gradient); zero where it vanished.
+    /// Unit outward normals: from the field gradient (zero where it vanished),
+    /// or from the faces around the vertex for a `Linear` preview.
     pub normals: Vec<Vec3>,
     /// Linear RGB colour per vertex, when the model has more than one colour.
     pub colors: Option<Vec<Vec3>>,
@@ -97,6 +98,20 @@ impl Mesh {
     pub fn push_polygon(&mut self, ids: &[u32]) {
         let positions = &self.positions;
         triangulate(ids, |i| positions[i as usize], &mut self.triangles);
+    }
+
+    /// Replaces the vertex normals by the normalized, area-weighted sum of the
+    /// normals of the triangles around each vertex.
+    pub fn set_normals_from_faces(&mut self) {
+        let mut sums = vec![Vec3::ZERO; self.positions.len()];
+        for t in 0..self.triangles.len() {
+            let [a, b, c] = self.corners(t);
+            let n = (b - a).cross(c - a);
+            for i in self.triangles[t] {
+                sums[i as usize] += n;
+            }
+        }
+        self.normals = sums.into_iter().map(Vec3::normalize_or_zero).collect();
     }
 
     /// The three corners of triangle `t`.

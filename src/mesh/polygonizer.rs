@@ -362,12 +362,18 @@ impl Polygonizer {
             .map(|&[a, b]| {
                 let ends = |q: LatticePoint| (lattice.position(q), corners[&q]);
                 let (p, evals) = place_on_edge(field, ends(a), ends(b), placement);
-                let normal = Vec3::from(-field.gradient(p)).normalize_or_zero();
+                // A preview spends nothing on normals: the mesh's face normals stand in.
+                let normal = match placement {
+                    VertexPlacement::Linear => Vec3::ZERO,
+                    VertexPlacement::Root { .. } => Vec3::from(-field.gradient(p)).normalize_or_zero(),
+                };
                 let color = if with_colors { field.color(p) } else { DEFAULT_COLOR };
                 (edge_key(a, b), EdgeVertex { position: p.into(), normal, color }, evals)
             })
             .collect();
-        self.stats.gradient_evals += placed.len() as u64;
+        if placement != VertexPlacement::Linear {
+            self.stats.gradient_evals += placed.len() as u64;
+        }
         if with_colors {
             self.stats.color_evals += placed.len() as u64;
         }
@@ -428,6 +434,9 @@ impl Polygonizer {
                 }));
                 mesh.push_polygon(&ids);
             });
+        }
+        if self.options.vertex == VertexPlacement::Linear {
+            mesh.set_normals_from_faces();
         }
         mesh
     }

@@ -5,7 +5,8 @@
 //! the corner values it already has, converges superlinearly on the smooth
 //! fields of skeletal primitives, and keeps the bracket, so it reaches a far
 //! tighter tolerance in two or three evaluations. `Linear` stops before the
-//! first evaluation: the classic marching-cubes interpolation, for previews.
+//! first evaluation: the classic marching-cubes interpolation, for previews
+//! (which also take their normals from the mesh rather than the gradient).
 
 use glam::Vec3A;
 
@@ -25,7 +26,7 @@ pub enum VertexPlacement {
 
 impl Default for VertexPlacement {
     fn default() -> Self {
-        VertexPlacement::Root { tolerance: 1e-5 }
+        VertexPlacement::Root { tolerance: 1e-4 }
     }
 }
 
