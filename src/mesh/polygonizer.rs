@@ -14,7 +14,7 @@
 
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
-use rustc_hash::{FxHashMap, FxHashSet};
+use rustc_hash::FxHashMap;
 
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key};
 use super::seeds::Seed;
@@ -283,22 +283,29 @@ impl Polygonizer {
     /// Returns the crossed cells found.
     fn grow<F: Field + ?Sized>(&mut self, field: &F, mut frontier: Vec<Cell>) -> Vec<Cell> {
         let shape = self.options.cells;
-        let mut neighbours = vec![];
         let mut found = vec![];
         while !frontier.is_empty() {
             self.evaluate_corners(field, &frontier);
+            // Masks and neighbour lists in parallel; marking cells visited in order.
+            let examined: Vec<(u8, Neighbours)> = frontier
+                .par_iter()
+                .map_init(Vec::new, |scratch, &cell| {
+                    let mask = self.mask(cell);
+                    scratch.clear();
+                    if crossed(mask, shape) {
+                        shape.neighbours(cell, mask, scratch);
+                    }
+                    (mask, Neighbours::from(scratch.as_slice()))
+                })
+                .collect();
             let mut next = vec![];
-            for &cell in &frontier {
-                let mask = self.mask(cell);
+            for (&cell, (mask, neighbours)) in frontier.iter().zip(examined) {
                 self.cells.insert(cell, mask);
                 self.stats.cells_visited += 1;
-                if !crossed(mask, shape) {
-                    continue;
+                if crossed(mask, shape) {
+                    found.push(cell);
                 }
-                found.push(cell);
-                neighbours.clear();
-                shape.neighbours(cell, mask, &mut neighbours);
-                for &n in &neighbours {
+                for &n in neighbours.as_slice() {
                     if let std::collections::hash_map::Entry::Vacant(e) = self.cells.entry(n) {
                         e.insert(PENDING);
                         next.push(n);
@@ -312,16 +319,17 @@ impl Polygonizer {
 
     /// Evaluates, in parallel, the corners of `cells` not known yet.
     fn evaluate_corners<F: Field + ?Sized>(&mut self, field: &F, cells: &[Cell]) {
-        let mut missing: Vec<LatticePoint> = vec![];
-        let mut seen = FxHashSet::default();
-        for &cell in cells {
-            let (v, n) = self.options.cells.vertices(cell);
-            for &q in &v[..n] {
-                if !self.corners.contains_key(&q) && seen.insert(q) {
-                    missing.push(q);
-                }
-            }
-        }
+        let shape = self.options.cells;
+        let corners = &self.corners;
+        let mut missing: Vec<LatticePoint> = cells
+            .par_iter()
+            .flat_map_iter(|&cell| {
+                let (v, n) = shape.vertices(cell);
+                (0..n).map(move |i| v[i]).filter(|q| !corners.contains_key(q))
+            })
+            .collect();
+        missing.par_sort_unstable_by_key(|q| q.to_array());
+        missing.dedup();
         let lattice = self.lattice;
         let values: Vec<f32> = missing.par_iter().map(|&q| field.value(lattice.position(q))).collect();
         self.stats.corner_evals += missing.len() as u64;
@@ -338,23 +346,27 @@ impl Polygonizer {
     /// Places a vertex, with its normal and colour, on every crossed edge of a
     /// crossed cell that has none yet; in parallel.
     fn place_vertices<F: Field + ?Sized>(&mut self, field: &F) {
-        let mut edges: Vec<[LatticePoint; 2]> = vec![];
-        let mut seen = FxHashSet::default();
         let shape = self.options.cells;
-        for (&cell, &mask) in &self.cells {
-            if !crossed(mask, shape) {
-                continue;
-            }
-            shape.polygons(cell, mask, &mut |polygon| {
-                for &[a, b] in polygon {
-                    let key = edge_key(a, b);
-                    if !self.vertices.contains_key(&key) && seen.insert(key) {
-                        // Ordered ends, so the root never depends on which cell asked.
-                        edges.push(if a.to_array() < b.to_array() { [a, b] } else { [b, a] });
+        let crossed_cells: Vec<(Cell, u8)> =
+            self.cells.iter().filter(|&(_, &m)| crossed(m, shape)).map(|(&c, &m)| (c, m)).collect();
+        let known = &self.vertices;
+        let mut edges: Vec<[LatticePoint; 2]> = crossed_cells
+            .par_iter()
+            .flat_map_iter(|&(cell, mask)| {
+                let mut new_edges = vec![];
+                shape.polygons(cell, mask, &mut |polygon| {
+                    for &[a, b] in polygon {
+                        if !known.contains_key(&edge_key(a, b)) {
+                            // Ordered ends, so the root never depends on which cell asked.
+                            new_edges.push(if a.to_array() < b.to_array() { [a, b] } else { [b, a] });
+                        }
                     }
-                }
-            });
-        }
+                });
+                new_edges
+            })
+            .collect();
+        edges.par_sort_unstable_by_key(|[a, b]| (a.to_array(), b.to_array()));
+        edges.dedup();
         let (lattice, placement, with_colors) = (self.lattice, self.options.vertex, self.with_colors);
         let corners = &self.corners;
         let placed: Vec<(EdgeKey, EdgeVertex, u32)> = edges
@@ -496,6 +508,26 @@ impl RowMarch<'_> {
             fresh.into_iter().map(|(x, v)| (IVec3::new(x, row.y, row.z), v)).collect();
         evaluated.sort_unstable_by_key(|(q, _)| q.x);
         RowMarched { crossings, evaluated }
+    }
+}
+
+/// The neighbours of one cell to visit (at most six, across the faces of a cube).
+struct Neighbours {
+    cells: [Cell; 6],
+    len: u8,
+}
+
+impl Neighbours {
+    fn as_slice(&self) -> &[Cell] {
+        &self.cells[..usize::from(self.len)]
+    }
+}
+
+impl From<&[Cell]> for Neighbours {
+    fn from(found: &[Cell]) -> Self {
+        let mut cells = [Cell { cube: IVec3::ZERO, sub: 0 }; 6];
+        cells[..found.len()].copy_from_slice(found);
+        Self { cells, len: found.len() as u8 }
     }
 }
 
