@@ -139,3 +139,19 @@ fn local_repolygonization_after_a_move_equals_a_full_polygonization() {
         );
     }
 }
+
+#[test]
+fn a_fine_mesh_grown_from_the_coarse_surface_equals_a_direct_fine_polygonization() {
+    for (name, scene) in [("sphere", sphere()), ("pair", bundled("pair.ron"))] {
+        for cells in SHAPES {
+            let options = PolygonizeOptions { cells, ..Default::default() };
+            let (coarse, _) = polygonize(&scene.model, EvalMode::Indexed, 12, options);
+            let field = ModelField::new(&scene.model, EvalMode::Indexed);
+            let mut fine = Polygonizer::new(coarse.lattice().refined(2), options);
+            fine.refine(&field, &coarse, 2);
+            let (direct, expected) = polygonize(&scene.model, EvalMode::Indexed, 48, options);
+            assert_eq!(fine.lattice(), direct.lattice());
+            assert_eq!(triangle_set(&fine.mesh()), triangle_set(&expected), "{name} {cells:?}");
+        }
+    }
+}

@@ -130,14 +130,14 @@ pub fn run(a: &MeshBenchArgs) -> anyhow::Result<()> {
     let mut table1 = vec![];
     let mut skipped_res = vec![];
     for &res in &a.res {
-        let args = PolygonizeArgs { res, cells: a.cells, vertex: VertexArg::Root };
+        let args = PolygonizeArgs { res, cells: a.cells, vertex: VertexArg::Root, refine: 0 };
         if args.check(&scene).is_err() {
             skipped_res.push(res);
             continue;
         }
         table1.push(table_row(&mut scene, &args));
     }
-    let detail = PolygonizeArgs { res: a.detail_res, cells: a.cells, vertex: VertexArg::Root };
+    let detail = PolygonizeArgs { res: a.detail_res, cells: a.cells, vertex: VertexArg::Root, refine: 0 };
     detail.check(&scene)?;
     let linear = PolygonizeArgs { vertex: VertexArg::Linear, ..detail };
     let evals_per_triangle = PlacementCost {

@@ -49,6 +49,10 @@ pub struct PolygonizeArgs {
     /// Vertex placement.
     #[arg(long, value_enum, default_value_t = VertexArg::Root)]
     pub vertex: VertexArg,
+    /// Refine K levels: polygonize at res·2^K, grown from the surface found at
+    /// res instead of from the skeletons (coarse and fine meshes of one lattice family).
+    #[arg(long, default_value_t = 0, value_name = "K")]
+    pub refine: u32,
 }
 
 /// Highest resolution accepted: lattice coordinates and memory stay reasonable.
@@ -56,6 +60,8 @@ const MAX_RES: u32 = 8192;
 /// Bytes the polygonizer and its mesh hold per crossed cell (corners, cells,
 /// vertices, triangles and hash-map overhead), measured on the bundled scenes.
 const BYTES_PER_CROSSED_CELL: f64 = 400.0;
+/// Most refinement levels accepted.
+const MAX_REFINE: u32 = 6;
 /// Resolution of the cheap probe that sizes the surface before the real run.
 const PROBE_RES: u32 = 24;
 
@@ -80,11 +86,19 @@ impl PolygonizeArgs {
     /// warmed) fits in memory.
     pub fn check(&self, scene: &Scene) -> anyhow::Result<()> {
         anyhow::ensure!((1..=MAX_RES).contains(&self.res), "--res must be between 1 and {MAX_RES}, got {}", self.res);
+        anyhow::ensure!(self.refine <= MAX_REFINE, "--refine must be at most {MAX_REFINE}, got {}", self.refine);
+        let fine_res = u64::from(self.res) << self.refine;
+        anyhow::ensure!(
+            fine_res <= u64::from(MAX_RES),
+            "--res {} refined {} times exceeds {MAX_RES}",
+            self.res,
+            self.refine
+        );
         let probe_res = self.res.min(PROBE_RES);
         let probe_options = PolygonizeOptions { vertex: VertexPlacement::Linear, ..self.options() };
-        let probe = Polygonizer::new(Lattice::across(&scene.model.bounds(), probe_res), probe_options);
-        let crossed = run_polygonizer(scene, EvalMode::Indexed, probe).1.crossed_cells as f64;
-        let scale = (f64::from(self.res) / f64::from(probe_res)).powi(2);
+        let probe = Lattice::across(&scene.model.bounds(), probe_res);
+        let crossed = run_polygonizer(scene, EvalMode::Indexed, probe, probe_options, 0).1.crossed_cells as f64;
+        let scale = (fine_res as f64 / f64::from(probe_res)).powi(2);
         let needed = crossed * scale * BYTES_PER_CROSSED_CELL;
         let available = available_memory_bytes();
         anyhow::ensure!(
@@ -139,8 +153,11 @@ pub struct MeshArgs {
 pub struct MeshReport {
     /// Wall-clock seconds polygonizing (seeding, growing, vertices, assembling the mesh).
     pub seconds: f64,
-    /// Lattice cells along the longest side of the bounds.
+    /// Lattice cells along the longest side of the bounds (of the fine mesh, when refined).
     pub res: u32,
+    /// The coarse resolution the fine mesh grew from, when refined.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coarse_res: Option<u32>,
     /// Side of a lattice cell in scene units.
     pub cell_size: f32,
     /// Cell decomposition.
@@ -209,15 +226,17 @@ pub fn run(a: &MeshArgs) -> anyhow::Result<()> {
 /// they are), and reports what it took.
 #[must_use]
 pub fn polygonize_scene(scene: &Scene, mode: EvalMode, args: &PolygonizeArgs) -> (Mesh, MeshReport) {
-    let lattice = Lattice::across(&scene.model.bounds(), args.res);
+    let coarse = Lattice::across(&scene.model.bounds(), args.res);
+    let lattice = coarse.refined(args.refine);
     let start = Instant::now();
-    let (mesh, counts) = run_polygonizer(scene, mode, Polygonizer::new(lattice, args.options()));
+    let (mesh, counts) = run_polygonizer(scene, mode, coarse, args.options(), args.refine);
     let seconds = start.elapsed().as_secs_f64();
     let topology = mesh.topology();
     let field_evals = counts.stats.field_evals();
     let report = MeshReport {
         seconds,
-        res: args.res,
+        res: args.res << args.refine,
+        coarse_res: (args.refine > 0).then_some(args.res),
         cell_size: lattice.cell,
         cells: format!("{:?}", args.cells).to_lowercase(),
         vertex: format!("{:?}", args.vertex).to_lowercase(),
@@ -244,9 +263,27 @@ struct RunCounts {
     crossed_cells: u64,
 }
 
-fn run_polygonizer(scene: &Scene, mode: EvalMode, mut polygonizer: Polygonizer) -> (Mesh, RunCounts) {
+/// Polygonizes on `lattice` from the skeletons, then, for `refine > 0`, on the
+/// lattice `2^refine` times finer from that surface. Counts cover both runs.
+fn run_polygonizer(
+    scene: &Scene,
+    mode: EvalMode,
+    lattice: Lattice,
+    options: PolygonizeOptions,
+    refine: u32,
+) -> (Mesh, RunCounts) {
     let field = ModelField::new(&scene.model, mode);
-    polygonizer.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
+    let mut coarse = Polygonizer::new(lattice, options);
+    coarse.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
+    let mut stats = coarse.stats();
+    let polygonizer = if refine == 0 {
+        coarse
+    } else {
+        let mut fine = Polygonizer::new(lattice.refined(refine), options);
+        fine.refine(&field, &coarse, refine);
+        stats = stats.plus(&fine.stats());
+        fine
+    };
     let mesh = polygonizer.mesh();
-    (mesh, RunCounts { stats: polygonizer.stats(), crossed_cells: polygonizer.crossed_cells() as u64 })
+    (mesh, RunCounts { stats, crossed_cells: polygonizer.crossed_cells() as u64 })
 }

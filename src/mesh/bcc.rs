@@ -71,6 +71,14 @@ pub fn cells_touching(q: LatticePoint, out: &mut Vec<Cell>) {
     }
 }
 
+/// The four tetrahedra having the centre–centre edge `a`–`b` (odd points one step apart).
+pub fn cells_around_centre_edge(a: LatticePoint, b: LatticePoint, out: &mut Vec<Cell>) {
+    let low = a.min(b);
+    let axis = (b - a).abs().to_array().iter().position(|&d| d == 2).expect("centres one step apart");
+    let cube = (low - IVec3::ONE).div_euclid(IVec3::splat(2));
+    out.extend((0..4).map(|k| Cell { cube, sub: (axis * 4 + k) as u8 }));
+}
+
 /// The tetrahedra across every face of `cell` whose vertices differ in sign.
 pub fn neighbours(cell: Cell, mask: u8, out: &mut Vec<Cell>) {
     let v = vertices(cell);

@@ -52,6 +52,17 @@ impl CellShape {
         }
     }
 
+    /// Cells having the lattice edge `a`–`b` (plus, harmlessly, a few that
+    /// only touch one of its ends).
+    fn cells_around_edge(self, a: LatticePoint, b: LatticePoint, out: &mut Vec<Cell>) {
+        let even = |p: LatticePoint| p.x & 1 == 0;
+        match (self, even(a), even(b)) {
+            (CellShape::Bcc, false, false) => bcc::cells_around_centre_edge(a, b, out),
+            (_, true, _) => self.cells_touching(a, out),
+            _ => self.cells_touching(b, out),
+        }
+    }
+
     fn neighbours(self, cell: Cell, mask: u8, out: &mut Vec<Cell>) {
         match self {
             CellShape::Cubes => cubes::neighbours(cell, mask, out),
@@ -100,6 +111,18 @@ pub struct PolygonizeStats {
 }
 
 impl PolygonizeStats {
+    /// The work of two runs together.
+    #[must_use]
+    pub fn plus(&self, o: &PolygonizeStats) -> PolygonizeStats {
+        PolygonizeStats {
+            corner_evals: self.corner_evals + o.corner_evals,
+            root_evals: self.root_evals + o.root_evals,
+            gradient_evals: self.gradient_evals + o.gradient_evals,
+            color_evals: self.color_evals + o.color_evals,
+            cells_visited: self.cells_visited + o.cells_visited,
+        }
+    }
+
     /// Every evaluation of the field: values, gradients and colours.
     #[must_use]
     pub fn field_evals(&self) -> u64 {
@@ -187,6 +210,78 @@ impl Polygonizer {
         let frontier = self.seed(field, seeds);
         self.grow(field, frontier);
         self.place_vertices(field);
+    }
+
+    /// Polygonizes on this polygonizer's lattice, which must be `coarse`'s refined
+    /// `2^k` times, starting from the coarse surface instead of the skeletons
+    /// (the second paper's coarse-controlled fine mesh): every crossed edge of a
+    /// coarse crossed cell is walked on the fine lattice to its sign change, and
+    /// continuation grows from there. Coarse corner values are reused.
+    pub fn refine<F: Field + ?Sized>(&mut self, field: &F, coarse: &Polygonizer, k: u32) {
+        self.with_colors = field.varies_in_color();
+        self.threshold = field.threshold();
+        let scale = 1i32 << k;
+        self.corners.extend(coarse.corners.iter().map(|(&q, &v)| (q * scale, v)));
+        let shape = self.options.cells;
+        let mut edges: Vec<[LatticePoint; 2]> = vec![];
+        for (&cell, &mask) in &coarse.cells {
+            if crossed(mask, shape) {
+                shape.polygons(cell, mask, &mut |polygon| {
+                    edges.extend(polygon.iter().map(|&[a, b]| [a * scale, b * scale]))
+                });
+            }
+        }
+        edges.sort_unstable_by_key(|[a, b]| (a.to_array(), b.to_array()));
+        edges.dedup();
+        let seeds = self.fine_crossings(field, &edges, scale);
+        let mut frontier = vec![];
+        for [a, b] in seeds {
+            shape.cells_around_edge(a, b, &mut frontier);
+        }
+        frontier.retain(|&c| match self.cells.entry(c) {
+            std::collections::hash_map::Entry::Vacant(e) => {
+                e.insert(PENDING);
+                true
+            }
+            std::collections::hash_map::Entry::Occupied(_) => false,
+        });
+        self.grow(field, frontier);
+        self.place_vertices(field);
+    }
+
+    /// For each coarse edge (in fine coordinates, `scale` fine steps long), the
+    /// first fine edge along it whose ends differ in sign; in parallel.
+    fn fine_crossings<F: Field + ?Sized>(
+        &mut self,
+        field: &F,
+        edges: &[[LatticePoint; 2]],
+        scale: i32,
+    ) -> Vec<[LatticePoint; 2]> {
+        let (lattice, t, known) = (self.lattice, self.threshold, &self.corners);
+        let walked: Vec<(Option<[LatticePoint; 2]>, Evaluated)> = edges
+            .par_iter()
+            .map(|&[a, b]| {
+                let step = (b - a) / scale;
+                let mut fresh = vec![];
+                let mut value = |q: LatticePoint| {
+                    known.get(&q).copied().unwrap_or_else(|| {
+                        let v = field.value(lattice.position(q));
+                        fresh.push((q, v));
+                        v
+                    })
+                };
+                let inside = value(a) > t;
+                let crossing = (0..scale).map(|i| a + step * i).find(|&q| (value(q + step) > t) != inside);
+                (crossing.map(|q| [q, q + step]), fresh)
+            })
+            .collect();
+        let mut crossings = vec![];
+        for (crossing, fresh) in walked {
+            self.stats.corner_evals += fresh.len() as u64;
+            self.corners.extend(fresh);
+            crossings.extend(crossing);
+        }
+        crossings
     }
 
     /// Re-polygonizes after the field changed inside `region` (and nowhere
@@ -454,12 +549,15 @@ impl Polygonizer {
     }
 }
 
+/// Lattice points evaluated on a walk, with their values.
+type Evaluated = Vec<(LatticePoint, f32)>;
+
 /// What the seeds of one lattice row found.
 struct RowMarched {
     /// Corners whose +x edge has a sign change.
     crossings: Vec<LatticePoint>,
-    /// Corners evaluated on the way, with their values.
-    evaluated: Vec<(LatticePoint, f32)>,
+    /// Corners evaluated on the way.
+    evaluated: Evaluated,
 }
 
 /// Marching seeds along lattice rows (+x) to their first sign change.
