@@ -34,6 +34,7 @@ pub mod bvh;
 pub mod cache;
 pub mod camera;
 pub mod cli;
+pub mod compare;
 pub mod field;
 pub mod frame;
 pub mod geom;

@@ -5,6 +5,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::Mesh;
+use crate::frame::linear_to_srgb8;
 use crate::output::write_atomic;
 
 /// A mesh file format, chosen by the output's extension.
@@ -59,7 +60,7 @@ fn ply_bytes(mesh: &Mesh) -> Vec<u8> {
             out.extend_from_slice(&v.to_le_bytes());
         }
         if let Some(c) = colors {
-            out.extend(c[i].to_array().map(srgb_byte));
+            out.extend(c[i].to_array().map(linear_to_srgb8));
         }
     }
     for t in &mesh.triangles {
@@ -69,13 +70,6 @@ fn ply_bytes(mesh: &Mesh) -> Vec<u8> {
         }
     }
     out
-}
-
-/// Linear colour component to an 8-bit sRGB value.
-fn srgb_byte(c: f32) -> u8 {
-    let c = c.clamp(0.0, 1.0);
-    let s = if c <= 0.003_130_8 { c * 12.92 } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
-    (s * 255.0 + 0.5) as u8
 }
 
 fn obj_text(mesh: &Mesh) -> String {

@@ -1,0 +1,147 @@
+//! Heat maps: per-pixel values through a perceptually uniform colour map, with
+//! a colour bar and its fixed scale printed under the image, so two heat maps
+//! made with the same scale can be compared by eye.
+
+use super::text::{LINE_HEIGHT, Rgb8Image};
+
+/// How values map to colours.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Scale {
+    /// `0..=max` through magma (larger is brighter); above `max` saturates.
+    Magnitude {
+        /// The value drawn in the brightest colour.
+        max: f32,
+    },
+    /// `-max..=max` through a red–blue diverging map (positive red, zero white).
+    Signed {
+        /// The magnitude drawn in the strongest colours.
+        max: f32,
+    },
+}
+
+/// Colour of pixels that have no value (`NaN`): missed by both images.
+pub const NO_VALUE: [u8; 3] = [40, 40, 46];
+/// Colour of pixels whose value is infinite: hit in one image only.
+pub const MISMATCH: [u8; 3] = [0, 230, 230];
+
+/// Height of the strip under the image holding the title and the colour bar.
+const STRIP: u32 = 4 * LINE_HEIGHT + 12;
+/// Narrowest canvas, so the scale stays legible under small images.
+const MIN_WIDTH: u32 = 280;
+
+impl Scale {
+    /// The colour of `v`.
+    #[must_use]
+    pub fn color(&self, v: f32) -> [u8; 3] {
+        if v.is_nan() {
+            return NO_VALUE;
+        }
+        if v.is_infinite() {
+            return MISMATCH;
+        }
+        let c = match *self {
+            Scale::Magnitude { max } => colorous::MAGMA.eval_continuous(f64::from((v / max).clamp(0.0, 1.0))),
+            Scale::Signed { max } => {
+                colorous::RED_BLUE.eval_continuous(f64::from((0.5 - 0.5 * v / max).clamp(0.0, 1.0)))
+            }
+        };
+        [c.r, c.g, c.b]
+    }
+
+    /// The lowest and highest values of the bar.
+    fn range(&self) -> (f32, f32) {
+        match *self {
+            Scale::Magnitude { max } => (0.0, max),
+            Scale::Signed { max } => (-max, max),
+        }
+    }
+}
+
+/// Draws `values` (row-major, `width × height`) with `scale`, and under them
+/// `title` and a colour bar labelled in `unit`.
+#[must_use]
+pub fn heat_map(values: &[f32], width: u32, height: u32, scale: Scale, title: &str, unit: &str) -> Rgb8Image {
+    let canvas_width = width.max(MIN_WIDTH);
+    let mut img = Rgb8Image::filled(canvas_width, height + STRIP, [255, 255, 255]);
+    for y in 0..height {
+        for x in 0..width {
+            img.put(i64::from(x), i64::from(y), scale.color(values[(y * width + x) as usize]));
+        }
+    }
+    draw_bar(&mut img, height, scale, title, unit);
+    img
+}
+
+fn draw_bar(img: &mut Rgb8Image, top: u32, scale: Scale, title: &str, unit: &str) {
+    let black = [0, 0, 0];
+    let margin = 8i64;
+    let y0 = i64::from(top) + 4;
+    img.text(margin, y0, title, black);
+    let bar_y = y0 + i64::from(LINE_HEIGHT) + 4;
+    let bar_w = i64::from(img.width) - 2 * margin;
+    let (lo, hi) = scale.range();
+    for dx in 0..bar_w {
+        let v = lo + (hi - lo) * dx as f32 / (bar_w - 1).max(1) as f32;
+        for dy in 0..10 {
+            img.put(margin + dx, bar_y + dy, scale.color(v));
+        }
+    }
+    let label_y = bar_y + 12;
+    let labels = [(lo, 0.0), ((lo + hi) * 0.5, 0.5), (hi, 1.0)];
+    for (v, at) in labels {
+        let text = format!("{}{}", format_value(v), if at == 1.0 { format!(" {unit}") } else { String::new() });
+        let w = i64::from(Rgb8Image::text_width(&text));
+        let x = (margin + (bar_w as f32 * at) as i64 - (w as f32 * at) as i64).max(0);
+        img.text(x, label_y, &text, black);
+    }
+    let legend_y = label_y + i64::from(LINE_HEIGHT) + 3;
+    for (k, (color, name)) in [(MISMATCH, "hit in one only"), (NO_VALUE, "missed by both")].into_iter().enumerate() {
+        let x = margin + k as i64 * 140;
+        for dy in 0..8 {
+            for dx in 0..8 {
+                img.put(x + dx, legend_y + dy, color);
+            }
+        }
+        img.text(x + 11, legend_y, name, black);
+    }
+}
+
+/// A short label for a scale value.
+fn format_value(v: f32) -> String {
+    let a = v.abs();
+    if a == 0.0 {
+        "0".into()
+    } else if (0.01..1000.0).contains(&a) {
+        let s = format!("{v:.3}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        format!("{v:.1e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scales_saturate_and_mark_special_values() {
+        let m = Scale::Magnitude { max: 2.0 };
+        assert_eq!(m.color(5.0), m.color(2.0));
+        assert_ne!(m.color(0.0), m.color(2.0));
+        assert_eq!(m.color(f32::NAN), NO_VALUE);
+        assert_eq!(m.color(f32::INFINITY), MISMATCH);
+        let s = Scale::Signed { max: 1.0 };
+        let (neg, pos) = (s.color(-1.0), s.color(1.0));
+        assert!(pos[0] > pos[2] && neg[2] > neg[0], "{pos:?} {neg:?}");
+        assert_eq!(format_value(0.05), "0.05");
+        assert_eq!(format_value(2e-4), "2.0e-4");
+    }
+
+    #[test]
+    fn heat_map_has_the_image_above_a_strip() {
+        let img = heat_map(&[0.0, 1.0, f32::INFINITY, f32::NAN], 2, 2, Scale::Magnitude { max: 1.0 }, "t", "u");
+        assert_eq!((img.width, img.height), (MIN_WIDTH, 2 + STRIP));
+        let below = (MIN_WIDTH * 3) as usize;
+        assert_eq!(&img.pixels[below..below + 3], &MISMATCH[..]);
+    }
+}
