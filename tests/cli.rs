@@ -326,3 +326,41 @@ fn render_mesh_draws_the_polygonized_surface() {
     assert_eq!(image::open(&png).unwrap().to_rgb8().dimensions(), (64, 48));
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn diff_follows_idiff_exit_codes_and_writes_a_heat_map() {
+    let dir = scratch("diff");
+    let path = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    let render = |extra: &[&str], name: &str| {
+        let (png, exr) = (path(&format!("{name}.png")), path(&format!("{name}.exr")));
+        let mut args = vec!["render", "scenes/pair.ron", "-o", &png, "--exr", &exr];
+        args.extend_from_slice(extra);
+        assert!(blobtrace(&args).status.success());
+    };
+    render(&["--size", "48x36"], "ray");
+    render(&["--size", "48x36", "--mesh", "--res", "16"], "mesh");
+    render(&["--size", "40x30"], "small");
+    let code = |args: &[&str]| blobtrace(args).status.code();
+    let (ray, mesh) = (path("ray.exr"), path("mesh.exr"));
+    assert_eq!(code(&["diff", &ray, &ray]), Some(0));
+    assert_eq!(code(&["diff", &ray, &mesh]), Some(2));
+    assert_eq!(code(&["diff", &ray, &mesh, "--fail", "1", "--warn", "0.01"]), Some(1));
+    assert_eq!(code(&["diff", &ray, &mesh, "--fail", "1", "--warn", "1"]), Some(0));
+    assert_eq!(code(&["diff", &ray, &mesh, "--fail", "1", "--warn", "1", "--hardfail", "0.05"]), Some(2));
+    assert_eq!(code(&["diff", &path("ray.png"), &path("small.png")]), Some(3));
+    assert_eq!(code(&["diff", &ray, &path("missing.exr")]), Some(4));
+    assert_eq!(code(&["diff", &path("ray.png"), &path("mesh.png"), "--metric", "depth"]), Some(4));
+    assert_eq!(code(&["diff", &ray, &mesh, "--fail", "-1"]), Some(4));
+    assert_eq!(code(&["diff", &ray, &mesh, "--no-such-option"]), Some(4));
+    let heat = path("heat.png");
+    let out = blobtrace(&["diff", &ray, &mesh, "--metric", "depth", "--mask-edges", "1", "-o", &heat, "--json"]);
+    assert_eq!(out.status.code(), Some(2));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    for key in ["mean", "median", "p95", "p99", "max", "over_fail_px", "mismatch_px", "masked_px", "verdict"] {
+        assert!(v.get(key).is_some(), "missing {key} in {v}");
+    }
+    assert!(v["masked_px"].as_u64().unwrap() > 0);
+    let img = image::open(&heat).expect("a heat map was written").to_rgb8();
+    assert!(img.width() >= 48 && img.height() > 36, "{:?}", img.dimensions());
+    std::fs::remove_dir_all(dir).unwrap();
+}

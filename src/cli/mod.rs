@@ -3,6 +3,7 @@
 
 mod bench;
 mod bench_mesh;
+mod diff;
 mod info;
 mod mesh;
 mod progress;
@@ -34,6 +35,9 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Polygonize a scene's surface and write it as PLY, OBJ or STL.
     Mesh(mesh::MeshArgs),
+    /// Compare two images (PNG or EXR) like idiff: exit 0 pass, 1 warn, 2 fail,
+    /// 3 size mismatch, 4 file error; optionally write a heat map.
+    Diff(diff::DiffArgs),
     /// Print what a scene holds: node, primitive and cache counts, names, bounds.
     Info(info::InfoArgs),
     /// Measure performance figures in one process, as ratios against a baseline.
@@ -114,14 +118,18 @@ fn parse_size(s: &str) -> Result<Size, String> {
 
 /// Parses `args` and runs the command; returns the process exit code.
 pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> ExitCode {
-    let cli = match Cli::try_parse_from(args) {
+    let args: Vec<std::ffi::OsString> = args.into_iter().collect();
+    let cli = match Cli::try_parse_from(&args) {
         Ok(cli) => cli,
         Err(e) => {
             let _ = e.print();
-            return if e.use_stderr() { ExitCode::from(2) } else { ExitCode::SUCCESS };
+            // `diff` keeps idiff's codes, where 2 means "images differ": bad options are 4 there.
+            let usage_error = if args.get(1).is_some_and(|a| a == "diff") { diff::FILE_ERROR } else { 2 };
+            return if e.use_stderr() { ExitCode::from(usage_error) } else { ExitCode::SUCCESS };
         }
     };
     let result = match cli.command {
+        Command::Diff(a) => return diff::run(&a),
         Command::Render(a) => render::run(&a),
         Command::Mesh(a) => mesh::run(&a),
         Command::Info(a) => info::run(&a),

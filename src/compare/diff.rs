@@ -242,7 +242,10 @@ mod tests {
         assert_eq!(judge(Metric::Abs, &d, &none, pass).verdict, Verdict::Pass);
         let hard = Thresholds { hardfail: 0.15, ..pass };
         assert_eq!(judge(Metric::Abs, &d, &none, hard).verdict, Verdict::Fail);
-        assert_eq!(judge(Metric::Abs, &differences(&a, &a, Metric::Abs), &none, Thresholds::default()).verdict, Verdict::Pass);
+        assert_eq!(
+            judge(Metric::Abs, &differences(&a, &a, Metric::Abs), &none, Thresholds::default()).verdict,
+            Verdict::Pass
+        );
     }
 
     #[test]

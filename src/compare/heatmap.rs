@@ -25,7 +25,7 @@ pub const NO_VALUE: [u8; 3] = [40, 40, 46];
 pub const MISMATCH: [u8; 3] = [0, 230, 230];
 
 /// Height of the strip under the image holding the title and the colour bar.
-const STRIP: u32 = 4 * LINE_HEIGHT + 12;
+const STRIP: u32 = 5 * LINE_HEIGHT + 14;
 /// Narrowest canvas, so the scale stays legible under small images.
 const MIN_WIDTH: u32 = 280;
 

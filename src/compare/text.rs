@@ -60,7 +60,13 @@ impl Rgb8Image {
     pub fn png_bytes(&self) -> Result<Vec<u8>, image::ImageError> {
         let mut out = Vec::new();
         let encoder = image::codecs::png::PngEncoder::new(&mut out);
-        image::ImageEncoder::write_image(encoder, &self.pixels, self.width, self.height, image::ExtendedColorType::Rgb8)?;
+        image::ImageEncoder::write_image(
+            encoder,
+            &self.pixels,
+            self.width,
+            self.height,
+            image::ExtendedColorType::Rgb8,
+        )?;
         Ok(out)
     }
 
