@@ -364,3 +364,46 @@ fn diff_follows_idiff_exit_codes_and_writes_a_heat_map() {
     assert!(img.width() >= 48 && img.height() > 36, "{:?}", img.dimensions());
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn compare_writes_renders_heat_maps_panel_and_stats() {
+    let dir = scratch("compare");
+    let out = blobtrace(&[
+        "compare",
+        "scenes/pair.ron",
+        "--size",
+        "64x48",
+        "--res",
+        "24",
+        "--out-dir",
+        dir.to_str().unwrap(),
+        "--json",
+    ]);
+    let v = json(&out);
+    for name in [
+        "ray.png",
+        "mesh.png",
+        "ray.exr",
+        "mesh.exr",
+        "silhouette.png",
+        "depth_error.png",
+        "normal_error.png",
+        "color_error.png",
+        "panel.png",
+        "stats.json",
+    ] {
+        assert!(dir.join(name).exists(), "{name} missing");
+    }
+    for key in ["depth_error_cells", "normal_error_deg", "color_error"] {
+        for stat in ["mean", "median", "p95", "p99", "max", "fraction_above_tolerance"] {
+            assert!(v[key].get(stat).is_some(), "{key}.{stat} missing in {v}");
+        }
+    }
+    // A coarse mesh of two smooth blobs: depth within a cell, some silhouette pixels differ.
+    assert!(v["depth_error_cells"]["p99"].as_f64().unwrap() < 1.0, "{v}");
+    assert!(v["mesh"]["mesh"]["triangles"].as_u64().unwrap() > 100);
+    assert_eq!(v["ray"]["rays"], 64 * 48);
+    let panel = image::open(dir.join("panel.png")).unwrap();
+    assert!(panel.width() > 3 * 64 && panel.height() > 2 * 48);
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -3,6 +3,7 @@
 
 mod bench;
 mod bench_mesh;
+mod compare;
 mod diff;
 mod info;
 mod mesh;
@@ -35,6 +36,9 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Polygonize a scene's surface and write it as PLY, OBJ or STL.
     Mesh(mesh::MeshArgs),
+    /// Render a scene by tracing its field and by ray casting its polygonized
+    /// surface, and show where they disagree: renders, heat maps, a panel, stats.
+    Compare(compare::CompareArgs),
     /// Compare two images (PNG or EXR) like idiff: exit 0 pass, 1 warn, 2 fail,
     /// 3 size mismatch, 4 file error; optionally write a heat map.
     Diff(diff::DiffArgs),
@@ -131,6 +135,7 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Exi
     let result = match cli.command {
         Command::Diff(a) => return diff::run(&a),
         Command::Render(a) => render::run(&a),
+        Command::Compare(a) => compare::run(&a),
         Command::Mesh(a) => mesh::run(&a),
         Command::Info(a) => info::run(&a),
         Command::Bench(b) => bench::run(&b),

@@ -145,3 +145,39 @@ mod tests {
         assert_eq!(&img.pixels[below..below + 3], &MISMATCH[..]);
     }
 }
+
+/// Colours of the silhouette map: both hit, first only, second only, neither.
+pub const SILHOUETTE_COLORS: [[u8; 3]; 4] = [[200, 200, 200], [240, 140, 20], [0, 200, 230], NO_VALUE];
+
+/// Where each of two renders hit the surface: both, the first only, the second
+/// only, neither — each in its own colour, with a legend naming them.
+#[must_use]
+pub fn silhouette_map(first: &[f32], second: &[f32], width: u32, height: u32, names: [&str; 2]) -> Rgb8Image {
+    let canvas_width = width.max(MIN_WIDTH);
+    let mut img = Rgb8Image::filled(canvas_width, height + STRIP, [255, 255, 255]);
+    for y in 0..height {
+        for x in 0..width {
+            let i = (y * width + x) as usize;
+            let k = match (first[i].is_finite(), second[i].is_finite()) {
+                (true, true) => 0,
+                (true, false) => 1,
+                (false, true) => 2,
+                (false, false) => 3,
+            };
+            img.put(i64::from(x), i64::from(y), SILHOUETTE_COLORS[k]);
+        }
+    }
+    let labels = ["both hit".to_string(), format!("{} only", names[0]), format!("{} only", names[1]), "neither".into()];
+    let y0 = i64::from(height) + 4;
+    img.text(8, y0, "silhouette mismatch", [0, 0, 0]);
+    for (k, label) in labels.iter().enumerate() {
+        let (x, y) = (8 + (k as i64 % 2) * 140, y0 + 14 + (k as i64 / 2) * 12);
+        for dy in 0..8 {
+            for dx in 0..8 {
+                img.put(x + dx, y + dy, SILHOUETTE_COLORS[k]);
+            }
+        }
+        img.text(x + 11, y, label, [0, 0, 0]);
+    }
+    img
+}

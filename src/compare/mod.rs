@@ -4,9 +4,11 @@
 mod diff;
 mod heatmap;
 mod load;
+mod panel;
 mod text;
 
 pub use diff::{DiffReport, Metric, Thresholds, Verdict, differences, edge_mask, judge};
-pub use heatmap::{MISMATCH, NO_VALUE, Scale, heat_map};
+pub use heatmap::{MISMATCH, NO_VALUE, SILHOUETTE_COLORS, Scale, heat_map, silhouette_map};
 pub use load::{LoadedImage, load_image};
+pub use panel::{frame_image, panel};
 pub use text::{CHAR_WIDTH, LINE_HEIGHT, Rgb8Image};

@@ -1,0 +1,215 @@
+//! `blobtrace compare`: render a scene by tracing its field and by ray casting
+//! its polygonized surface with the same camera, and show where they disagree —
+//! renders, EXRs of every AOV, heat maps with printed scales, one panel, and
+//! statistics.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+use serde::Serialize;
+
+use super::mesh::{MeshReport, PolygonizeArgs, polygonize_scene};
+use super::render::{MeshRenderReport, RenderReport, render_polygonized, render_scene};
+use super::{EvalOptions, with_threads};
+use crate::compare::{
+    DiffReport, Metric, Rgb8Image, Scale, Thresholds, differences, frame_image, heat_map, judge, panel, silhouette_map,
+};
+use crate::frame::Frame;
+use crate::scene::{Scene, Size};
+
+/// Options of `blobtrace compare`.
+#[derive(Debug, Args)]
+pub struct CompareArgs {
+    /// Scene file (RON), e.g. scenes/medusa.ron.
+    pub scene: PathBuf,
+    /// Image size WIDTHxHEIGHT, overriding the scene's `size`.
+    #[arg(long, value_parser = super::parse_size)]
+    pub size: Option<Size>,
+    /// Polygonizer options.
+    #[command(flatten)]
+    pub polygonize: PolygonizeArgs,
+    /// Field evaluation for both the tracer and the polygonizer.
+    #[command(flatten)]
+    pub field: EvalOptions,
+    /// Directory for the images and stats.json (created if missing).
+    #[arg(long, default_value = "compare")]
+    pub out_dir: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print stats.json on stdout too.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Tolerances behind each error image's "fraction above tolerance".
+#[derive(Debug, Serialize)]
+pub struct Tolerances {
+    /// Depth, in lattice cells.
+    pub depth_cells: f32,
+    /// Normal angle, in degrees.
+    pub normal_deg: f32,
+    /// Colour, largest linear RGB difference.
+    pub color: f32,
+}
+
+/// Statistics of one error image.
+#[derive(Debug, Serialize)]
+pub struct ErrorStats {
+    /// Mean of the magnitudes over pixels both renders hit (all pixels for colour).
+    pub mean: f64,
+    /// Median.
+    pub median: f32,
+    /// 95th percentile.
+    pub p95: f32,
+    /// 99th percentile.
+    pub p99: f32,
+    /// Largest.
+    pub max: f32,
+    /// Fraction of the compared pixels above the tolerance.
+    pub fraction_above_tolerance: f64,
+    /// Pixels compared.
+    pub compared_px: usize,
+}
+
+impl From<&DiffReport> for ErrorStats {
+    fn from(r: &DiffReport) -> Self {
+        Self {
+            mean: r.mean,
+            median: r.median,
+            p95: r.p95,
+            p99: r.p99,
+            max: r.max,
+            fraction_above_tolerance: r.over_fail_percent / 100.0,
+            compared_px: r.compared,
+        }
+    }
+}
+
+/// What `compare` writes to stats.json.
+#[derive(Debug, Serialize)]
+pub struct CompareReport {
+    /// Pixels hit by one render only.
+    pub mismatch_px: usize,
+    /// Depth error (mesh − field), in lattice cells.
+    pub depth_error_cells: ErrorStats,
+    /// Normal angle error, degrees.
+    pub normal_error_deg: ErrorStats,
+    /// Colour difference.
+    pub color_error: ErrorStats,
+    /// The tolerances used.
+    pub tolerances: Tolerances,
+    /// The field render.
+    pub ray: RenderReport,
+    /// The mesh render, with the polygonization.
+    pub mesh: MeshRenderReport,
+}
+
+/// Runs `blobtrace compare`.
+pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
+    let mut scene = Scene::load(&a.scene)?;
+    let mode = a.field.apply(&mut scene.model)?;
+    let size = a.size.unwrap_or(scene.size);
+    std::fs::create_dir_all(&a.out_dir).with_context(|| format!("creating {}", a.out_dir.display()))?;
+    let (ray, mesh, report) = with_threads(a.threads, || -> anyhow::Result<_> {
+        a.polygonize.check(&scene)?;
+        let (ray, ray_report) = render_scene(&scene, size, mode);
+        let (mesh_model, mesh_report): (_, MeshReport) = polygonize_scene(&scene, mode, &a.polygonize);
+        let (mesh, mesh_render) = render_polygonized(&scene, &mesh_model, mesh_report, size);
+        let report = measure(&ray, &mesh, ray_report, mesh_render);
+        Ok((ray, mesh, report))
+    })??;
+    write_outputs(&a.out_dir, &ray, &mesh, &report)?;
+    let json = serde_json::to_string_pretty(&report).context("encoding the report")?;
+    crate::output::write_atomic(&a.out_dir.join("stats.json"), json.as_bytes()).context("writing stats.json")?;
+    if a.json {
+        println!("{json}");
+    } else {
+        eprintln!(
+            "{}: {} pixels hit by one render only; depth error mean {:.3} cells (p99 {:.3}); normal error mean {:.2}° (p99 {:.2}°); mesh of {} triangles",
+            a.out_dir.display(),
+            report.mismatch_px,
+            report.depth_error_cells.mean,
+            report.depth_error_cells.p99,
+            report.normal_error_deg.mean,
+            report.normal_error_deg.p99,
+            report.mesh.mesh.triangles
+        );
+    }
+    Ok(())
+}
+
+/// Error images' statistics from the two frames.
+fn measure(ray: &Frame, mesh: &Frame, ray_report: RenderReport, mesh_report: MeshRenderReport) -> CompareReport {
+    let tolerances = Tolerances { depth_cells: 0.25, normal_deg: 5.0, color: 0.05 };
+    let cell = mesh_report.mesh.cell_size;
+    let stats = |values: Vec<f32>, tolerance: f32| {
+        // Pixels hit by one render only are the silhouette map's business.
+        let both: Vec<f32> = values.into_iter().map(|v| if v.is_infinite() { f32::NAN } else { v }).collect();
+        let t = Thresholds {
+            fail: tolerance,
+            failpercent: 100.0,
+            warn: tolerance,
+            warnpercent: 100.0,
+            ..Default::default()
+        };
+        ErrorStats::from(&judge(Metric::Abs, &both, &vec![false; both.len()], t))
+    };
+    let depth: Vec<f32> = differences(mesh, ray, Metric::Depth).into_iter().map(|d| d / cell).collect();
+    CompareReport {
+        mismatch_px: ray.depth.iter().zip(&mesh.depth).filter(|(a, b)| a.is_finite() != b.is_finite()).count(),
+        depth_error_cells: stats(depth, tolerances.depth_cells),
+        normal_error_deg: stats(differences(mesh, ray, Metric::Normal), tolerances.normal_deg),
+        color_error: stats(differences(mesh, ray, Metric::Abs), tolerances.color),
+        tolerances,
+        ray: ray_report,
+        mesh: mesh_report,
+    }
+}
+
+fn write_outputs(dir: &Path, ray: &Frame, mesh: &Frame, report: &CompareReport) -> anyhow::Result<()> {
+    ray.save_png(&dir.join("ray.png"))?;
+    mesh.save_png(&dir.join("mesh.png"))?;
+    ray.save_exr(&dir.join("ray.exr"))?;
+    mesh.save_exr(&dir.join("mesh.exr"))?;
+    let (w, h) = (ray.width, ray.height);
+    let cell = report.mesh.mesh.cell_size;
+    let depth: Vec<f32> = differences(mesh, ray, Metric::Depth).into_iter().map(|d| d / cell).collect();
+    let maps: [(&str, Rgb8Image); 4] = [
+        ("silhouette.png", silhouette_map(&ray.depth, &mesh.depth, w, h, ["field", "mesh"])),
+        ("depth_error.png", heat_map(&depth, w, h, Scale::Signed { max: 1.0 }, "depth error, mesh - field", "cells")),
+        (
+            "normal_error.png",
+            heat_map(
+                &differences(mesh, ray, Metric::Normal),
+                w,
+                h,
+                Scale::Magnitude { max: 10.0 },
+                "normal error",
+                "deg",
+            ),
+        ),
+        (
+            "color_error.png",
+            heat_map(
+                &differences(mesh, ray, Metric::Abs),
+                w,
+                h,
+                Scale::Magnitude { max: 0.1 },
+                "colour difference",
+                "",
+            ),
+        ),
+    ];
+    for (name, img) in &maps {
+        img.save_png(&dir.join(name))?;
+    }
+    let mut items = vec![
+        ("field (ray traced)".to_string(), frame_image(ray)),
+        (format!("mesh, res {} ({} triangles)", report.mesh.mesh.res, report.mesh.mesh.triangles), frame_image(mesh)),
+    ];
+    let titles = ["silhouette", "depth error", "normal error", "colour difference"];
+    items.extend(titles.iter().zip(maps).map(|(t, (_, img))| (t.to_string(), img)));
+    panel(&items, 3).save_png(&dir.join("panel.png"))
+}
