@@ -119,33 +119,6 @@ fn format_value(v: f32) -> String {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn scales_saturate_and_mark_special_values() {
-        let m = Scale::Magnitude { max: 2.0 };
-        assert_eq!(m.color(5.0), m.color(2.0));
-        assert_ne!(m.color(0.0), m.color(2.0));
-        assert_eq!(m.color(f32::NAN), NO_VALUE);
-        assert_eq!(m.color(f32::INFINITY), MISMATCH);
-        let s = Scale::Signed { max: 1.0 };
-        let (neg, pos) = (s.color(-1.0), s.color(1.0));
-        assert!(pos[0] > pos[2] && neg[2] > neg[0], "{pos:?} {neg:?}");
-        assert_eq!(format_value(0.05), "0.05");
-        assert_eq!(format_value(2e-4), "2.0e-4");
-    }
-
-    #[test]
-    fn heat_map_has_the_image_above_a_strip() {
-        let img = heat_map(&[0.0, 1.0, f32::INFINITY, f32::NAN], 2, 2, Scale::Magnitude { max: 1.0 }, "t", "u");
-        assert_eq!((img.width, img.height), (MIN_WIDTH, 2 + STRIP));
-        let below = (MIN_WIDTH * 3) as usize;
-        assert_eq!(&img.pixels[below..below + 3], &MISMATCH[..]);
-    }
-}
-
 /// Colours of the silhouette map: both hit, first only, second only, neither.
 pub const SILHOUETTE_COLORS: [[u8; 3]; 4] = [[200, 200, 200], [240, 140, 20], [0, 200, 230], NO_VALUE];
 
@@ -180,4 +153,31 @@ pub fn silhouette_map(first: &[f32], second: &[f32], width: u32, height: u32, na
         img.text(x + 11, y, label, [0, 0, 0]);
     }
     img
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scales_saturate_and_mark_special_values() {
+        let m = Scale::Magnitude { max: 2.0 };
+        assert_eq!(m.color(5.0), m.color(2.0));
+        assert_ne!(m.color(0.0), m.color(2.0));
+        assert_eq!(m.color(f32::NAN), NO_VALUE);
+        assert_eq!(m.color(f32::INFINITY), MISMATCH);
+        let s = Scale::Signed { max: 1.0 };
+        let (neg, pos) = (s.color(-1.0), s.color(1.0));
+        assert!(pos[0] > pos[2] && neg[2] > neg[0], "{pos:?} {neg:?}");
+        assert_eq!(format_value(0.05), "0.05");
+        assert_eq!(format_value(2e-4), "2.0e-4");
+    }
+
+    #[test]
+    fn heat_map_has_the_image_above_a_strip() {
+        let img = heat_map(&[0.0, 1.0, f32::INFINITY, f32::NAN], 2, 2, Scale::Magnitude { max: 1.0 }, "t", "u");
+        assert_eq!((img.width, img.height), (MIN_WIDTH, 2 + STRIP));
+        let below = (MIN_WIDTH * 3) as usize;
+        assert_eq!(&img.pixels[below..below + 3], &MISMATCH[..]);
+    }
 }
