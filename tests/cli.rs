@@ -407,3 +407,37 @@ fn compare_writes_renders_heat_maps_panel_and_stats() {
     assert!(panel.width() > 3 * 64 && panel.height() > 2 * 48);
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn mesh_error_colours_vertices_by_the_cache_error() {
+    let dir = scratch("mesh-error");
+    let ply = dir.join("m.ply");
+    let out =
+        blobtrace(&["mesh", "scenes/medusa.ron", "--res", "32", "--error", "-o", ply.to_str().unwrap(), "--json"]);
+    let v = json(&out);
+    let e = &v["error_c"];
+    let (mean, max) = (e["mean"].as_f64().unwrap(), e["max"].as_f64().unwrap());
+    assert!(mean > 0.0 && mean < max && max < 0.5, "{e}");
+    assert_eq!(e["points"], v["vertices"]);
+    let bytes = std::fs::read(&ply).unwrap();
+    let header = String::from_utf8_lossy(&bytes[..400]);
+    assert!(header.contains("property float error") && header.contains("property uchar red"), "{header}");
+    let no_caches = blobtrace(&["mesh", "scenes/pair.ron", "--error", "-o", ply.to_str().unwrap()]);
+    assert!(!no_caches.status.success());
+    assert!(String::from_utf8_lossy(&no_caches.stderr).contains("no Cache nodes"));
+    let cmp = dir.join("cmp");
+    let out = blobtrace(&[
+        "compare",
+        "scenes/hair_point.ron",
+        "--size",
+        "48x36",
+        "--res",
+        "32",
+        "--error",
+        "--out-dir",
+        cmp.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(cmp.join("mesh_error.png").exists());
+    std::fs::remove_dir_all(dir).unwrap();
+}

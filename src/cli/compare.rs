@@ -9,7 +9,7 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 
-use super::mesh::{MeshReport, PolygonizeArgs, polygonize_scene};
+use super::mesh::{CacheErrorArgs, PolygonizeArgs, polygonize_scene};
 use super::render::{MeshRenderReport, RenderReport, render_polygonized, render_scene};
 use super::{EvalOptions, with_threads};
 use crate::compare::{
@@ -32,6 +32,9 @@ pub struct CompareArgs {
     /// Field evaluation for both the tracer and the polygonizer.
     #[command(flatten)]
     pub field: EvalOptions,
+    /// Also render the mesh coloured by error_C (needs Cache nodes).
+    #[command(flatten)]
+    pub error: CacheErrorArgs,
     /// Directory for the images and stats.json (created if missing).
     #[arg(long, default_value = "compare")]
     pub out_dir: PathBuf,
@@ -112,15 +115,22 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
     let mode = a.field.apply(&mut scene.model)?;
     let size = a.size.unwrap_or(scene.size);
     std::fs::create_dir_all(&a.out_dir).with_context(|| format!("creating {}", a.out_dir.display()))?;
-    let (ray, mesh, report) = with_threads(a.threads, || -> anyhow::Result<_> {
+    let (ray, mesh, error_render, report) = with_threads(a.threads, || -> anyhow::Result<_> {
         a.polygonize.check(&scene)?;
         let (ray, ray_report) = render_scene(&scene, size, mode);
-        let (mesh_model, mesh_report): (_, MeshReport) = polygonize_scene(&scene, mode, &a.polygonize);
+        let (mesh_model, mut mesh_report) = polygonize_scene(&scene, mode, &a.polygonize);
+        let mut by_error = mesh_model.clone();
+        a.error.apply(&scene, &mut by_error, &mut mesh_report)?;
+        let error_render = a.error.error.then(|| render_polygonized(&scene, &by_error, mesh_report.clone(), size).0);
         let (mesh, mesh_render) = render_polygonized(&scene, &mesh_model, mesh_report, size);
         let report = measure(&ray, &mesh, ray_report, mesh_render);
-        Ok((ray, mesh, report))
+        Ok((ray, mesh, error_render, report))
     })??;
-    write_outputs(&a.out_dir, &ray, &mesh, &report)?;
+    let heat_maps = write_outputs(&a.out_dir, &ray, &mesh, &report)?;
+    if let Some(frame) = &error_render {
+        frame.save_png(&a.out_dir.join("mesh_error.png"))?;
+    }
+    write_panel(&a.out_dir, &ray, &mesh, error_render.as_ref(), a.error.error_scale, &report, heat_maps)?;
     let json = serde_json::to_string_pretty(&report).context("encoding the report")?;
     crate::output::write_atomic(&a.out_dir.join("stats.json"), json.as_bytes()).context("writing stats.json")?;
     if a.json {
@@ -168,7 +178,13 @@ fn measure(ray: &Frame, mesh: &Frame, ray_report: RenderReport, mesh_report: Mes
     }
 }
 
-fn write_outputs(dir: &Path, ray: &Frame, mesh: &Frame, report: &CompareReport) -> anyhow::Result<()> {
+/// Writes the renders, EXRs and heat maps; returns the heat maps with their panel titles.
+fn write_outputs(
+    dir: &Path,
+    ray: &Frame,
+    mesh: &Frame,
+    report: &CompareReport,
+) -> anyhow::Result<Vec<(String, Rgb8Image)>> {
     ray.save_png(&dir.join("ray.png"))?;
     mesh.save_png(&dir.join("mesh.png"))?;
     ray.save_exr(&dir.join("ray.exr"))?;
@@ -205,11 +221,27 @@ fn write_outputs(dir: &Path, ray: &Frame, mesh: &Frame, report: &CompareReport) 
     for (name, img) in &maps {
         img.save_png(&dir.join(name))?;
     }
+    let titles = ["silhouette", "depth error", "normal error", "colour difference"];
+    Ok(titles.iter().zip(maps).map(|(t, (_, img))| (t.to_string(), img)).collect())
+}
+
+/// The panel: both renders, the mesh by error_C when asked, and the heat maps.
+fn write_panel(
+    dir: &Path,
+    ray: &Frame,
+    mesh: &Frame,
+    by_error: Option<&Frame>,
+    error_scale: f32,
+    report: &CompareReport,
+    heat_maps: Vec<(String, Rgb8Image)>,
+) -> anyhow::Result<()> {
     let mut items = vec![
         ("field (ray traced)".to_string(), frame_image(ray)),
         (format!("mesh, res {} ({} triangles)", report.mesh.mesh.res, report.mesh.mesh.triangles), frame_image(mesh)),
     ];
-    let titles = ["silhouette", "depth error", "normal error", "colour difference"];
-    items.extend(titles.iter().zip(maps).map(|(t, (_, img))| (t.to_string(), img)));
-    panel(&items, 3).save_png(&dir.join("panel.png"))
+    if let Some(f) = by_error {
+        items.push((format!("mesh by error_C, magma 0..{error_scale}"), frame_image(f)));
+    }
+    items.extend(heat_maps);
+    panel(&items, if by_error.is_some() { 4 } else { 3 }).save_png(&dir.join("panel.png"))
 }

@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use super::render::CacheReport;
 use super::{EvalOptions, check_output_dir, scene_stem, with_threads};
+use crate::compare::{CacheErrorStats, cache_error_at, cache_error_stats, error_colors};
 use crate::field::{EvalMode, ModelField};
 use crate::mesh::{
     CellShape, Lattice, Mesh, MeshFormat, PolygonizeOptions, PolygonizeStats, Polygonizer, Topology, TriangleQuality,
@@ -143,13 +144,51 @@ pub struct MeshArgs {
     /// Field evaluation: exact or cached, and the cache budget.
     #[command(flatten)]
     pub field: EvalOptions,
+    /// Colour the vertices by error_C = |f_C − f| (cached against exact field) and
+    /// store it in the PLY as `error`; print its mean and maximum.
+    #[command(flatten)]
+    pub error: CacheErrorArgs,
     /// Print one JSON object of statistics on stdout instead of a summary line.
     #[arg(long)]
     pub json: bool,
 }
 
+/// Colouring a mesh by the caches' reconstruction error.
+#[derive(Clone, Copy, Debug, Args)]
+pub struct CacheErrorArgs {
+    /// Colour vertices by error_C = |f_C(p) − f(p)| (needs Cache nodes).
+    #[arg(long)]
+    pub error: bool,
+    /// The error drawn brightest (default 0.05, a tenth of the usual iso-value).
+    #[arg(long, default_value_t = 0.05, value_name = "E")]
+    pub error_scale: f32,
+}
+
+impl CacheErrorArgs {
+    /// With `--error`, colours `mesh` by error_C and records its statistics in `report`.
+    pub fn apply(&self, scene: &Scene, mesh: &mut Mesh, report: &mut MeshReport) -> anyhow::Result<()> {
+        if !self.error {
+            return Ok(());
+        }
+        anyhow::ensure!(
+            scene.model.counts().caches > 0,
+            "--error measures the caches, and the scene has no Cache nodes"
+        );
+        anyhow::ensure!(
+            self.error_scale.is_finite() && self.error_scale > 0.0,
+            "--error-scale must be positive, got {}",
+            self.error_scale
+        );
+        let errors = cache_error_at(&scene.model, &mesh.positions);
+        report.error_c = Some(cache_error_stats(&errors, scene.model.threshold()));
+        mesh.colors = Some(error_colors(&errors, self.error_scale));
+        mesh.error = Some(errors);
+        Ok(())
+    }
+}
+
 /// Statistics of one polygonization.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, Serialize)]
 pub struct MeshReport {
     /// Wall-clock seconds polygonizing (seeding, growing, vertices, assembling the mesh).
     pub seconds: f64,
@@ -192,6 +231,9 @@ pub struct MeshReport {
     /// What the caches hold and did, when polygonizing cached.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub caches: Option<CacheReport>,
+    /// error_C at the vertices, with `--error`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_c: Option<CacheErrorStats>,
 }
 
 /// Runs `blobtrace mesh`.
@@ -203,7 +245,9 @@ pub fn run(a: &MeshArgs) -> anyhow::Result<()> {
     check_output_dir(&output)?;
     let (mesh, report) = with_threads(a.threads, || -> anyhow::Result<_> {
         a.polygonize.check(&scene)?;
-        Ok(polygonize_scene(&scene, mode, &a.polygonize))
+        let (mut mesh, mut report) = polygonize_scene(&scene, mode, &a.polygonize);
+        a.error.apply(&scene, &mut mesh, &mut report)?;
+        Ok((mesh, report))
     })??;
     write_mesh(&output, &mesh, format).with_context(|| format!("writing {}", output.display()))?;
     if a.json {
@@ -218,6 +262,15 @@ pub fn run(a: &MeshArgs) -> anyhow::Result<()> {
             report.evals_per_triangle,
             if report.closed_manifold { ", closed" } else { ", NOT closed" }
         );
+        if let Some(e) = report.error_c {
+            eprintln!(
+                "error_C at the vertices: mean {:.2e} ({:.2}% of T), max {:.2e} ({:.1}% of T)",
+                e.mean,
+                100.0 * e.mean_relative,
+                e.max,
+                100.0 * e.max_relative
+            );
+        }
     }
     Ok(())
 }
@@ -253,6 +306,7 @@ pub fn polygonize_scene(scene: &Scene, mode: EvalMode, args: &PolygonizeArgs) ->
         eval: format!("{mode:?}").to_lowercase(),
         threads: rayon::current_num_threads(),
         caches: (mode == EvalMode::Cached).then(|| CacheReport::of(&scene.model)),
+        error_c: None,
     };
     (mesh, report)
 }

@@ -95,7 +95,7 @@ pub struct RenderReport {
 }
 
 /// Cache statistics of a cached render: totals, then each cache.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, Serialize)]
 pub struct CacheReport {
     /// Samples evaluated from the subtrees (including re-evaluations after eviction).
     pub samples_evaluated: u64,
@@ -118,7 +118,7 @@ pub struct CacheReport {
 }
 
 /// One cache's statistics.
-#[derive(Debug, Serialize)]
+#[derive(Clone, Debug, Serialize)]
 pub struct NamedCacheStats {
     /// The nearest name above the cache.
     pub name: String,

@@ -1,12 +1,14 @@
 //! The comparison stage: per-pixel differences between two renders, judged
 //! with idiff's thresholds, drawn as heat maps with printed scales.
 
+mod cache_error;
 mod diff;
 mod heatmap;
 mod load;
 mod panel;
 mod text;
 
+pub use cache_error::{CacheErrorStats, cache_error_at, cache_error_stats, error_colors};
 pub use diff::{DiffReport, Metric, Thresholds, Verdict, differences, edge_mask, judge};
 pub use heatmap::{MISMATCH, NO_VALUE, SILHOUETTE_COLORS, Scale, heat_map, silhouette_map};
 pub use load::{LoadedImage, load_image};

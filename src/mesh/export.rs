@@ -52,6 +52,10 @@ fn ply_bytes(mesh: &Mesh) -> Vec<u8> {
     if colors.is_some() {
         header.push_str("property uchar red\nproperty uchar green\nproperty uchar blue\n");
     }
+    let errors = mesh.error.as_deref();
+    if errors.is_some() {
+        header.push_str("property float error\n");
+    }
     let _ = writeln!(header, "element face {}", mesh.triangles.len());
     header.push_str("property list uchar int vertex_indices\nend_header\n");
     let mut out = header.into_bytes();
@@ -61,6 +65,9 @@ fn ply_bytes(mesh: &Mesh) -> Vec<u8> {
         }
         if let Some(c) = colors {
             out.extend(c[i].to_array().map(linear_to_srgb8));
+        }
+        if let Some(e) = errors {
+            out.extend_from_slice(&e[i].to_le_bytes());
         }
     }
     for t in &mesh.triangles {

@@ -52,6 +52,8 @@ pub struct Mesh {
     pub colors: Option<Vec<Vec3>>,
     /// Triangles as vertex indices, counter-clockwise seen from outside.
     pub triangles: Vec<[u32; 3]>,
+    /// A per-vertex error (error_C), written to PLY files as `error`.
+    pub error: Option<Vec<f32>>,
 }
 
 /// Cuts a polygon (a loop of vertex ids) into triangles: a quadrilateral along
