@@ -41,4 +41,5 @@ pub mod geom;
 pub mod mesh;
 pub mod output;
 pub mod scene;
+pub mod slice;
 pub mod trace;

@@ -441,3 +441,51 @@ fn mesh_error_colours_vertices_by_the_cache_error() {
     assert!(cmp.join("mesh_error.png").exists());
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn slices_show_the_field_and_the_caches_errors() {
+    let dir = scratch("slice");
+    let png = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    let run = |args: &[&str]| blobtrace(args);
+    let field = run(&["slice", "scenes/pair.ron", "--plane", "z=0", "--size", "80x60", "-o", &png("f.png")]);
+    assert!(field.status.success(), "{}", String::from_utf8_lossy(&field.stderr));
+    let img = image::open(png("f.png")).unwrap().to_rgb8();
+    // The iso-contour is drawn in white inside the slice.
+    assert!(img.pixels().any(|p| p.0 == [255, 255, 255]));
+    for show in ["sharp", "error", "gradient"] {
+        let out = run(&[
+            "slice",
+            "scenes/hair_point.ron",
+            "--plane",
+            "0.5,2,0+0,0,1",
+            "--size",
+            "60x60",
+            "--show",
+            show,
+            "--res-sweep",
+            "16,32",
+            "-o",
+            &png(&format!("{show}.png")),
+        ]);
+        assert!(out.status.success(), "{show}: {}", String::from_utf8_lossy(&out.stderr));
+        let img = image::open(png(&format!("{show}.png"))).unwrap();
+        // Sharp: exact and two filters; error and gradient: two filters by two resolutions.
+        assert!(
+            img.width() > if show == "sharp" { 3 * 50 } else { 2 * 200 },
+            "{show}: {:?}",
+            (img.width(), img.height())
+        );
+    }
+    for (args, words) in [
+        (vec!["--plane", "w=1"], "expected x=V"),
+        (vec!["--plane", "z=0", "--show", "error"], "has none"),
+        (vec!["--plane", "z=0", "--res-sweep", "1"], "2..=1024"),
+    ] {
+        let mut all = vec!["slice", "scenes/pair.ron"];
+        all.extend(args);
+        let out = run(&all);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(words), "{all:?}: {err}");
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}

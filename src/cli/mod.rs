@@ -9,6 +9,7 @@ mod info;
 mod mesh;
 mod progress;
 mod render;
+mod slice;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -39,6 +40,9 @@ pub enum Command {
     /// Render a scene by tracing its field and by ray casting its polygonized
     /// surface, and show where they disagree: renders, heat maps, a panel, stats.
     Compare(compare::CompareArgs),
+    /// Images of the field on a plane: f, the sharp view, error_C and gradient
+    /// error of the caches per filter and resolution.
+    Slice(slice::SliceArgs),
     /// Compare two images (PNG or EXR) like idiff: exit 0 pass, 1 warn, 2 fail,
     /// 3 size mismatch, 4 file error; optionally write a heat map.
     Diff(diff::DiffArgs),
@@ -136,6 +140,7 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Exi
         Command::Diff(a) => return diff::run(&a),
         Command::Render(a) => render::run(&a),
         Command::Compare(a) => compare::run(&a),
+        Command::Slice(a) => slice::run(&a),
         Command::Mesh(a) => mesh::run(&a),
         Command::Info(a) => info::run(&a),
         Command::Bench(b) => bench::run(&b),

@@ -68,11 +68,14 @@ pub fn heat_map(values: &[f32], width: u32, height: u32, scale: Scale, title: &s
             img.put(i64::from(x), i64::from(y), scale.color(values[(y * width + x) as usize]));
         }
     }
-    draw_bar(&mut img, height, scale, title, unit);
+    let special = values.iter().any(|v| !v.is_finite());
+    draw_bar(&mut img, height, scale, title, unit, special);
     img
 }
 
-fn draw_bar(img: &mut Rgb8Image, top: u32, scale: Scale, title: &str, unit: &str) {
+/// Draws the title, the bar and its labels; the legend of special colours only
+/// when the image uses them.
+fn draw_bar(img: &mut Rgb8Image, top: u32, scale: Scale, title: &str, unit: &str, legend: bool) {
     let black = [0, 0, 0];
     let margin = 8i64;
     let y0 = i64::from(top) + 4;
@@ -93,6 +96,9 @@ fn draw_bar(img: &mut Rgb8Image, top: u32, scale: Scale, title: &str, unit: &str
         let w = i64::from(Rgb8Image::text_width(&text));
         let x = (margin + (bar_w as f32 * at) as i64 - (w as f32 * at) as i64).max(0);
         img.text(x, label_y, &text, black);
+    }
+    if !legend {
+        return;
     }
     let legend_y = label_y + i64::from(LINE_HEIGHT) + 3;
     for (k, (color, name)) in [(MISMATCH, "hit in one only"), (NO_VALUE, "missed by both")].into_iter().enumerate() {

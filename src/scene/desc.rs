@@ -216,6 +216,31 @@ pub enum NodeDesc {
     },
 }
 
+impl NodeDesc {
+    /// Calls `f` on the resolution and the value and gradient filters of every
+    /// `Cache` in this subtree, so experiments can vary them.
+    pub fn for_each_cache(&mut self, f: &mut impl FnMut(&mut Resolution, &mut Filter, &mut Filter)) {
+        match self {
+            NodeDesc::Cache { res, value, gradient, child, .. } => {
+                f(res, value, gradient);
+                child.for_each_cache(f);
+            }
+            NodeDesc::Blend(c)
+            | NodeDesc::Union(c)
+            | NodeDesc::Intersection(c)
+            | NodeDesc::Ricci { children: c, .. } => {
+                c.0.iter_mut().for_each(|n| n.for_each_cache(f));
+            }
+            NodeDesc::Difference(a, b) => {
+                a.for_each_cache(f);
+                b.for_each_cache(f);
+            }
+            NodeDesc::Transform { child, .. } | NodeDesc::Named(_, child) => child.for_each_cache(f),
+            _ => {}
+        }
+    }
+}
+
 /// A non-empty list of child nodes.
 #[derive(Debug)]
 pub struct Children(pub Vec<NodeDesc>);
