@@ -489,3 +489,43 @@ fn slices_show_the_field_and_the_caches_errors() {
     }
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn regression_passes_on_the_bundled_references_and_fails_on_a_perturbed_model() {
+    let dir = scratch("regress");
+    let report = dir.join("report");
+    let out = blobtrace(&["regress", "--report", report.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read_to_string(report.join("index.html")).unwrap().contains("Pass"));
+    // The same scenes with one blob grown a little.
+    let scenes = dir.join("scenes");
+    std::fs::create_dir_all(&scenes).unwrap();
+    for entry in std::fs::read_dir("scenes").unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "ron") {
+            std::fs::copy(&path, scenes.join(path.file_name().unwrap())).unwrap();
+        }
+    }
+    let pair = std::fs::read_to_string("scenes/pair.ron").unwrap();
+    std::fs::write(scenes.join("pair.ron"), pair.replacen("radius: 1.6", "radius: 1.7", 1)).unwrap();
+    let bad_report = dir.join("bad");
+    let out = blobtrace(&["regress", "--scenes", scenes.to_str().unwrap(), "--report", bad_report.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("failed"));
+    assert!(bad_report.join("actual-pair-field-96x72.png").exists());
+    assert!(bad_report.join("diff-pair-field-96x72.png").exists());
+    assert!(!bad_report.join("actual-sphere-field-64x48.png").exists());
+    // Blessing into a fresh directory reproduces the bundled references, which then pass.
+    let refs = dir.join("refs");
+    std::fs::create_dir_all(&refs).unwrap();
+    std::fs::copy("images/ref/manifest.ron", refs.join("manifest.ron")).unwrap();
+    assert!(blobtrace(&["regress", "--refs", refs.to_str().unwrap(), "--bless"]).status.success());
+    assert_eq!(
+        std::fs::read(refs.join("pair-mesh32-96x72.png")).unwrap(),
+        std::fs::read("images/ref/pair-mesh32-96x72.png").unwrap()
+    );
+    let again =
+        blobtrace(&["regress", "--refs", refs.to_str().unwrap(), "--report", dir.join("again").to_str().unwrap()]);
+    assert!(again.status.success());
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -8,6 +8,7 @@ mod diff;
 mod info;
 mod mesh;
 mod progress;
+mod regress;
 mod render;
 mod slice;
 
@@ -43,6 +44,9 @@ pub enum Command {
     /// Images of the field on a plane: f, the sharp view, error_C and gradient
     /// error of the caches per filter and resolution.
     Slice(slice::SliceArgs),
+    /// Render every entry of images/ref/manifest.ron and compare it with its
+    /// reference (--bless rewrites them); exits non-zero on any failure.
+    Regress(regress::RegressArgs),
     /// Compare two images (PNG or EXR) like idiff: exit 0 pass, 1 warn, 2 fail,
     /// 3 size mismatch, 4 file error; optionally write a heat map.
     Diff(diff::DiffArgs),
@@ -141,6 +145,7 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Exi
         Command::Render(a) => render::run(&a),
         Command::Compare(a) => compare::run(&a),
         Command::Slice(a) => slice::run(&a),
+        Command::Regress(a) => regress::run(&a),
         Command::Mesh(a) => mesh::run(&a),
         Command::Info(a) => info::run(&a),
         Command::Bench(b) => bench::run(&b),
