@@ -57,6 +57,21 @@ pub struct Tolerances {
     pub color: f32,
 }
 
+/// Wall-clock seconds of each stage of `compare`.
+#[derive(Debug, Serialize)]
+pub struct StageSeconds {
+    /// Tracing the field.
+    pub field_render: f64,
+    /// Polygonizing.
+    pub polygonize: f64,
+    /// Building the CWBVH.
+    pub bvh_build: f64,
+    /// Ray casting the mesh.
+    pub mesh_render: f64,
+    /// Computing the error images' statistics.
+    pub diff: f64,
+}
+
 /// Statistics of one error image.
 #[derive(Debug, Serialize)]
 pub struct ErrorStats {
@@ -93,6 +108,8 @@ impl From<&DiffReport> for ErrorStats {
 /// What `compare` writes to stats.json.
 #[derive(Debug, Serialize)]
 pub struct CompareReport {
+    /// Seconds per stage: field render, polygonization, BVH build, mesh render, diff.
+    pub stage_seconds: StageSeconds,
     /// Pixels hit by one render only.
     pub mismatch_px: usize,
     /// Depth error (mesh − field), in lattice cells.
@@ -152,6 +169,7 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
 
 /// Error images' statistics from the two frames.
 fn measure(ray: &Frame, mesh: &Frame, ray_report: RenderReport, mesh_report: MeshRenderReport) -> CompareReport {
+    let start = std::time::Instant::now();
     let tolerances = Tolerances { depth_cells: 0.25, normal_deg: 5.0, color: 0.05 };
     let cell = mesh_report.mesh.cell_size;
     let stats = |values: Vec<f32>, tolerance: f32| {
@@ -167,11 +185,22 @@ fn measure(ray: &Frame, mesh: &Frame, ray_report: RenderReport, mesh_report: Mes
         ErrorStats::from(&judge(Metric::Abs, &both, &vec![false; both.len()], t))
     };
     let depth: Vec<f32> = differences(mesh, ray, Metric::Depth).into_iter().map(|d| d / cell).collect();
+    let depth_error_cells = stats(depth, tolerances.depth_cells);
+    let normal_error_deg = stats(differences(mesh, ray, Metric::Normal), tolerances.normal_deg);
+    let color_error = stats(differences(mesh, ray, Metric::Abs), tolerances.color);
+    let stage_seconds = StageSeconds {
+        field_render: ray_report.seconds,
+        polygonize: mesh_report.mesh.seconds,
+        bvh_build: mesh_report.bvh_build_seconds,
+        mesh_render: mesh_report.seconds,
+        diff: start.elapsed().as_secs_f64(),
+    };
     CompareReport {
+        stage_seconds,
         mismatch_px: ray.depth.iter().zip(&mesh.depth).filter(|(a, b)| a.is_finite() != b.is_finite()).count(),
-        depth_error_cells: stats(depth, tolerances.depth_cells),
-        normal_error_deg: stats(differences(mesh, ray, Metric::Normal), tolerances.normal_deg),
-        color_error: stats(differences(mesh, ray, Metric::Abs), tolerances.color),
+        depth_error_cells,
+        normal_error_deg,
+        color_error,
         tolerances,
         ray: ray_report,
         mesh: mesh_report,

@@ -90,12 +90,8 @@ fn draw_bar(img: &mut Rgb8Image, top: u32, scale: Scale, title: &str, unit: &str
         }
     }
     let label_y = bar_y + 12;
-    let labels = [(lo, 0.0), ((lo + hi) * 0.5, 0.5), (hi, 1.0)];
-    for (v, at) in labels {
-        let text = format!("{}{}", format_value(v), if at == 1.0 { format!(" {unit}") } else { String::new() });
-        let w = i64::from(Rgb8Image::text_width(&text));
-        let x = (margin + (bar_w as f32 * at) as i64 - (w as f32 * at) as i64).max(0);
-        img.text(x, label_y, &text, black);
+    for (x, y, text) in bar_labels(img.width, top, scale, unit) {
+        img.text(x, y, &text, black);
     }
     if !legend {
         return;
@@ -110,6 +106,27 @@ fn draw_bar(img: &mut Rgb8Image, top: u32, scale: Scale, title: &str, unit: &str
         }
         img.text(x + 11, legend_y, name, black);
     }
+}
+
+/// The colour bar's printed values — its low end, middle and high end (with
+/// the unit) — and where they go, for a canvas `width` wide whose strip starts
+/// at `top`.
+#[must_use]
+pub fn bar_labels(width: u32, top: u32, scale: Scale, unit: &str) -> Vec<(i64, i64, String)> {
+    let margin = 8i64;
+    let label_y = i64::from(top) + 4 + i64::from(LINE_HEIGHT) + 4 + 12;
+    let bar_w = i64::from(width) - 2 * margin;
+    let (lo, hi) = scale.range();
+    [(lo, 0.0), ((lo + hi) * 0.5, 0.5), (hi, 1.0)]
+        .into_iter()
+        .map(|(v, at)| {
+            let text =
+                if at == 1.0 && !unit.is_empty() { format!("{} {unit}", format_value(v)) } else { format_value(v) };
+            let w = i64::from(Rgb8Image::text_width(&text));
+            let x = (margin + (bar_w as f32 * at) as i64 - (w as f32 * at) as i64).max(0);
+            (x, label_y, text)
+        })
+        .collect()
 }
 
 /// A short label for a scale value.
@@ -177,6 +194,31 @@ mod tests {
         assert!(pos[0] > pos[2] && neg[2] > neg[0], "{pos:?} {neg:?}");
         assert_eq!(format_value(0.05), "0.05");
         assert_eq!(format_value(2e-4), "2.0e-4");
+    }
+
+    #[test]
+    fn the_bar_prints_the_ends_of_the_scale_it_draws() {
+        for (scale, ends) in [
+            (Scale::Magnitude { max: 0.05 }, ["0", "0.05 deg"]),
+            (Scale::Signed { max: 2.0 }, ["-2", "2 deg"]),
+            (Scale::Magnitude { max: 3e-4 }, ["0", "3.0e-4 deg"]),
+        ] {
+            let img = heat_map(&[0.0; 12], 4, 3, scale, "t", "deg");
+            let labels = bar_labels(img.width, 3, scale, "deg");
+            assert_eq!([labels[0].2.as_str(), labels[2].2.as_str()], ends);
+            for (x, y, text) in labels {
+                // Every pixel of the label's glyphs is drawn black on the heat map.
+                let mut alone = Rgb8Image::filled(img.width, img.height, [255, 255, 255]);
+                alone.text(x, y, &text, [0, 0, 0]);
+                let glyph_px = alone.pixels.chunks(3).zip(img.pixels.chunks(3)).filter(|(a, _)| a == &[0, 0, 0]);
+                let mut count = 0;
+                for (_, drawn) in glyph_px {
+                    assert_eq!(drawn, &[0, 0, 0], "label {text}");
+                    count += 1;
+                }
+                assert!(count > 5, "label {text} drawn");
+            }
+        }
     }
 
     #[test]
