@@ -497,7 +497,7 @@ fn regression_passes_on_the_bundled_references_and_fails_on_a_perturbed_model() 
     let out = blobtrace(&["regress", "--report", report.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(std::fs::read_to_string(report.join("index.html")).unwrap().contains("Pass"));
-    // The same scenes with one blob grown a little.
+    // The same scenes with one blob's radius grown by 1%.
     let scenes = dir.join("scenes");
     std::fs::create_dir_all(&scenes).unwrap();
     for entry in std::fs::read_dir("scenes").unwrap() {
@@ -507,13 +507,14 @@ fn regression_passes_on_the_bundled_references_and_fails_on_a_perturbed_model() 
         }
     }
     let pair = std::fs::read_to_string("scenes/pair.ron").unwrap();
-    std::fs::write(scenes.join("pair.ron"), pair.replacen("radius: 1.6", "radius: 1.7", 1)).unwrap();
+    std::fs::write(scenes.join("pair.ron"), pair.replacen("radius: 1.6", "radius: 1.616", 1)).unwrap();
     let bad_report = dir.join("bad");
     let out = blobtrace(&["regress", "--scenes", scenes.to_str().unwrap(), "--report", bad_report.to_str().unwrap()]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("failed"));
     assert!(bad_report.join("actual-pair-field-96x72.png").exists());
     assert!(bad_report.join("diff-pair-field-96x72.png").exists());
+    assert!(bad_report.join("heat-pair-field-96x72.png").exists());
     assert!(!bad_report.join("actual-sphere-field-64x48.png").exists());
     // Blessing into a fresh directory reproduces the bundled references, which then pass.
     let refs = dir.join("refs");

@@ -177,12 +177,22 @@ fn check_entry(entry: &Entry, actual: &Frame, reference: &Path, report: &Path) -
     let diff = judge(Metric::Abs, &values, &vec![false; values.len()], thresholds);
     if diff.verdict == Verdict::Fail {
         actual.save_png(&report.join(format!("actual-{name}")))?;
+        difference_image(&quantized, frame).save_png(&report.join(format!("diff-{name}")))?;
         let title = format!("abs difference, {name}");
         heat_map(&values, frame.width, frame.height, Scale::Magnitude { max: 0.1 }, &title, "")
-            .save_png(&report.join(format!("diff-{name}")))?;
+            .save_png(&report.join(format!("heat-{name}")))?;
     }
     eprintln!("{:?} {name}: max {:.4}, {} pixels above {}", diff.verdict, diff.max, diff.over_fail_px, entry.fail);
     Ok((name, Some(diff)))
+}
+
+/// |actual − expected| per channel, brightened eightfold so small differences show.
+fn difference_image(actual: &Frame, expected: &Frame) -> Frame {
+    let mut d = actual.clone();
+    for (c, e) in d.color.iter_mut().zip(&expected.color) {
+        *c = ((*c - *e).abs() * 8.0).min(glam::Vec3::ONE);
+    }
+    d
 }
 
 /// The frame as a PNG of it would read back.
@@ -206,7 +216,7 @@ fn write_html(path: &Path, rows: &[Row]) -> anyhow::Result<()> {
             None => ("Fail".into(), "no reference".into(), "-".into()),
         };
         let images = if verdict == "Fail" {
-            format!("<img src=\"actual-{name}\"> <img src=\"diff-{name}\">")
+            format!("<img src=\"actual-{name}\"> <img src=\"diff-{name}\"> <img src=\"heat-{name}\">")
         } else {
             String::new()
         };
