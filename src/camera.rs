@@ -47,6 +47,12 @@ impl Camera {
         Ray::new(self.eye, self.forward + self.right * sx + self.up * sy)
     }
 
+    /// Tangent of half the vertical field of view.
+    #[must_use]
+    pub fn tan_half_fov(&self) -> f32 {
+        self.tan_half_fov
+    }
+
     /// Unit view direction.
     #[must_use]
     pub fn forward(&self) -> Vec3A {

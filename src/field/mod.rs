@@ -7,6 +7,7 @@
 //! tracer, the polygonizer and the slicers ask those questions only through
 //! [`Field`], so exact, indexed and cached evaluation stay interchangeable.
 
+mod edit;
 mod eval;
 mod index;
 mod kernel;
@@ -18,6 +19,7 @@ pub mod spline;
 
 use glam::{Vec3, Vec3A};
 
+pub use edit::Edit;
 pub use index::{BlendIndex, IndexedLeaf, Leaf};
 pub use kernel::Kernel;
 pub use model::{Change, Model, ModelBuilder, ModelCounts, ModelError};

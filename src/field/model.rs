@@ -27,6 +27,12 @@ pub enum ModelError {
     /// A transform scales an axis by zero: it has no inverse.
     #[error("a Transform scale factor is zero")]
     ZeroScale,
+    /// An edit named no `Named` node.
+    #[error("no node is named {0:?}")]
+    UnknownName(String),
+    /// An edit's numbers are unusable (NaN, a zero scale, a non-positive radius).
+    #[error("bad edit: {0}")]
+    BadEdit(String),
     /// An edit addressed a node of another kind than it changes.
     #[error("node {node} is a {found}, not a {expected}")]
     WrongKind {
@@ -294,6 +300,31 @@ impl Model {
             other => return Err(wrong_kind(id, "Primitive", other)),
         }
         Ok(self.edited(id, old))
+    }
+
+    /// The Transform right under `Named` node `named`, inserting an identity
+    /// one the first time: edits move it, so caches below move with their frame.
+    pub(super) fn transform_under(&mut self, named: NodeId) -> NodeId {
+        let NodeKind::Named { child, .. } = self.nodes[named as usize].kind else {
+            return named;
+        };
+        if matches!(self.nodes[child as usize].kind, NodeKind::Transform { .. }) {
+            return child;
+        }
+        let id = self.nodes.len() as NodeId;
+        let identity = Placement::new(Vec3::ZERO, Vec3::ZERO, Vec3::ONE).expect("the identity is invertible");
+        let bounds = self.nodes[child as usize].bounds;
+        self.nodes.push(Node {
+            kind: NodeKind::Transform { placement: identity, child },
+            parent: Some(named),
+            bounds,
+            color: None,
+        });
+        self.nodes[child as usize].parent = Some(id);
+        if let NodeKind::Named { child: c, .. } = &mut self.nodes[named as usize].kind {
+            *c = id;
+        }
+        id
     }
 
     /// Brings bounds, indices and caches up to date after node `id` changed.

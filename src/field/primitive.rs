@@ -53,6 +53,18 @@ impl Primitive {
         Self { skeleton, radius, weight, kernel, inv_r2: 1.0 / (radius * radius) }
     }
 
+    /// The same primitive with support radius `radius`.
+    #[must_use]
+    pub fn with_radius(&self, radius: f32) -> Self {
+        Self::new(self.skeleton, radius, self.weight, self.kernel)
+    }
+
+    /// The same primitive with weight `weight`.
+    #[must_use]
+    pub fn with_weight(&self, weight: f32) -> Self {
+        Self::new(self.skeleton, self.radius, weight, self.kernel)
+    }
+
     /// The point of the skeleton nearest to `p`.
     #[inline]
     #[must_use]

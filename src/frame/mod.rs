@@ -96,6 +96,19 @@ impl Frame {
         diff
     }
 
+    /// True when both frames show the same image bit for bit: colour,
+    /// coverage, depth and normals (work counters like `steps.Y` aside).
+    #[must_use]
+    pub fn same_image(&self, o: &Frame) -> bool {
+        let bits = |v: &[glam::Vec3]| v.iter().flat_map(|c| c.to_array().map(f32::to_bits)).collect::<Vec<u32>>();
+        let fbits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+        (self.width, self.height) == (o.width, o.height)
+            && bits(&self.color) == bits(&o.color)
+            && bits(&self.normal) == bits(&o.normal)
+            && fbits(&self.depth) == fbits(&o.depth)
+            && fbits(&self.alpha) == fbits(&o.alpha)
+    }
+
     /// An extra AOV by channel name.
     #[must_use]
     pub fn aov(&self, name: &str) -> Option<&[f32]> {

@@ -1,10 +1,12 @@
 //! The field ray caster: segment tracing with local Lipschitz bounds, root
 //! refinement, shading from the analytic gradient, rows rendered in parallel.
 
+mod dirty;
 mod render;
 mod segment;
 mod shade;
 
-pub use render::{PixelSample, RenderSettings, RenderStats, assemble, outward_normal, render, render_pixels};
+pub use dirty::{PixelRect, merge_rects, screen_rect};
+pub use render::{PixelSample, RenderSettings, RenderStats, assemble, outward_normal, render, render_pixels, rerender};
 pub use segment::{TraceOptions, TraceResult, trace_ray};
 pub use shade::Lighting;

@@ -41,7 +41,7 @@ impl RenderSettings {
             height: size.1,
             background: scene.background,
             lighting: Lighting::default(),
-            trace: TraceOptions::default(),
+            trace: TraceOptions::for_bounds(&scene.model.bounds()),
         }
     }
 }
@@ -98,6 +98,39 @@ pub fn render<F: Field + ?Sized>(
         stats.field_evals += u64::from(p.counts[1]);
     }
     (assemble(&samples, settings, FIELD_COUNTERS), stats)
+}
+
+/// Re-traces the pixels inside `rects` (which must not overlap; see
+/// [`super::merge_rects`]) into `frame`, a render of `field` with `settings`
+/// before an edit; the rest is kept. Because every pixel depends on its own ray
+/// only, the result equals a full render when the rectangles hold every pixel
+/// whose ray can meet the change.
+pub fn rerender<F: Field + ?Sized>(
+    field: &F,
+    settings: &RenderSettings,
+    frame: &mut Frame,
+    rects: &[super::PixelRect],
+) -> RenderStats {
+    let pixels: Vec<(u32, u32)> =
+        rects.iter().flat_map(|r| (r.y0..r.y1).flat_map(move |y| (r.x0..r.x1).map(move |x| (x, y)))).collect();
+    let samples: Vec<PixelSample> = pixels.par_iter().map(|&(x, y)| trace_pixel(field, settings, x, y)).collect();
+    let mut stats = RenderStats { rays: samples.len() as u64, ..Default::default() };
+    for (&(x, y), p) in pixels.iter().zip(&samples) {
+        let i = (y * frame.width + x) as usize;
+        frame.color[i] = p.color;
+        frame.depth[i] = p.depth;
+        frame.normal[i] = p.normal;
+        frame.alpha[i] = if p.depth.is_finite() { 1.0 } else { 0.0 };
+        for (k, name) in FIELD_COUNTERS.into_iter().enumerate() {
+            if let Some((_, channel)) = frame.extra.iter_mut().find(|(n, _)| n == name) {
+                channel[i] = p.counts[k] as f32;
+            }
+        }
+        stats.hits += u64::from(p.depth.is_finite());
+        stats.steps += u64::from(p.counts[0]);
+        stats.field_evals += u64::from(p.counts[1]);
+    }
+    stats
 }
 
 /// Calls `pixel` for every pixel, rows in parallel, in row-major order.

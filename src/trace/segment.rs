@@ -21,11 +21,26 @@ pub struct TraceOptions {
     pub first_segment: f32,
     /// Steps before a ray is given up as a miss (only grazing rays come near).
     pub max_steps: u32,
+    /// Hits are snapped to the first point inside the surface on the lattice
+    /// `t = k · quantum` along the ray, so the hit depends on the field along
+    /// the ray only, never on the steps that led there (which change with
+    /// bounds elsewhere in the model). `None`: the hit tolerance.
+    pub quantum: Option<f32>,
 }
 
 impl Default for TraceOptions {
     fn default() -> Self {
-        Self { tolerance: 1e-5, growth: 2.0, first_segment: 1.0 / 16.0, max_steps: 1 << 14 }
+        Self { tolerance: 1e-5, growth: 2.0, first_segment: 1.0 / 16.0, max_steps: 1 << 14, quantum: None }
+    }
+}
+
+impl TraceOptions {
+    /// The defaults, with hits snapped to a lattice of the tolerance times the
+    /// diagonal of `bounds` (fixed from then on, whatever edits do to the bounds).
+    #[must_use]
+    pub fn for_bounds(bounds: &crate::geom::Aabb) -> Self {
+        let d = Self::default();
+        Self { quantum: Some(d.tolerance * bounds.diagonal()), ..d }
     }
 }
 
@@ -77,9 +92,10 @@ pub fn trace_ray<F: Field + ?Sized>(field: &F, ray: &Ray, opts: &TraceOptions) -
         let v_next = field.value(ray.at(t_next)) - iso;
         out.evals += 1;
         if v_next > 0.0 {
-            let (root, evals) = refine(field, ray, (t, v), (t_next, v_next), tol);
+            let ((a, b), evals) = refine(field, ray, (t, v), (t_next, v_next), tol);
+            let (root, snap_evals) = snap(field, ray, a, b, opts.quantum.unwrap_or(tol));
             out.hit = Some(root);
-            out.evals += evals;
+            out.evals += evals + snap_evals;
             return out;
         }
         t = t_next;
@@ -90,8 +106,8 @@ pub fn trace_ray<F: Field + ?Sized>(field: &F, ray: &Ray, opts: &TraceOptions) -
 }
 
 /// Illinois false position on a bracket `[a, b]` with `f(a) <= T < f(b)`, until
-/// the bracket is narrower than `tol`. Returns the root and the evaluations spent.
-fn refine<F: Field + ?Sized>(field: &F, ray: &Ray, a: (f32, f32), b: (f32, f32), tol: f32) -> (f32, u32) {
+/// the bracket is narrower than `tol`. Returns the bracket and the evaluations spent.
+fn refine<F: Field + ?Sized>(field: &F, ray: &Ray, a: (f32, f32), b: (f32, f32), tol: f32) -> ((f32, f32), u32) {
     let iso = field.threshold();
     let ((mut ta, mut va), (mut tb, mut vb)) = (a, b);
     let mut evals = 0;
@@ -118,5 +134,41 @@ fn refine<F: Field + ?Sized>(field: &F, ray: &Ray, a: (f32, f32), b: (f32, f32),
             side = -1;
         }
     }
-    (0.5 * (ta + tb), evals)
+    ((ta, tb), evals)
+}
+
+/// Most lattice steps `snap` walks outwards to re-establish its bracket.
+const MAX_SNAP_WALK: u32 = 64;
+
+/// The first lattice point `k · q` inside the surface after the crossing in
+/// the narrow bracket `[a, b]`: bisection on the integers `k`, so the answer
+/// depends only on the field at lattice points near the crossing. Returns it
+/// and the evaluations spent.
+fn snap<F: Field + ?Sized>(field: &F, ray: &Ray, a: f32, b: f32, q: f32) -> (f32, u32) {
+    let iso = field.threshold();
+    let mut evals = 0;
+    let mut inside = |k: i64| {
+        evals += 1;
+        field.value(ray.at(k as f32 * q)) > iso
+    };
+    let (mut lo, mut hi) = ((a / q).floor() as i64, (b / q).ceil() as i64);
+    // Rounding outwards may have stepped across the crossing: walk back out.
+    let mut walk = 0;
+    while walk < MAX_SNAP_WALK && inside(lo) {
+        lo -= 1;
+        walk += 1;
+    }
+    while walk < 2 * MAX_SNAP_WALK && !inside(hi) {
+        hi += 1;
+        walk += 1;
+    }
+    while hi - lo > 1 {
+        let mid = lo + (hi - lo) / 2;
+        if inside(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    (hi as f32 * q, evals)
 }

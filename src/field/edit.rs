@@ -1,0 +1,179 @@
+//! Edits by name: the one door through which a model changes after it is
+//! built. Each returns the [`Change`] — what moved, its bounds before and
+//! after — so caches, meshes and screens can update only that.
+
+use glam::{Affine3A, Mat3A, Vec3, Vec3A};
+
+use super::model::{Change, Model, ModelError};
+use super::node::{NodeId, NodeKind, Placement};
+use crate::geom::Aabb;
+
+/// An edit of a named node.
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+pub enum Edit {
+    /// Move the named subtree by `by`, in its parent's frame.
+    Translate {
+        /// The `Named` node.
+        node: String,
+        /// Displacement.
+        by: Vec3,
+    },
+    /// Rotate the named subtree about the centre of its bounds, in degrees about X, then Y, then Z.
+    Rotate {
+        /// The `Named` node.
+        node: String,
+        /// Angles in degrees.
+        degrees: Vec3,
+    },
+    /// Scale the named subtree about the centre of its bounds.
+    Scale {
+        /// The `Named` node.
+        node: String,
+        /// Per-axis factors, non-zero.
+        by: Vec3,
+    },
+    /// Set the support radius of the named primitive.
+    Radius {
+        /// The `Named` node holding a primitive.
+        node: String,
+        /// New radius, positive.
+        radius: f32,
+    },
+    /// Set the weight of the named primitive.
+    Weight {
+        /// The `Named` node holding a primitive.
+        node: String,
+        /// New weight, finite.
+        weight: f32,
+    },
+}
+
+impl Edit {
+    /// The name the edit addresses.
+    #[must_use]
+    pub fn node(&self) -> &str {
+        match self {
+            Edit::Translate { node, .. }
+            | Edit::Rotate { node, .. }
+            | Edit::Scale { node, .. }
+            | Edit::Radius { node, .. }
+            | Edit::Weight { node, .. } => node,
+        }
+    }
+
+    /// Checks the numbers before anything changes.
+    fn validate(&self) -> Result<(), ModelError> {
+        let bad = |what: String| Err(ModelError::BadEdit(what));
+        match self {
+            Edit::Translate { by: v, .. } | Edit::Rotate { degrees: v, .. } if !v.is_finite() => {
+                bad(format!("{} by {v}: not finite", self.node()))
+            }
+            Edit::Scale { by, .. } if !by.is_finite() || by.abs().min_element() <= f32::EPSILON => {
+                bad(format!("{} scaled by {by}: factors must be finite and non-zero", self.node()))
+            }
+            Edit::Radius { radius, .. } if !(radius.is_finite() && *radius > 0.0) => {
+                bad(format!("{} radius {radius}: must be positive", self.node()))
+            }
+            Edit::Weight { weight, .. } if !weight.is_finite() => {
+                bad(format!("{} weight {weight}: not finite", self.node()))
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+impl Model {
+    /// Applies `edit`. Moves act on the Transform right under the named node
+    /// (one is inserted the first time), so a cache under it moves with its
+    /// frame and keeps its samples; caches above clear the samples inside the
+    /// old and new bounds. A rejected edit leaves the model as it was.
+    pub fn apply(&mut self, edit: &Edit) -> Result<Change, ModelError> {
+        edit.validate()?;
+        let named = self.find(edit.node()).ok_or_else(|| ModelError::UnknownName(edit.node().to_string()))?;
+        let NodeKind::Named { child, .. } = self.node(named).kind else {
+            return Err(ModelError::UnknownName(edit.node().to_string()));
+        };
+        match edit {
+            Edit::Radius { radius, .. } => self.edit_primitive(child, |p| p.with_radius(*radius)),
+            Edit::Weight { weight, .. } => self.edit_primitive(child, |p| p.with_weight(*weight)),
+            Edit::Translate { by, .. } => self.move_subtree(named, |_| Affine3A::from_translation(*by)),
+            Edit::Rotate { degrees, .. } => {
+                let r = degrees * (std::f32::consts::PI / 180.0);
+                let q = glam::Quat::from_euler(glam::EulerRot::ZYX, r.z, r.y, r.x);
+                self.move_subtree(named, |c| about(c, Affine3A::from_quat(q)))
+            }
+            Edit::Scale { by, .. } => self.move_subtree(named, |c| about(c, Affine3A::from_scale(*by))),
+        }
+    }
+
+    /// Changes the primitive under `id`, looking through the transforms that
+    /// moves have put above it.
+    fn edit_primitive(
+        &mut self,
+        mut id: NodeId,
+        change: impl Fn(&super::Primitive) -> super::Primitive,
+    ) -> Result<Change, ModelError> {
+        while let NodeKind::Transform { child, .. } = self.node(id).kind {
+            id = child;
+        }
+        match &self.node(id).kind {
+            NodeKind::Primitive(p) => {
+                let p = change(p);
+                self.set_primitive(id, p)
+            }
+            other => Err(ModelError::WrongKind { node: id, expected: "Primitive", found: other.type_name() }),
+        }
+    }
+
+    /// Pre-multiplies the placement of the Transform under `named` by
+    /// `motion(centre of the subtree's bounds)`.
+    fn move_subtree(&mut self, named: NodeId, motion: impl Fn(Vec3A) -> Affine3A) -> Result<Change, ModelError> {
+        let transform = self.transform_under(named);
+        let placement = match &self.node(transform).kind {
+            NodeKind::Transform { placement, .. } => *placement,
+            other => {
+                return Err(ModelError::WrongKind { node: transform, expected: "Transform", found: other.type_name() });
+            }
+        };
+        let m = motion(self.node(transform).bounds.center()) * placement.to_world;
+        self.set_placement(transform, Placement::from_affine(m).ok_or(ModelError::ZeroScale)?)
+    }
+
+    /// The world box (the root's frame) holding everything `change` may have
+    /// changed in the field evaluated in `cached` or exact mode: its old and new
+    /// bounds carried up through the transforms above, and in cached mode
+    /// widened, at each cache on the way, by the reach of its filters.
+    #[must_use]
+    pub fn change_region(&self, change: &Change, cached: bool) -> Aabb {
+        let (mut at, mut region) = (change.node, change.old.union(&change.new));
+        while let Some(parent) = self.node(at).parent {
+            match &self.node(parent).kind {
+                NodeKind::Transform { placement, .. } => region = region.transformed(&placement.to_world),
+                NodeKind::Cache { grid, .. } if cached => region = self.cache(*grid).sample_reach(&region),
+                _ => {}
+            }
+            at = parent;
+        }
+        region
+    }
+}
+
+/// `m` about the point `c`: move `c` to the origin, apply `m`, move back.
+fn about(c: Vec3A, m: Affine3A) -> Affine3A {
+    Affine3A::from_translation(c.into()) * m * Affine3A::from_translation((-c).into())
+}
+
+impl Placement {
+    /// The placement of an invertible affine map; `None` when it is singular.
+    #[must_use]
+    pub fn from_affine(to_world: Affine3A) -> Option<Self> {
+        if to_world.matrix3.determinant().abs() <= f32::EPSILON || !to_world.is_finite() {
+            return None;
+        }
+        let to_local = to_world.inverse();
+        let inv: Mat3A = to_local.matrix3;
+        // The Frobenius norm bounds the spectral norm: a safe stretch for slope bounds.
+        let stretch = (inv.x_axis.length_squared() + inv.y_axis.length_squared() + inv.z_axis.length_squared()).sqrt();
+        Some(Self { to_world, to_local, gradient_map: inv.transpose(), stretch })
+    }
+}

@@ -1,0 +1,136 @@
+//! Edits: incremental re-rendering of the dirty rectangles equals a full
+//! render bit for bit, the rectangles hold every changed pixel, local
+//! re-polygonization equals a full one, and bad edits change nothing.
+
+mod common;
+
+use blobtrace::field::{Edit, EvalMode, Model, ModelField};
+use blobtrace::frame::Frame;
+use blobtrace::mesh::{Lattice, PolygonizeOptions, Polygonizer, skeleton_seeds};
+use blobtrace::scene::{Scene, Size};
+use blobtrace::trace::{PixelRect, RenderSettings, merge_rects, render, rerender, screen_rect};
+use common::{EVERY_NODE, Rng, bundled};
+use glam::Vec3;
+
+fn random_edit(rng: &mut Rng, node: &str, primitive: bool) -> Edit {
+    let mut v = |s: f32| Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5) * s;
+    let node = node.to_string();
+    let pick = (v(1.0).x + 0.5) * 5.0;
+    match pick as u32 {
+        0 => Edit::Rotate { node, degrees: v(60.0) },
+        1 => Edit::Scale { node, by: Vec3::ONE + v(0.4) },
+        2 if primitive => Edit::Radius { node, radius: 0.3 + (v(1.0).y + 0.5) * 0.5 },
+        _ => Edit::Translate { node, by: v(0.6) },
+    }
+}
+
+fn dirty_rects(
+    model: &Model,
+    change: &blobtrace::field::Change,
+    cached: bool,
+    settings: &RenderSettings,
+) -> Vec<PixelRect> {
+    let region = model.change_region(change, cached);
+    merge_rects(screen_rect(&settings.camera, settings.width, settings.height, &region).into_iter().collect())
+}
+
+fn changed_pixels(a: &Frame, b: &Frame) -> Vec<(u32, u32)> {
+    (0..a.len())
+        .filter(|&i| a.color[i] != b.color[i] || a.depth[i] != b.depth[i] || a.normal[i] != b.normal[i])
+        .map(|i| (i as u32 % a.width, i as u32 / a.width))
+        .collect()
+}
+
+#[test]
+fn incremental_renders_after_random_edits_equal_full_renders() {
+    let cases: [(&str, Scene, &[(&str, bool)]); 3] = [
+        ("every", Scene::parse(EVERY_NODE, "every").unwrap(), &[("arm", false)]),
+        ("hair_point", bundled("hair_point.ron"), &[("probe", true), ("hair", false)]),
+        ("medusa", bundled("medusa.ron"), &[("head", false), ("left_hand", false)]),
+    ];
+    let mut rng = Rng(2026);
+    let mut some_small = false;
+    for (label, mut scene, names) in cases {
+        for mode in [EvalMode::Indexed, EvalMode::Cached] {
+            let settings = RenderSettings::for_scene(&scene, Size(64, 48));
+            let mut frame = render(&ModelField::new(&scene.model, mode), &settings, &|_| {}).0;
+            for step in 0..4 {
+                let (name, primitive) = names[step % names.len()];
+                let edit = random_edit(&mut rng, name, primitive);
+                let change = scene.model.apply(&edit).unwrap();
+                let rects = dirty_rects(&scene.model, &change, mode == EvalMode::Cached, &settings);
+                let before = frame.clone();
+                let field = ModelField::new(&scene.model, mode);
+                rerender(&field, &settings, &mut frame, &rects);
+                let full = render(&field, &settings, &|_| {}).0;
+                if !frame.same_image(&full) {
+                    let outside: Vec<(u32, u32)> = changed_pixels(&frame, &full);
+                    let extras = frame.extra != full.extra;
+                    panic!(
+                        "{label} {mode:?} step {step} {edit:?}: {} pixels differ (first {:?}), extras differ: {extras}, rects {rects:?}",
+                        outside.len(),
+                        outside.first()
+                    );
+                }
+                for (x, y) in changed_pixels(&before, &full) {
+                    assert!(
+                        rects.iter().any(|r| r.contains(x, y)),
+                        "{label} {mode:?} {edit:?}: pixel {x},{y} changed outside"
+                    );
+                }
+                let area: u64 = rects.iter().map(PixelRect::area).sum();
+                some_small |= area < 64 * 48 / 2;
+            }
+        }
+    }
+    assert!(some_small, "a small edit re-traces less than half the screen");
+}
+
+#[test]
+fn moving_a_cached_component_costs_no_samples_and_repolygonizes_locally() {
+    let mut scene = bundled("medusa.ron");
+    let lattice = Lattice::across(&scene.model.bounds(), 40);
+    let mut local = Polygonizer::new(lattice, PolygonizeOptions::default());
+    local.polygonize(
+        &ModelField::new(&scene.model, EvalMode::Cached),
+        &skeleton_seeds(&scene.model, scene.model.root()),
+    );
+    let change = scene.model.apply(&Edit::Translate { node: "head".into(), by: Vec3::new(0.0, -0.3, 0.1) }).unwrap();
+    assert_eq!(change.samples_cleared, 0);
+    let field = ModelField::new(&scene.model, EvalMode::Cached);
+    let seeds = skeleton_seeds(&scene.model, scene.model.root());
+    local.repolygonize(&field, &scene.model.change_region(&change, true), &seeds);
+    let mut full = Polygonizer::new(lattice, PolygonizeOptions::default());
+    full.polygonize(&field, &seeds);
+    let canonical = |m: blobtrace::mesh::Mesh| {
+        let mut t: Vec<[[u32; 3]; 3]> =
+            (0..m.triangles.len()).map(|i| m.corners(i).map(|p| p.to_array().map(f32::to_bits))).collect();
+        for tri in &mut t {
+            let first = (0..3).min_by_key(|&i| tri[i]).unwrap();
+            tri.rotate_left(first);
+        }
+        t.sort_unstable();
+        t
+    };
+    assert_eq!(canonical(local.mesh()), canonical(full.mesh()));
+}
+
+#[test]
+fn bad_edits_are_refused_and_change_nothing() {
+    let mut scene = bundled("hair_point.ron");
+    let settings = RenderSettings::for_scene(&scene, Size(48, 36));
+    let before = render(&ModelField::new(&scene.model, EvalMode::Cached), &settings, &|_| {}).0;
+    let bad = [
+        (Edit::Translate { node: "nobody".into(), by: Vec3::X }, "no node is named"),
+        (Edit::Translate { node: "probe".into(), by: Vec3::new(f32::NAN, 0.0, 0.0) }, "not finite"),
+        (Edit::Scale { node: "hair".into(), by: Vec3::new(1.0, 0.0, 1.0) }, "non-zero"),
+        (Edit::Radius { node: "probe".into(), radius: -1.0 }, "positive"),
+        (Edit::Radius { node: "hair".into(), radius: 1.0 }, "not a Primitive"),
+    ];
+    for (edit, words) in bad {
+        let err = scene.model.apply(&edit).expect_err("refused").to_string();
+        assert!(err.contains(words), "{edit:?}: {err}");
+    }
+    let after = render(&ModelField::new(&scene.model, EvalMode::Cached), &settings, &|_| {}).0;
+    assert!(before.same_image(&after));
+}
