@@ -43,7 +43,9 @@ fn changed_pixels(a: &Frame, b: &Frame) -> Vec<(u32, u32)> {
 
 #[test]
 fn incremental_renders_after_random_edits_equal_full_renders() {
-    let cases: [(&str, Scene, &[(&str, bool)]); 3] = [
+    // Each scene with the names to edit, and whether the name holds a primitive.
+    type Names = &'static [(&'static str, bool)];
+    let cases: [(&str, Scene, Names); 3] = [
         ("every", Scene::parse(EVERY_NODE, "every").unwrap(), &[("arm", false)]),
         ("hair_point", bundled("hair_point.ron"), &[("probe", true), ("hair", false)]),
         ("medusa", bundled("medusa.ron"), &[("head", false), ("left_hand", false)]),
