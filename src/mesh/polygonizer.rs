@@ -234,17 +234,11 @@ impl Polygonizer {
         edges.sort_unstable_by_key(|[a, b]| (a.to_array(), b.to_array()));
         edges.dedup();
         let seeds = self.fine_crossings(field, &edges, scale);
-        let mut frontier = vec![];
+        let mut around = vec![];
         for [a, b] in seeds {
-            shape.cells_around_edge(a, b, &mut frontier);
+            shape.cells_around_edge(a, b, &mut around);
         }
-        frontier.retain(|&c| match self.cells.entry(c) {
-            std::collections::hash_map::Entry::Vacant(e) => {
-                e.insert(PENDING);
-                true
-            }
-            std::collections::hash_map::Entry::Occupied(_) => false,
-        });
+        let frontier = self.claim(around);
         self.grow(field, frontier);
         self.place_vertices(field);
     }
@@ -311,19 +305,13 @@ impl Polygonizer {
             }
             keep
         });
-        let mut frontier = vec![];
         let mut around = vec![];
         for (&c, &mask) in &self.cells {
             if inside(c.cube, 2) && crossed(mask, shape) {
                 shape.neighbours(c, mask, &mut around);
             }
         }
-        for c in around {
-            if let std::collections::hash_map::Entry::Vacant(e) = self.cells.entry(c) {
-                e.insert(PENDING);
-                frontier.push(c);
-            }
-        }
+        let mut frontier = self.claim(around);
         frontier.extend(self.seed(field, seeds));
         let added = self.grow(field, frontier);
         self.place_vertices(field);
@@ -363,14 +351,21 @@ impl Polygonizer {
                 self.options.cells.cells_touching(q, &mut cells);
             }
         }
-        cells.retain(|&c| match self.cells.entry(c) {
-            std::collections::hash_map::Entry::Vacant(e) => {
-                e.insert(PENDING);
-                true
-            }
-            std::collections::hash_map::Entry::Occupied(_) => false,
-        });
+        self.claim(cells)
+    }
+
+    /// Marks the cells not visited yet as visited and returns them, in order.
+    fn claim(&mut self, cells: Vec<Cell>) -> Vec<Cell> {
         cells
+            .into_iter()
+            .filter(|&c| match self.cells.entry(c) {
+                std::collections::hash_map::Entry::Vacant(e) => {
+                    e.insert(PENDING);
+                    true
+                }
+                std::collections::hash_map::Entry::Occupied(_) => false,
+            })
+            .collect()
     }
 
     /// Continuation: examine the frontier, keep its crossed cells, and move on to
