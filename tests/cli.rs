@@ -530,3 +530,56 @@ fn regression_passes_on_the_bundled_references_and_fails_on_a_perturbed_model() 
     assert!(again.status.success());
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn edit_replays_a_script_incrementally_and_verifies_every_frame() {
+    let dir = scratch("edit");
+    let out = blobtrace(&[
+        "edit",
+        "scenes/hair_point.ron",
+        "--script",
+        "scenes/hair-probe.ron",
+        "--size",
+        "48x36",
+        "--res",
+        "24",
+        "--verify",
+        "--out-dir",
+        dir.to_str().unwrap(),
+        "--json",
+    ]);
+    let v = json(&out);
+    assert_eq!(v["frames"], 40);
+    assert_eq!(v["verified_frames"], 40);
+    for key in ["full_s", "incremental_s", "dirty_fraction"] {
+        assert!(v[key].as_f64().is_some(), "{key} in {v}");
+    }
+    let dirty = v["dirty_fraction"].as_f64().unwrap();
+    assert!(dirty > 0.0 && dirty < 0.5, "{dirty}");
+    let csv = std::fs::read_to_string(dir.join("frames.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 41);
+    assert!(dir.join("timing.png").exists());
+    let bad = dir.join("bad.ron");
+    std::fs::write(&bad, "EditScript(frames: [(edits: [Translate(node: \"nobody\", by: (1.0, 0.0, 0.0))])])").unwrap();
+    let out = blobtrace(&[
+        "edit",
+        "scenes/hair_point.ron",
+        "--script",
+        bad.to_str().unwrap(),
+        "--out-dir",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("no node is named \"nobody\""));
+    std::fs::write(&bad, "EditScript(frames: [\n  (edits: [Twist(node: \"probe\")])])").unwrap();
+    let out = blobtrace(&[
+        "edit",
+        "scenes/hair_point.ron",
+        "--script",
+        bad.to_str().unwrap(),
+        "--out-dir",
+        dir.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("bad.ron:2:"), "{err}");
+    std::fs::remove_dir_all(dir).unwrap();
+}

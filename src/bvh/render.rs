@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3, Vec3A};
 use super::RayTarget;
 use crate::field::DEFAULT_COLOR;
 use crate::frame::Frame;
-use crate::trace::{PixelSample, RenderSettings, assemble, render_pixels};
+use crate::trace::{PixelRect, PixelSample, RenderSettings, assemble, render_pixels, rerender_pixels};
 
 /// Totals over a mesh render.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -37,6 +37,23 @@ pub fn render_mesh(
         stats.triangle_tests += u64::from(p.counts[0]);
     }
     (assemble(&samples, settings, MESH_COUNTERS), stats)
+}
+
+/// Re-casts the pixels inside `rects` (not overlapping) into `frame`, a render
+/// of the surface before it changed; the rest is kept.
+pub fn rerender_mesh(
+    target: &impl RayTarget,
+    settings: &RenderSettings,
+    frame: &mut Frame,
+    rects: &[PixelRect],
+) -> MeshRenderStats {
+    let samples = rerender_pixels(frame, rects, MESH_COUNTERS, |x, y| shade_pixel(target, settings, x, y));
+    let mut stats = MeshRenderStats { rays: samples.len() as u64, ..Default::default() };
+    for p in &samples {
+        stats.hits += u64::from(p.depth.is_finite());
+        stats.triangle_tests += u64::from(p.counts[0]);
+    }
+    stats
 }
 
 fn shade_pixel(target: &impl RayTarget, s: &RenderSettings, x: u32, y: u32) -> PixelSample {

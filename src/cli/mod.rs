@@ -5,6 +5,7 @@ mod bench;
 mod bench_mesh;
 mod compare;
 mod diff;
+mod edit;
 mod info;
 mod mesh;
 mod progress;
@@ -44,6 +45,9 @@ pub enum Command {
     /// Images of the field on a plane: f, the sharp view, error_C and gradient
     /// error of the caches per filter and resolution.
     Slice(slice::SliceArgs),
+    /// Replay an edit script, updating only what each edit changed (dirty
+    /// rectangles, local mesh cells, BVH2 triangles); time it, optionally verify it.
+    Edit(edit::EditArgs),
     /// Render every entry of images/ref/manifest.ron and compare it with its
     /// reference (--bless rewrites them); exits non-zero on any failure.
     Regress(regress::RegressArgs),
@@ -146,6 +150,7 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Exi
         Command::Compare(a) => compare::run(&a),
         Command::Slice(a) => slice::run(&a),
         Command::Regress(a) => regress::run(&a),
+        Command::Edit(a) => edit::run(&a),
         Command::Mesh(a) => mesh::run(&a),
         Command::Info(a) => info::run(&a),
         Command::Bench(b) => bench::run(&b),

@@ -6,6 +6,7 @@ mod diff;
 mod heatmap;
 mod load;
 mod panel;
+mod plot;
 mod text;
 
 pub use cache_error::{CacheErrorStats, cache_error_at, cache_error_stats, error_colors};
@@ -13,4 +14,5 @@ pub use diff::{DiffReport, Metric, Thresholds, Verdict, differences, edge_mask, 
 pub use heatmap::{MISMATCH, NO_VALUE, SILHOUETTE_COLORS, Scale, heat_map, silhouette_map};
 pub use load::{LoadedImage, load_image};
 pub use panel::{frame_image, panel};
+pub use plot::line_plot;
 pub use text::{CHAR_WIDTH, LINE_HEIGHT, Rgb8Image};

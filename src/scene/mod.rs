@@ -5,6 +5,7 @@
 
 mod build;
 mod desc;
+mod script;
 mod values;
 
 use std::path::Path;
@@ -12,6 +13,7 @@ use std::path::Path;
 use glam::Vec3;
 
 pub use desc::{CameraDesc, NodeDesc, SceneDesc};
+pub use script::{load_script, parse_script};
 pub use values::{Color, Finite, Positive, Size, V3};
 
 use crate::camera::Camera;

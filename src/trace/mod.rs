@@ -7,6 +7,9 @@ mod segment;
 mod shade;
 
 pub use dirty::{PixelRect, merge_rects, screen_rect};
-pub use render::{PixelSample, RenderSettings, RenderStats, assemble, outward_normal, render, render_pixels, rerender};
+pub use render::{
+    PixelSample, RenderSettings, RenderStats, assemble, outward_normal, render, render_pixels, rerender,
+    rerender_pixels,
+};
 pub use segment::{TraceOptions, TraceResult, trace_ray};
 pub use shade::Lighting;

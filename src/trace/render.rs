@@ -111,26 +111,41 @@ pub fn rerender<F: Field + ?Sized>(
     frame: &mut Frame,
     rects: &[super::PixelRect],
 ) -> RenderStats {
+    let samples = rerender_pixels(frame, rects, FIELD_COUNTERS, |x, y| trace_pixel(field, settings, x, y));
+    let mut stats = RenderStats { rays: samples.len() as u64, ..Default::default() };
+    for p in &samples {
+        stats.hits += u64::from(p.depth.is_finite());
+        stats.steps += u64::from(p.counts[0]);
+        stats.field_evals += u64::from(p.counts[1]);
+    }
+    stats
+}
+
+/// Calls `pixel` for every pixel inside `rects` (in parallel) and writes the
+/// samples into `frame`, counters into the extra channels named `counters`;
+/// returns the samples.
+pub fn rerender_pixels(
+    frame: &mut Frame,
+    rects: &[super::PixelRect],
+    counters: [&str; 2],
+    pixel: impl Fn(u32, u32) -> PixelSample + Sync,
+) -> Vec<PixelSample> {
     let pixels: Vec<(u32, u32)> =
         rects.iter().flat_map(|r| (r.y0..r.y1).flat_map(move |y| (r.x0..r.x1).map(move |x| (x, y)))).collect();
-    let samples: Vec<PixelSample> = pixels.par_iter().map(|&(x, y)| trace_pixel(field, settings, x, y)).collect();
-    let mut stats = RenderStats { rays: samples.len() as u64, ..Default::default() };
+    let samples: Vec<PixelSample> = pixels.par_iter().map(|&(x, y)| pixel(x, y)).collect();
     for (&(x, y), p) in pixels.iter().zip(&samples) {
         let i = (y * frame.width + x) as usize;
         frame.color[i] = p.color;
         frame.depth[i] = p.depth;
         frame.normal[i] = p.normal;
         frame.alpha[i] = if p.depth.is_finite() { 1.0 } else { 0.0 };
-        for (k, name) in FIELD_COUNTERS.into_iter().enumerate() {
+        for (k, name) in counters.into_iter().enumerate() {
             if let Some((_, channel)) = frame.extra.iter_mut().find(|(n, _)| n == name) {
                 channel[i] = p.counts[k] as f32;
             }
         }
-        stats.hits += u64::from(p.depth.is_finite());
-        stats.steps += u64::from(p.counts[0]);
-        stats.field_evals += u64::from(p.counts[1]);
     }
-    stats
+    samples
 }
 
 /// Calls `pixel` for every pixel, rows in parallel, in row-major order.

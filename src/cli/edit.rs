@@ -1,0 +1,345 @@
+//! `blobtrace edit`: replay an edit script, updating per frame only what the
+//! edit changed — the dirty rectangles of the field image, the mesh cells near
+//! the change, their triangles in the BVH2, the mesh image and the diff in
+//! those rectangles — timing each stage; `--verify` checks every frame against
+//! a render and a polygonization from scratch.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
+use clap::Args;
+use serde::Serialize;
+
+use super::mesh::PolygonizeArgs;
+use super::{EvalOptions, with_threads};
+use crate::bvh::{DynamicMesh, render_mesh, rerender_mesh};
+use crate::compare::{Metric, differences, frame_image, line_plot};
+use crate::field::{Edit, EvalMode, ModelField};
+use crate::frame::Frame;
+use crate::geom::Aabb;
+use crate::mesh::{Mesh, Polygonizer, skeleton_seeds};
+use crate::scene::{Scene, Size, load_script};
+use crate::trace::{PixelRect, RenderSettings, merge_rects, render, rerender, screen_rect};
+
+/// Options of `blobtrace edit`.
+#[derive(Debug, Args)]
+pub struct EditArgs {
+    /// Scene file (RON).
+    pub scene: PathBuf,
+    /// Edit script (RON), e.g. scenes/medusa-head.ron.
+    #[arg(long)]
+    pub script: PathBuf,
+    /// Image size WIDTHxHEIGHT (default: the scene's).
+    #[arg(long, value_parser = super::parse_size)]
+    pub size: Option<Size>,
+    /// Polygonizer options.
+    #[command(flatten)]
+    pub polygonize: PolygonizeArgs,
+    /// Field evaluation.
+    #[command(flatten)]
+    pub field: EvalOptions,
+    /// Directory for frames.csv, timing.png and, with --save-frames, every frame.
+    #[arg(long, default_value = "edit")]
+    pub out_dir: PathBuf,
+    /// Render and polygonize every frame from scratch too, and check the
+    /// incremental field image is bit-identical and the mesh has the same triangles.
+    #[arg(long)]
+    pub verify: bool,
+    /// Write every frame's field image with its dirty rectangles outlined.
+    #[arg(long)]
+    pub save_frames: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One frame's measurements.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct FrameRow {
+    /// Frame number from 0.
+    pub frame: usize,
+    /// Fraction of the pixels re-traced.
+    pub dirty_fraction: f64,
+    /// Seconds applying the edits (caches invalidated, bounds refitted).
+    pub apply_s: f64,
+    /// Seconds re-tracing the field in the dirty rectangles.
+    pub field_s: f64,
+    /// Seconds re-polygonizing near the change.
+    pub polygonize_s: f64,
+    /// Seconds updating the BVH2.
+    pub bvh_s: f64,
+    /// Seconds re-casting the mesh image in its dirty rectangles.
+    pub mesh_render_s: f64,
+    /// Seconds updating the field–mesh depth difference in the rectangles.
+    pub diff_s: f64,
+    /// Sum of the incremental stages.
+    pub incremental_s: f64,
+    /// Seconds of a full render plus a full polygonization (with --verify).
+    pub full_s: Option<f64>,
+    /// Cached samples the edits cleared.
+    pub samples_cleared: u64,
+    /// Triangles after the frame.
+    pub triangles: usize,
+}
+
+/// What `edit --json` prints.
+#[derive(Debug, Serialize)]
+pub struct EditReport {
+    /// Frames replayed.
+    pub frames: usize,
+    /// Frames checked against from-scratch results (with --verify).
+    pub verified_frames: usize,
+    /// Total seconds of the from-scratch renders and polygonizations (with --verify).
+    pub full_s: Option<f64>,
+    /// Total seconds of the incremental updates.
+    pub incremental_s: f64,
+    /// Mean fraction of pixels re-traced per frame.
+    pub dirty_fraction: f64,
+    /// Evaluation mode.
+    pub eval: String,
+    /// Each frame.
+    pub per_frame: Vec<FrameRow>,
+}
+
+/// Everything kept between frames.
+struct EditState {
+    settings: RenderSettings,
+    mode: EvalMode,
+    polygonizer: Polygonizer,
+    dynamic: DynamicMesh,
+    field_frame: Frame,
+    mesh_frame: Frame,
+    depth_diff: Vec<f32>,
+}
+
+/// Runs `blobtrace edit`.
+pub fn run(a: &EditArgs) -> anyhow::Result<()> {
+    let mut scene = Scene::load(&a.scene)?;
+    let mode = a.field.apply(&mut scene.model)?;
+    let frames = load_script(&a.script)?;
+    for (i, edits) in frames.iter().enumerate() {
+        for e in edits {
+            anyhow::ensure!(
+                scene.model.find(e.node()).is_some(),
+                "{}: frame {i}: no node is named {:?}",
+                a.script.display(),
+                e.node()
+            );
+        }
+    }
+    std::fs::create_dir_all(&a.out_dir).with_context(|| format!("creating {}", a.out_dir.display()))?;
+    let size = a.size.unwrap_or(scene.size);
+    let report = with_threads(a.threads, || -> anyhow::Result<EditReport> {
+        a.polygonize.check(&scene)?;
+        let mut state = initial_state(&scene, mode, size, &a.polygonize);
+        let mut rows = vec![];
+        let mut verified = 0;
+        for (i, edits) in frames.iter().enumerate() {
+            let (row, rects) = step(&mut scene, &mut state, edits, i).with_context(|| format!("frame {i}"))?;
+            let mut row = row;
+            if a.verify {
+                let (full_s, ok) = verify(&scene, &state, &a.polygonize);
+                anyhow::ensure!(ok, "frame {i}: the incremental result differs from the full one");
+                row.full_s = Some(full_s);
+                verified += 1;
+            }
+            if a.save_frames {
+                save_frame(&a.out_dir, i, &state.field_frame, &rects)?;
+            }
+            rows.push(row);
+        }
+        Ok(summarize(rows, verified, mode))
+    })??;
+    write_outputs(a, &report)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
+    } else {
+        eprintln!(
+            "{}: {} frames, {:.3} s incremental{}, {:.1}% of the pixels re-traced per frame",
+            a.out_dir.display(),
+            report.frames,
+            report.incremental_s,
+            report.full_s.map_or(String::new(), |f| format!(
+                " against {f:.3} s from scratch ({} verified)",
+                report.verified_frames
+            )),
+            100.0 * report.dirty_fraction
+        );
+    }
+    Ok(())
+}
+
+fn initial_state(scene: &Scene, mode: EvalMode, size: Size, polygonize: &PolygonizeArgs) -> EditState {
+    let settings = RenderSettings::for_scene(scene, size);
+    let field = ModelField::new(&scene.model, mode);
+    let field_frame = render(&field, &settings, &|_| {}).0;
+    let lattice = crate::mesh::Lattice::across(&scene.model.bounds(), polygonize.res);
+    let mut polygonizer = Polygonizer::new(lattice, polygonize.options());
+    polygonizer.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
+    let dynamic = DynamicMesh::build(&polygonizer);
+    let mesh_frame = render_mesh(&dynamic, &settings, &|_| {}).0;
+    let depth_diff = differences(&mesh_frame, &field_frame, Metric::Depth);
+    EditState { settings, mode, polygonizer, dynamic, field_frame, mesh_frame, depth_diff }
+}
+
+/// Applies one frame's edits and updates everything incrementally.
+fn step(
+    scene: &mut Scene,
+    s: &mut EditState,
+    edits: &[Edit],
+    frame: usize,
+) -> anyhow::Result<(FrameRow, Vec<PixelRect>)> {
+    let mut row = FrameRow { frame, ..Default::default() };
+    let clock = Instant::now();
+    let mut region = Aabb::EMPTY;
+    for edit in edits {
+        let change = scene.model.apply(edit)?;
+        row.samples_cleared += change.samples_cleared;
+        region = region.union(&scene.model.change_region(&change, s.mode == EvalMode::Cached));
+    }
+    row.apply_s = clock.elapsed().as_secs_f64();
+    let (w, h) = (s.settings.width, s.settings.height);
+    let rects = merge_rects(screen_rect(&s.settings.camera, w, h, &region).into_iter().collect());
+    row.dirty_fraction = rects.iter().map(PixelRect::area).sum::<u64>() as f64 / f64::from(w * h);
+    let field = ModelField::new(&scene.model, s.mode);
+    let clock = Instant::now();
+    rerender(&field, &s.settings, &mut s.field_frame, &rects);
+    row.field_s = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
+    let changed = s.polygonizer.repolygonize(&field, &region, &skeleton_seeds(&scene.model, scene.model.root()));
+    row.polygonize_s = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
+    s.dynamic.update(&s.polygonizer, &changed);
+    row.bvh_s = clock.elapsed().as_secs_f64();
+    // Triangles change only within two lattice cells of the region.
+    let mesh_region = region.padded(2.0 * s.polygonizer.lattice().cell);
+    let mesh_rects = merge_rects(screen_rect(&s.settings.camera, w, h, &mesh_region).into_iter().collect());
+    let clock = Instant::now();
+    rerender_mesh(&s.dynamic, &s.settings, &mut s.mesh_frame, &mesh_rects);
+    row.mesh_render_s = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
+    update_depth_diff(&mut s.depth_diff, &s.mesh_frame, &s.field_frame, &mesh_rects);
+    row.diff_s = clock.elapsed().as_secs_f64();
+    row.incremental_s = row.apply_s + row.field_s + row.polygonize_s + row.bvh_s + row.mesh_render_s + row.diff_s;
+    row.triangles = s.dynamic.triangle_count();
+    Ok((row, rects))
+}
+
+/// Recomputes the mesh − field depth difference inside `rects` (which hold the
+/// field's dirty rectangles too, the mesh's being the wider).
+fn update_depth_diff(diff: &mut [f32], mesh: &Frame, field: &Frame, rects: &[PixelRect]) {
+    for r in rects {
+        for y in r.y0..r.y1 {
+            for x in r.x0..r.x1 {
+                let i = (y * mesh.width + x) as usize;
+                let (a, b) = (mesh.depth[i], field.depth[i]);
+                diff[i] = match (a.is_finite(), b.is_finite()) {
+                    (true, true) => a - b,
+                    (false, false) => f32::NAN,
+                    _ => f32::INFINITY,
+                };
+            }
+        }
+    }
+}
+
+/// Renders and polygonizes from scratch; returns the seconds and whether the
+/// incremental image and mesh equal them.
+fn verify(scene: &Scene, s: &EditState, polygonize: &PolygonizeArgs) -> (f64, bool) {
+    let field = ModelField::new(&scene.model, s.mode);
+    let clock = Instant::now();
+    let full = render(&field, &s.settings, &|_| {}).0;
+    let mut fresh = Polygonizer::new(s.polygonizer.lattice(), polygonize.options());
+    fresh.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
+    let mesh = fresh.mesh();
+    let seconds = clock.elapsed().as_secs_f64();
+    let same_mesh = triangle_set(&mesh) == canonical(s.dynamic.triangles());
+    (seconds, full.same_image(&s.field_frame) && same_mesh)
+}
+
+fn triangle_set(mesh: &Mesh) -> Vec<[[u32; 3]; 3]> {
+    canonical((0..mesh.triangles.len()).map(|t| mesh.corners(t)).collect())
+}
+
+/// Triangles as exact position triples, rotated to start at the smallest corner, sorted.
+fn canonical(triangles: Vec<[glam::Vec3; 3]>) -> Vec<[[u32; 3]; 3]> {
+    let mut set: Vec<[[u32; 3]; 3]> = triangles
+        .into_iter()
+        .map(|t| {
+            let mut c = t.map(|p| p.to_array().map(f32::to_bits));
+            let first = (0..3).min_by_key(|&i| c[i]).unwrap_or(0);
+            c.rotate_left(first);
+            c
+        })
+        .collect();
+    set.sort_unstable();
+    set
+}
+
+fn save_frame(dir: &std::path::Path, i: usize, frame: &Frame, rects: &[PixelRect]) -> anyhow::Result<()> {
+    let mut img = frame_image(frame);
+    for r in rects {
+        for x in r.x0..r.x1 {
+            img.put(i64::from(x), i64::from(r.y0), [255, 220, 0]);
+            img.put(i64::from(x), i64::from(r.y1) - 1, [255, 220, 0]);
+        }
+        for y in r.y0..r.y1 {
+            img.put(i64::from(r.x0), i64::from(y), [255, 220, 0]);
+            img.put(i64::from(r.x1) - 1, i64::from(y), [255, 220, 0]);
+        }
+    }
+    img.save_png(&dir.join(format!("frame-{i:04}.png")))
+}
+
+fn summarize(rows: Vec<FrameRow>, verified: usize, mode: EvalMode) -> EditReport {
+    let n = rows.len().max(1) as f64;
+    EditReport {
+        frames: rows.len(),
+        verified_frames: verified,
+        full_s: rows.iter().map(|r| r.full_s).sum::<Option<f64>>(),
+        incremental_s: rows.iter().map(|r| r.incremental_s).sum(),
+        dirty_fraction: rows.iter().map(|r| r.dirty_fraction).sum::<f64>() / n,
+        eval: format!("{mode:?}").to_lowercase(),
+        per_frame: rows,
+    }
+}
+
+fn write_outputs(a: &EditArgs, r: &EditReport) -> anyhow::Result<()> {
+    let mut csv = String::from(
+        "frame,dirty_fraction,apply_s,field_s,polygonize_s,bvh_s,mesh_render_s,diff_s,incremental_s,full_s,samples_cleared,triangles\n",
+    );
+    for f in &r.per_frame {
+        let full = f.full_s.map_or(String::new(), |v| format!("{v:.6}"));
+        let _ = writeln!(
+            csv,
+            "{},{:.5},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{full},{},{}",
+            f.frame,
+            f.dirty_fraction,
+            f.apply_s,
+            f.field_s,
+            f.polygonize_s,
+            f.bvh_s,
+            f.mesh_render_s,
+            f.diff_s,
+            f.incremental_s,
+            f.samples_cleared,
+            f.triangles
+        );
+    }
+    crate::output::write_atomic(&a.out_dir.join("frames.csv"), csv.as_bytes()).context("writing frames.csv")?;
+    let incremental: Vec<f64> = r.per_frame.iter().map(|f| f.incremental_s).collect();
+    let field: Vec<f64> = r.per_frame.iter().map(|f| f.field_s).collect();
+    let mesh: Vec<f64> = r.per_frame.iter().map(|f| f.polygonize_s + f.bvh_s + f.mesh_render_s).collect();
+    let full: Vec<f64> = r.per_frame.iter().map(|f| f.full_s.unwrap_or(f64::NAN)).collect();
+    let mut series: Vec<(&str, &[f64])> = vec![("incremental", &incremental), ("field", &field), ("mesh", &mesh)];
+    if r.full_s.is_some() {
+        series.push(("from scratch", &full));
+    }
+    let title = format!("seconds per frame ({})", r.eval);
+    line_plot(&title, "s", &series, 720, 360).save_png(&a.out_dir.join("timing.png"))
+}
