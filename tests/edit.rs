@@ -4,7 +4,7 @@
 
 mod common;
 
-use blobtrace::field::{Edit, EvalMode, Model, ModelField};
+use blobtrace::field::{Edit, EvalMode, Field, Model, ModelField};
 use blobtrace::frame::Frame;
 use blobtrace::mesh::{Lattice, PolygonizeOptions, Polygonizer, skeleton_seeds};
 use blobtrace::scene::{Scene, Size};
@@ -135,4 +135,29 @@ fn bad_edits_are_refused_and_change_nothing() {
     }
     let after = render(&ModelField::new(&scene.model, EvalMode::Cached), &settings, &|_| {}).0;
     assert!(before.same_image(&after));
+}
+
+#[test]
+fn after_edits_the_model_equals_one_refreshed_from_scratch() {
+    let mut scene = Scene::parse(EVERY_NODE, "every").unwrap();
+    let mut rng = Rng(99);
+    for _ in 0..6 {
+        let edit = random_edit(&mut rng, "arm", false);
+        scene.model.apply(&edit).unwrap();
+    }
+    let mut fresh = scene.model.clone();
+    fresh.refresh();
+    for (a, b) in scene.model.nodes().iter().zip(fresh.nodes()) {
+        assert_eq!(a.bounds, b.bounds);
+    }
+    let bounds = scene.model.bounds();
+    for mode in [EvalMode::Indexed, EvalMode::Naive] {
+        let (edited, refreshed) = (ModelField::new(&scene.model, mode), ModelField::new(&fresh, mode));
+        for _ in 0..500 {
+            let p = rng.point_in(bounds.min, bounds.max);
+            assert_eq!(edited.value(p).to_bits(), refreshed.value(p).to_bits(), "{mode:?} at {p}");
+            let r = blobtrace::field::Region::Segment(p, p + glam::Vec3A::splat(0.3));
+            assert_eq!(edited.lipschitz(&r).to_bits(), refreshed.lipschitz(&r).to_bits(), "{mode:?} at {p}");
+        }
+    }
 }

@@ -207,10 +207,34 @@ impl Model {
         self.build_indices(self.root);
     }
 
+    /// Brings bounds and blend indices up to date after node `id` alone
+    /// changed: its subtree's bounds, then each ancestor's from its children,
+    /// and the indices of the blends on that path (no other index can change).
+    fn refresh_from(&mut self, id: NodeId) {
+        self.update_bounds(id);
+        let mut path = vec![id];
+        let mut at = id;
+        while let Some(parent) = self.nodes[at as usize].parent {
+            self.bounds_from_children(parent);
+            path.push(parent);
+            at = parent;
+        }
+        for node in path {
+            self.build_index_at(node);
+        }
+    }
+
     fn update_bounds(&mut self, id: NodeId) -> Aabb {
-        let kind = &self.nodes[id as usize].kind;
-        let children = kind.children();
-        let child_bounds: Vec<Aabb> = children.iter().map(|&c| self.update_bounds(c)).collect();
+        for c in self.nodes[id as usize].kind.children() {
+            self.update_bounds(c);
+        }
+        self.bounds_from_children(id)
+    }
+
+    /// Node `id`'s bounds from its children's current bounds (refitting a cache).
+    fn bounds_from_children(&mut self, id: NodeId) -> Aabb {
+        let child_bounds: Vec<Aabb> =
+            self.nodes[id as usize].kind.children().iter().map(|&c| self.nodes[c as usize].bounds).collect();
         let kind = &self.nodes[id as usize].kind;
         let b = match kind {
             NodeKind::Primitive(p) => p.bounds(),
@@ -329,7 +353,7 @@ impl Model {
 
     /// Brings bounds, indices and caches up to date after node `id` changed.
     fn edited(&mut self, id: NodeId, old: Aabb) -> Change {
-        self.refresh();
+        self.refresh_from(id);
         let new = self.node(id).bounds;
         let samples_cleared = self.invalidate_above(id, old.union(&new));
         Change { node: id, old, new, samples_cleared }
@@ -378,13 +402,18 @@ impl Model {
 
     /// Indexes the top blend of every cluster of nested blends that has enough leaves.
     fn build_indices(&mut self, id: NodeId) {
+        for c in self.nodes[id as usize].kind.children() {
+            self.build_indices(c);
+        }
+        self.build_index_at(id);
+    }
+
+    /// Rebuilds the index of node `id` if it is the top blend of a cluster.
+    fn build_index_at(&mut self, id: NodeId) {
         let is_cluster_top = matches!(self.nodes[id as usize].kind, NodeKind::Blend { .. })
             && !self.nodes[id as usize]
                 .parent
                 .is_some_and(|p| matches!(self.nodes[p as usize].kind, NodeKind::Blend { .. }));
-        for c in self.nodes[id as usize].kind.children() {
-            self.build_indices(c);
-        }
         if !is_cluster_top {
             return;
         }
