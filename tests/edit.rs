@@ -161,3 +161,62 @@ fn after_edits_the_model_equals_one_refreshed_from_scratch() {
         }
     }
 }
+
+const OPERATORS: &str = r#"Scene(
+    camera: Camera(eye: (0.0, 0.0, 6.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
+    size: (64, 48),
+    model: Blend([
+        Named("group", Blend([Point(center: (-0.6, 0.0, 0.0), radius: 1.0), Named("b", Point(center: (0.6, 0.0, 0.0), radius: 1.0))])),
+        Named("cut", Intersection([Point(center: (0.0, 1.2, 0.0), radius: 1.1), Point(center: (0.3, 1.2, 0.0), radius: 1.1)])),
+        Named("cached", Cache(res: 24, child: Blend([Point(center: (0.0, -1.3, 0.0), radius: 0.9), Point(center: (0.5, -1.3, 0.2), radius: 0.8)]))),
+    ]),
+)"#;
+
+#[test]
+fn adding_removing_and_changing_operators_update_incrementally() {
+    use blobtrace::field::Operator;
+    let add = |to: &str, name: &str, x: f32, y: f32| Edit::AddPoint {
+        to: to.into(),
+        name: name.into(),
+        center: Vec3::new(x, y, 0.3),
+        radius: 0.6,
+        weight: 1.0,
+    };
+    let edits = [
+        add("group", "g1", 0.0, 0.5),
+        add("cached", "c1", -0.4, -1.0),
+        add("cut", "i1", 0.1, 1.3),
+        Edit::Remove { node: "b".into() },
+        Edit::Operator { node: "group".into(), op: Operator::Union },
+        Edit::Operator { node: "cut".into(), op: Operator::Ricci(2.0) },
+        Edit::Remove { node: "c1".into() },
+    ];
+    for mode in [EvalMode::Indexed, EvalMode::Cached] {
+        let mut scene = Scene::parse(OPERATORS, "operators").unwrap();
+        let settings = RenderSettings::for_scene(&scene, Size(64, 48));
+        let mut frame = render(&ModelField::new(&scene.model, mode), &settings, &|_| {}).0;
+        for edit in &edits {
+            let change = scene.model.apply(edit).unwrap();
+            let rects = dirty_rects(&scene.model, &change, mode == EvalMode::Cached, &settings);
+            let before = frame.clone();
+            let field = ModelField::new(&scene.model, mode);
+            rerender(&field, &settings, &mut frame, &rects);
+            let full = render(&field, &settings, &|_| {}).0;
+            assert!(frame.same_image(&full), "{mode:?} {edit:?}");
+            assert!(!changed_pixels(&before, &full).is_empty(), "{mode:?} {edit:?} changes the image");
+            for (x, y) in changed_pixels(&before, &full) {
+                assert!(rects.iter().any(|r| r.contains(x, y)), "{mode:?} {edit:?}: pixel {x},{y}");
+            }
+        }
+        assert!(scene.model.find("b").is_none() && scene.model.find("g1").is_some());
+        let refused = [
+            (add("group", "g1", 0.0, 0.0), "used twice"),
+            (add("b", "x", 0.0, 0.0), "no node is named"),
+            (Edit::Operator { node: "cut".into(), op: Operator::Ricci(0.5) }, "at least 1"),
+        ];
+        for (edit, words) in refused {
+            let err = scene.model.apply(&edit).expect_err("refused").to_string();
+            assert!(err.contains(words), "{edit:?}: {err}");
+        }
+    }
+}

@@ -46,6 +46,49 @@ pub enum Edit {
         /// New weight, finite.
         weight: f32,
     },
+    /// Add a point primitive, named `name`, to the operator under the node `to`.
+    AddPoint {
+        /// The `Named` node above a Blend, Union, Intersection or Ricci.
+        to: String,
+        /// The new node's name, unused so far.
+        name: String,
+        /// Centre.
+        center: Vec3,
+        /// Support radius, positive.
+        radius: f32,
+        /// Weight (default 1).
+        #[serde(default = "one")]
+        weight: f32,
+    },
+    /// Remove the named node from the operator holding it (which keeps at least one child).
+    Remove {
+        /// The `Named` node to remove.
+        node: String,
+    },
+    /// Change the operator under the named node, keeping its children.
+    Operator {
+        /// The `Named` node above a Blend, Union, Intersection or Ricci.
+        node: String,
+        /// The new operator.
+        op: Operator,
+    },
+}
+
+/// The n-ary operators an edit can switch between.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize)]
+pub enum Operator {
+    /// Sum.
+    Blend,
+    /// Maximum.
+    Union,
+    /// Minimum.
+    Intersection,
+    /// Ricci's blend with exponent `n ≥ 1`.
+    Ricci(f32),
+}
+
+fn one() -> f32 {
+    1.0
 }
 
 impl Edit {
@@ -57,7 +100,10 @@ impl Edit {
             | Edit::Rotate { node, .. }
             | Edit::Scale { node, .. }
             | Edit::Radius { node, .. }
-            | Edit::Weight { node, .. } => node,
+            | Edit::Weight { node, .. }
+            | Edit::Remove { node }
+            | Edit::Operator { node, .. } => node,
+            Edit::AddPoint { to, .. } => to,
         }
     }
 
@@ -77,6 +123,18 @@ impl Edit {
             Edit::Weight { weight, .. } if !weight.is_finite() => {
                 bad(format!("{} weight {weight}: not finite", self.node()))
             }
+            Edit::AddPoint { center, radius, weight, name, .. }
+                if !(center.is_finite()
+                    && radius.is_finite()
+                    && *radius > 0.0
+                    && weight.is_finite()
+                    && !name.is_empty()) =>
+            {
+                bad(format!("adding {name:?}: needs a name, a finite centre and weight, and a positive radius"))
+            }
+            Edit::Operator { op: Operator::Ricci(n), .. } if !(n.is_finite() && *n >= 1.0) => {
+                bad(format!("{}: Ricci exponent {n} must be at least 1", self.node()))
+            }
             _ => Ok(()),
         }
     }
@@ -93,7 +151,35 @@ impl Model {
         let NodeKind::Named { child, .. } = self.node(named).kind else {
             return Err(ModelError::UnknownName(edit.node().to_string()));
         };
+        let operator = || {
+            self.operator_under(named).ok_or_else(|| ModelError::WrongKind {
+                node: named,
+                expected: "Blend, Union, Intersection or Ricci",
+                found: self.node(child).kind.type_name(),
+            })
+        };
         match edit {
+            Edit::AddPoint { name, center, radius, weight, .. } => {
+                let op = operator()?;
+                let point = super::Primitive::new(
+                    super::Skeleton::Point { center: (*center).into() },
+                    *radius,
+                    *weight,
+                    super::Kernel::default(),
+                );
+                self.add_child(op, name, point)
+            }
+            Edit::Remove { .. } => self.remove_child(named),
+            Edit::Operator { op: kind, .. } => {
+                let op = operator()?;
+                let kind = *kind;
+                Ok(self.set_operator(op, move |children| match kind {
+                    Operator::Blend => NodeKind::Blend { children, index: None },
+                    Operator::Union => NodeKind::Union(children),
+                    Operator::Intersection => NodeKind::Intersection(children),
+                    Operator::Ricci(n) => NodeKind::Ricci { n, children },
+                }))
+            }
             Edit::Radius { radius, .. } => self.edit_primitive(child, |p| p.with_radius(*radius)),
             Edit::Weight { weight, .. } => self.edit_primitive(child, |p| p.with_weight(*weight)),
             Edit::Translate { by, .. } => self.move_subtree(named, |_| Affine3A::from_translation(*by)),

@@ -19,7 +19,7 @@ pub mod spline;
 
 use glam::{Vec3, Vec3A};
 
-pub use edit::Edit;
+pub use edit::{Edit, Operator};
 pub use index::{BlendIndex, IndexedLeaf, Leaf};
 pub use kernel::Kernel;
 pub use model::{Change, Model, ModelBuilder, ModelCounts, ModelError};

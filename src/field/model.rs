@@ -351,6 +351,97 @@ impl Model {
         id
     }
 
+    /// The n-ary operator under `Named` node `named`, looking through transforms and caches.
+    pub(super) fn operator_under(&self, named: NodeId) -> Option<NodeId> {
+        let NodeKind::Named { mut child, .. } = self.nodes[named as usize].kind else {
+            return None;
+        };
+        while let NodeKind::Transform { child: c, .. } | NodeKind::Cache { child: c, .. } =
+            self.nodes[child as usize].kind
+        {
+            child = c;
+        }
+        operator_children(&self.nodes[child as usize].kind).map(|_| child)
+    }
+
+    /// Adds `Named(name, primitive)` as the last child of operator `op`; returns
+    /// the change (the new node's bounds, or the operator's for an intersection).
+    pub(super) fn add_child(&mut self, op: NodeId, name: &str, primitive: Primitive) -> Result<Change, ModelError> {
+        if self.names.contains_key(name) {
+            return Err(ModelError::DuplicateName(name.to_string()));
+        }
+        let old_op = self.nodes[op as usize].bounds;
+        let leaf = self.nodes.len() as NodeId;
+        let named = leaf + 1;
+        let b = primitive.bounds();
+        self.nodes.push(Node { kind: NodeKind::Primitive(primitive), parent: Some(named), bounds: b, color: None });
+        let kind = NodeKind::Named { name: name.to_string(), child: leaf };
+        self.nodes.push(Node { kind, parent: Some(op), bounds: b, color: None });
+        self.names.insert(name.to_string(), named);
+        if let Some(children) = operator_children_mut(&mut self.nodes[op as usize].kind) {
+            children.push(named);
+        }
+        Ok(self.children_changed(op, old_op, Aabb::EMPTY, b))
+    }
+
+    /// Detaches `Named` node `named` from its parent operator (which keeps at
+    /// least one child); the name is free again.
+    pub(super) fn remove_child(&mut self, named: NodeId) -> Result<Change, ModelError> {
+        let parent = self.nodes[named as usize].parent.ok_or(ModelError::NoChildren("the root"))?;
+        let old_op = self.nodes[parent as usize].bounds;
+        let gone = self.nodes[named as usize].bounds;
+        let found = self.nodes[parent as usize].kind.type_name();
+        let children = operator_children_mut(&mut self.nodes[parent as usize].kind).ok_or(ModelError::WrongKind {
+            node: parent,
+            expected: "Blend, Union, Intersection or Ricci",
+            found,
+        })?;
+        if children.len() < 2 {
+            return Err(ModelError::NoChildren(found));
+        }
+        children.retain(|&c| c != named);
+        self.nodes[named as usize].parent = None;
+        if let NodeKind::Named { name, .. } = &self.nodes[named as usize].kind {
+            let name = name.clone();
+            self.names.remove(&name);
+        }
+        Ok(self.children_changed(parent, old_op, gone, Aabb::EMPTY))
+    }
+
+    /// Replaces the kind of n-ary operator `op` by `kind` built from its children.
+    pub(super) fn set_operator(&mut self, op: NodeId, kind: impl FnOnce(Vec<NodeId>) -> NodeKind) -> Change {
+        let old = self.nodes[op as usize].bounds;
+        let children = self.nodes[op as usize].kind.children();
+        self.nodes[op as usize].kind = kind(children);
+        self.edited(op, old)
+    }
+
+    /// After children of `op` were added or removed: refresh, and invalidate
+    /// where the field changed — the child's own bounds, except under an
+    /// intersection, whose minimum changes wherever the operator reaches.
+    fn children_changed(&mut self, op: NodeId, old_op: Aabb, old: Aabb, new: Aabb) -> Change {
+        self.refresh_from(op);
+        let new_op = self.nodes[op as usize].bounds;
+        let (old, new) = if matches!(self.nodes[op as usize].kind, NodeKind::Intersection(_)) {
+            (old_op, new_op)
+        } else {
+            (old, new)
+        };
+        // Caches inside the operator's own frame: the op itself may be cached above.
+        let samples_cleared = self.invalidate_from(op, old.union(&new));
+        Change { node: op, old, new, samples_cleared }
+    }
+
+    /// Clears the samples inside `region` (in `id`'s own frame) in `id` if it
+    /// is a cache, then in every cache above.
+    fn invalidate_from(&mut self, id: NodeId, region: Aabb) -> u64 {
+        let own = match self.nodes[id as usize].kind {
+            NodeKind::Cache { grid, .. } => self.grids[grid].as_mut().map_or(0, |g| g.invalidate(&region)),
+            _ => 0,
+        };
+        own + self.invalidate_above(id, region)
+    }
+
     /// Brings bounds, indices and caches up to date after node `id` changed.
     fn edited(&mut self, id: NodeId, old: Aabb) -> Change {
         self.refresh_from(id);
@@ -484,4 +575,25 @@ pub struct ModelCounts {
     pub caches: usize,
     /// Blends carrying a spatial index.
     pub indexed_blends: usize,
+}
+
+/// The children of an n-ary operator (Blend, Union, Intersection, Ricci).
+fn operator_children(kind: &NodeKind) -> Option<&Vec<NodeId>> {
+    match kind {
+        NodeKind::Blend { children, .. }
+        | NodeKind::Union(children)
+        | NodeKind::Intersection(children)
+        | NodeKind::Ricci { children, .. } => Some(children),
+        _ => None,
+    }
+}
+
+fn operator_children_mut(kind: &mut NodeKind) -> Option<&mut Vec<NodeId>> {
+    match kind {
+        NodeKind::Blend { children, .. }
+        | NodeKind::Union(children)
+        | NodeKind::Intersection(children)
+        | NodeKind::Ricci { children, .. } => Some(children),
+        _ => None,
+    }
 }
