@@ -81,6 +81,8 @@ pub struct FrameRow {
     pub incremental_s: f64,
     /// Seconds of a full render plus a full polygonization (with --verify).
     pub full_s: Option<f64>,
+    /// Of which the full render of the field (with --verify).
+    pub full_render_s: Option<f64>,
     /// Cached samples the edits cleared.
     pub samples_cleared: u64,
     /// Triangles after the frame.
@@ -143,9 +145,10 @@ pub fn run(a: &EditArgs) -> anyhow::Result<()> {
             let (row, rects) = step(&mut scene, &mut state, edits, i).with_context(|| format!("frame {i}"))?;
             let mut row = row;
             if a.verify {
-                let (full_s, ok) = verify(&scene, &state, &a.polygonize);
+                let (render_s, full_s, ok) = verify(&scene, &state, &a.polygonize);
                 anyhow::ensure!(ok, "frame {i}: the incremental result differs from the full one");
                 row.full_s = Some(full_s);
+                row.full_render_s = Some(render_s);
                 verified += 1;
             }
             if a.save_frames {
@@ -248,18 +251,19 @@ fn update_depth_diff(diff: &mut [f32], mesh: &Frame, field: &Frame, rects: &[Pix
     }
 }
 
-/// Renders and polygonizes from scratch; returns the seconds and whether the
-/// incremental image and mesh equal them.
-fn verify(scene: &Scene, s: &EditState, polygonize: &PolygonizeArgs) -> (f64, bool) {
+/// Renders and polygonizes from scratch; returns the seconds rendering, the
+/// seconds in all, and whether the incremental image and mesh equal them.
+fn verify(scene: &Scene, s: &EditState, polygonize: &PolygonizeArgs) -> (f64, f64, bool) {
     let field = ModelField::new(&scene.model, s.mode);
     let clock = Instant::now();
     let full = render(&field, &s.settings, &|_| {}).0;
+    let render_s = clock.elapsed().as_secs_f64();
     let mut fresh = Polygonizer::new(s.polygonizer.lattice(), polygonize.options());
     fresh.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
     let mesh = fresh.mesh();
     let seconds = clock.elapsed().as_secs_f64();
     let same_mesh = triangle_set(&mesh) == canonical(s.dynamic.triangles());
-    (seconds, full.same_image(&s.field_frame) && same_mesh)
+    (render_s, seconds, full.same_image(&s.field_frame) && same_mesh)
 }
 
 fn triangle_set(mesh: &Mesh) -> Vec<[[u32; 3]; 3]> {
