@@ -28,6 +28,9 @@ pub enum BenchCommand {
     /// Polygonization with and without caches over resolutions (the paper's
     /// Table 1), evaluations per triangle, triangle and ray rates.
     Mesh(super::bench_mesh::MeshBenchArgs),
+    /// The caching paper's Figure 8: an edit script's per-frame times with and
+    /// without caches, local updates against work from scratch.
+    Edit(super::bench_edit::EditBenchArgs),
 }
 
 /// Options of `blobtrace bench eval`.
@@ -66,6 +69,7 @@ pub fn run(c: &BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Eval(a) => eval(a),
         BenchCommand::Cache(a) => cache(a),
         BenchCommand::Mesh(a) => super::bench_mesh::run(a),
+        BenchCommand::Edit(a) => super::bench_edit::run(a),
     }
 }
 

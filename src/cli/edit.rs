@@ -138,24 +138,9 @@ pub fn run(a: &EditArgs) -> anyhow::Result<()> {
     let size = a.size.unwrap_or(scene.size);
     let report = with_threads(a.threads, || -> anyhow::Result<EditReport> {
         a.polygonize.check(&scene)?;
-        let mut state = initial_state(&scene, mode, size, &a.polygonize);
-        let mut rows = vec![];
-        let mut verified = 0;
-        for (i, edits) in frames.iter().enumerate() {
-            let (row, rects) = step(&mut scene, &mut state, edits, i).with_context(|| format!("frame {i}"))?;
-            let mut row = row;
-            if a.verify {
-                let (render_s, full_s, ok) = verify(&scene, &state, &a.polygonize);
-                anyhow::ensure!(ok, "frame {i}: the incremental result differs from the full one");
-                row.full_s = Some(full_s);
-                row.full_render_s = Some(render_s);
-                verified += 1;
-            }
-            if a.save_frames {
-                save_frame(&a.out_dir, i, &state.field_frame, &rects)?;
-            }
-            rows.push(row);
-        }
+        let (rows, verified) = replay(&mut scene, mode, &frames, &a.polygonize, size, a.verify, |i, frame, rects| {
+            if a.save_frames { save_frame(&a.out_dir, i, frame, rects) } else { Ok(()) }
+        })?;
         Ok(summarize(rows, verified, mode))
     })??;
     write_outputs(a, &report)?;
@@ -175,6 +160,37 @@ pub fn run(a: &EditArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// Replays `frames` of edits on `scene`, updating incrementally and timing each
+/// frame; with `verify`, checks each frame against from-scratch results.
+/// `after_frame` sees each frame's field image and dirty rectangles. Returns
+/// the rows and the number of verified frames.
+pub fn replay(
+    scene: &mut Scene,
+    mode: EvalMode,
+    frames: &[Vec<Edit>],
+    polygonize: &PolygonizeArgs,
+    size: Size,
+    verify_frames: bool,
+    mut after_frame: impl FnMut(usize, &Frame, &[PixelRect]) -> anyhow::Result<()>,
+) -> anyhow::Result<(Vec<FrameRow>, usize)> {
+    let mut state = initial_state(scene, mode, size, polygonize);
+    let mut rows = vec![];
+    let mut verified = 0;
+    for (i, edits) in frames.iter().enumerate() {
+        let (mut row, rects) = step(scene, &mut state, edits, i).with_context(|| format!("frame {i}"))?;
+        if verify_frames {
+            let (render_s, full_s, ok) = verify(scene, &state, polygonize);
+            anyhow::ensure!(ok, "frame {i}: the incremental result differs from the full one");
+            row.full_s = Some(full_s);
+            row.full_render_s = Some(render_s);
+            verified += 1;
+        }
+        after_frame(i, &state.field_frame, &rects)?;
+        rows.push(row);
+    }
+    Ok((rows, verified))
 }
 
 fn initial_state(scene: &Scene, mode: EvalMode, size: Size, polygonize: &PolygonizeArgs) -> EditState {

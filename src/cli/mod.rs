@@ -2,6 +2,7 @@
 //! The binary only calls [`main_with_args`].
 
 mod bench;
+mod bench_edit;
 mod bench_mesh;
 mod compare;
 mod diff;
