@@ -583,3 +583,37 @@ fn edit_replays_a_script_incrementally_and_verifies_every_frame() {
     assert!(!out.status.success() && err.contains("bad.ron:2:"), "{err}");
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn bench_edit_reports_figure_8_and_plots_it() {
+    let dir = scratch("bench-edit");
+    let script = dir.join("s.ron");
+    std::fs::write(
+        &script,
+        "EditScript(frames: [(repeat: 3, edits: [Translate(node: \"probe\", by: (-0.1, 0.0, 0.0))])])",
+    )
+    .unwrap();
+    let plot = dir.join("f8.png");
+    let out = blobtrace(&[
+        "bench",
+        "edit",
+        "scenes/hair_point.ron",
+        "--script",
+        script.to_str().unwrap(),
+        "--res",
+        "16",
+        "--size",
+        "32x24",
+        "-o",
+        plot.to_str().unwrap(),
+        "--json",
+    ]);
+    let v = json(&out);
+    assert_eq!(v["frames"], 3);
+    for key in ["local_polygonize_ratio", "dirty_render_speedup"] {
+        assert!(v[key].as_f64().is_some_and(|x| x > 0.0), "{key} in {v}");
+    }
+    assert!(v["naive"]["full_render_s"].as_f64().unwrap() > 0.0);
+    assert!(image::open(&plot).is_ok());
+    std::fs::remove_dir_all(dir).unwrap();
+}
