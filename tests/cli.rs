@@ -559,6 +559,17 @@ fn edit_replays_a_script_incrementally_and_verifies_every_frame() {
     let csv = std::fs::read_to_string(dir.join("frames.csv")).unwrap();
     assert_eq!(csv.lines().count(), 41);
     assert!(dir.join("timing.png").exists());
+    // A point added to the cached hair, moved by its new name, then removed: every frame verified.
+    let grow = dir.join("grow.ron");
+    std::fs::write(
+        &grow,
+        "EditScript(frames: [(edits: [AddPoint(to: \"hair\", name: \"bump\", center: (0.5, 2.3, 0.0), radius: 0.3)]),
+          (repeat: 2, edits: [Translate(node: \"bump\", by: (0.1, 0.0, 0.0))]), (edits: [Remove(node: \"bump\")])])",
+    )
+    .unwrap();
+    let args = ["edit", "scenes/hair_point.ron", "--script", grow.to_str().unwrap(), "--size", "40x30", "--res", "16"];
+    let out = blobtrace(&[&args[..], &["--verify", "--out-dir", dir.to_str().unwrap(), "--json"]].concat());
+    assert_eq!(json(&out)["verified_frames"], 4);
     let bad = dir.join("bad.ron");
     std::fs::write(&bad, "EditScript(frames: [(edits: [Translate(node: \"nobody\", by: (1.0, 0.0, 0.0))])])").unwrap();
     let out = blobtrace(&[

@@ -124,16 +124,7 @@ pub fn run(a: &EditArgs) -> anyhow::Result<()> {
     let mut scene = Scene::load(&a.scene)?;
     let mode = a.field.apply(&mut scene.model)?;
     let frames = load_script(&a.script)?;
-    for (i, edits) in frames.iter().enumerate() {
-        for e in edits {
-            anyhow::ensure!(
-                scene.model.find(e.node()).is_some(),
-                "{}: frame {i}: no node is named {:?}",
-                a.script.display(),
-                e.node()
-            );
-        }
-    }
+    check_names(&scene, &frames).map_err(|m| anyhow::anyhow!("{}: {m}", a.script.display()))?;
     std::fs::create_dir_all(&a.out_dir).with_context(|| format!("creating {}", a.out_dir.display()))?;
     let size = a.size.unwrap_or(scene.size);
     let report = with_threads(a.threads, || -> anyhow::Result<EditReport> {
@@ -158,6 +149,25 @@ pub fn run(a: &EditArgs) -> anyhow::Result<()> {
             )),
             100.0 * report.dirty_fraction
         );
+    }
+    Ok(())
+}
+
+/// Checks before any work that every edit names a node that exists by then
+/// (names added and removed by earlier edits of the script count).
+fn check_names(scene: &Scene, frames: &[Vec<Edit>]) -> Result<(), String> {
+    let mut known: std::collections::HashSet<String> = scene.model.names().into_iter().map(String::from).collect();
+    for (i, edits) in frames.iter().enumerate() {
+        for e in edits {
+            if !known.contains(e.node()) {
+                return Err(format!("frame {i}: no node is named {:?}", e.node()));
+            }
+            match e {
+                Edit::AddPoint { name, .. } => known.insert(name.clone()),
+                Edit::Remove { node } => known.remove(node),
+                _ => true,
+            };
+        }
     }
     Ok(())
 }
