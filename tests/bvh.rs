@@ -4,10 +4,9 @@
 mod common;
 
 use blobtrace::bvh::{DynamicMesh, MeshBvh, RayTarget, StaticMesh, brute_force_intersect, render_mesh};
-use blobtrace::field::{EvalMode, ModelField};
-use blobtrace::field::{NodeKind, Placement};
+use blobtrace::field::{EvalMode, ModelField, NodeKind, Placement};
 use blobtrace::geom::Ray;
-use blobtrace::mesh::{Lattice, Mesh, PolygonizeOptions, Polygonizer, skeleton_seeds};
+use blobtrace::mesh::{Lattice, Mesh, PolygonizeOptions, Polygonizer, canonical_triangles, skeleton_seeds};
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::RenderSettings;
 use common::{EVERY_NODE, Rng, bundled};
@@ -78,19 +77,6 @@ fn sphere_mesh_depth_is_within_one_cell_of_the_analytic_depth() {
     assert_eq!(stats.hits as usize, frame.hits());
 }
 
-/// Triangles as exact position triples, each rotated to start at its smallest corner, sorted.
-fn canonical(triangles: impl Iterator<Item = [Vec3; 3]>) -> Vec<[[u32; 3]; 3]> {
-    let mut set: Vec<[[u32; 3]; 3]> = triangles
-        .map(|t| {
-            let c = t.map(|p| p.to_array().map(f32::to_bits));
-            let first = (0..3).min_by_key(|&i| c[i]).unwrap();
-            [c[first], c[(first + 1) % 3], c[(first + 2) % 3]]
-        })
-        .collect();
-    set.sort_unstable();
-    set
-}
-
 #[test]
 fn the_dynamic_bvh_follows_local_updates_and_stays_valid() {
     let mut scene = Scene::parse(EVERY_NODE, "every").unwrap();
@@ -116,8 +102,7 @@ fn the_dynamic_bvh_follows_local_updates_and_stays_valid() {
         dynamic.update(&polygonizer, &changed);
         assert!(dynamic.is_valid(), "step {step}");
         let (fresh, _) = polygonized(&scene, 32);
-        let fresh_set = canonical((0..fresh.triangles.len()).map(|t| fresh.corners(t)));
-        assert_eq!(canonical(dynamic.triangles().into_iter()), fresh_set, "step {step}");
+        assert_eq!(canonical_triangles(dynamic.triangles()), fresh.triangle_set(), "step {step}");
         let bounds = scene.model.bounds();
         for _ in 0..300 {
             let target = rng.point_in(bounds.min, bounds.max);

@@ -28,19 +28,6 @@ fn polygonize(model: &Model, mode: EvalMode, res: u32, options: PolygonizeOption
     (p, mesh)
 }
 
-/// The triangles as sets of exact vertex positions, each rotated to start at its smallest corner.
-fn triangle_set(mesh: &Mesh) -> Vec<[[u32; 3]; 3]> {
-    let mut set: Vec<[[u32; 3]; 3]> = (0..mesh.triangles.len())
-        .map(|t| {
-            let c = mesh.corners(t).map(|p| p.to_array().map(f32::to_bits));
-            let first = (0..3).min_by_key(|&i| c[i]).unwrap();
-            [c[first], c[(first + 1) % 3], c[(first + 2) % 3]]
-        })
-        .collect();
-    set.sort_unstable();
-    set
-}
-
 #[test]
 fn sphere_vertices_lie_on_the_iso_sphere_and_the_mesh_is_closed_with_outward_normals() {
     let scene = sphere();
@@ -128,8 +115,8 @@ fn local_repolygonization_after_a_move_equals_a_full_polygonization() {
         local.repolygonize(&field, &change.old.union(&change.new), &skeleton_seeds(model, model.root()));
         let after = local.mesh();
         let (full, fresh) = polygonize(model, EvalMode::Indexed, 40, options);
-        assert_ne!(triangle_set(&before), triangle_set(&fresh), "{cells:?}: the edit changes the surface");
-        assert_eq!(triangle_set(&after), triangle_set(&fresh), "{cells:?}");
+        assert_ne!(before.triangle_set(), fresh.triangle_set(), "{cells:?}: the edit changes the surface");
+        assert_eq!(after.triangle_set(), fresh.triangle_set(), "{cells:?}");
         assert!(after.topology().is_closed_manifold());
         let spent = local.stats().field_evals() - evals_before;
         assert!(
@@ -151,7 +138,7 @@ fn a_fine_mesh_grown_from_the_coarse_surface_equals_a_direct_fine_polygonization
             fine.refine(&field, &coarse, 2);
             let (direct, expected) = polygonize(&scene.model, EvalMode::Indexed, 48, options);
             assert_eq!(fine.lattice(), direct.lattice());
-            assert_eq!(triangle_set(&fine.mesh()), triangle_set(&expected), "{name} {cells:?}");
+            assert_eq!(fine.mesh().triangle_set(), expected.triangle_set(), "{name} {cells:?}");
         }
     }
 }

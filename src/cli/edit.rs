@@ -19,7 +19,7 @@ use crate::compare::{Metric, differences, frame_image, line_plot};
 use crate::field::{Edit, EvalMode, ModelField};
 use crate::frame::Frame;
 use crate::geom::Aabb;
-use crate::mesh::{Mesh, Polygonizer, skeleton_seeds};
+use crate::mesh::{Polygonizer, canonical_triangles, skeleton_seeds};
 use crate::scene::{Scene, Size, load_script};
 use crate::trace::{PixelRect, RenderSettings, merge_rects, render, rerender, screen_rect};
 
@@ -288,27 +288,8 @@ fn verify(scene: &Scene, s: &EditState, polygonize: &PolygonizeArgs) -> (f64, f6
     fresh.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
     let mesh = fresh.mesh();
     let seconds = clock.elapsed().as_secs_f64();
-    let same_mesh = triangle_set(&mesh) == canonical(s.dynamic.triangles());
+    let same_mesh = mesh.triangle_set() == canonical_triangles(s.dynamic.triangles());
     (render_s, seconds, full.same_image(&s.field_frame) && same_mesh)
-}
-
-fn triangle_set(mesh: &Mesh) -> Vec<[[u32; 3]; 3]> {
-    canonical((0..mesh.triangles.len()).map(|t| mesh.corners(t)).collect())
-}
-
-/// Triangles as exact position triples, rotated to start at the smallest corner, sorted.
-fn canonical(triangles: Vec<[glam::Vec3; 3]>) -> Vec<[[u32; 3]; 3]> {
-    let mut set: Vec<[[u32; 3]; 3]> = triangles
-        .into_iter()
-        .map(|t| {
-            let mut c = t.map(|p| p.to_array().map(f32::to_bits));
-            let first = (0..3).min_by_key(|&i| c[i]).unwrap_or(0);
-            c.rotate_left(first);
-            c
-        })
-        .collect();
-    set.sort_unstable();
-    set
 }
 
 fn save_frame(dir: &std::path::Path, i: usize, frame: &Frame, rects: &[PixelRect]) -> anyhow::Result<()> {

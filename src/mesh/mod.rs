@@ -76,6 +76,27 @@ pub fn triangulate(ids: &[u32], position: impl Fn(u32) -> Vec3, out: &mut Vec<[u
     }
 }
 
+/// A triangle as the bits of its corners' coordinates.
+pub type TriangleBits = [[u32; 3]; 3];
+
+/// Triangles as exact corner positions, each rotated to start at its smallest
+/// corner (orientation kept), sorted: equal for two sets of the same triangles
+/// listed in any order.
+#[must_use]
+pub fn canonical_triangles(triangles: impl IntoIterator<Item = [Vec3; 3]>) -> Vec<TriangleBits> {
+    let mut set: Vec<TriangleBits> = triangles
+        .into_iter()
+        .map(|t| {
+            let mut c = t.map(|p| p.to_array().map(f32::to_bits));
+            let first = (0..3).min_by_key(|&i| c[i]).unwrap_or(0);
+            c.rotate_left(first);
+            c
+        })
+        .collect();
+    set.sort_unstable();
+    set
+}
+
 /// Shape quality of a mesh's triangles: `q = 4√3·A / Σl²`, 1 for equilateral, 0 for degenerate.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct TriangleQuality {
@@ -120,6 +141,12 @@ impl Mesh {
     #[must_use]
     pub fn corners(&self, t: usize) -> [Vec3; 3] {
         self.triangles[t].map(|i| self.positions[i as usize])
+    }
+
+    /// The triangles in canonical form (see [`canonical_triangles`]).
+    #[must_use]
+    pub fn triangle_set(&self) -> Vec<TriangleBits> {
+        canonical_triangles((0..self.triangles.len()).map(|t| self.corners(t)))
     }
 
     /// Mean shape quality and the fraction of poor triangles.
