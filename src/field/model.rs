@@ -361,7 +361,7 @@ impl Model {
         {
             child = c;
         }
-        operator_children(&self.nodes[child as usize].kind).map(|_| child)
+        is_operator(&self.nodes[child as usize].kind).then_some(child)
     }
 
     /// Adds `Named(name, primitive)` as the last child of operator `op`; returns
@@ -577,17 +577,12 @@ pub struct ModelCounts {
     pub indexed_blends: usize,
 }
 
-/// The children of an n-ary operator (Blend, Union, Intersection, Ricci).
-fn operator_children(kind: &NodeKind) -> Option<&Vec<NodeId>> {
-    match kind {
-        NodeKind::Blend { children, .. }
-        | NodeKind::Union(children)
-        | NodeKind::Intersection(children)
-        | NodeKind::Ricci { children, .. } => Some(children),
-        _ => None,
-    }
+/// True for the n-ary operators (Blend, Union, Intersection, Ricci).
+fn is_operator(kind: &NodeKind) -> bool {
+    matches!(kind, NodeKind::Blend { .. } | NodeKind::Union(_) | NodeKind::Intersection(_) | NodeKind::Ricci { .. })
 }
 
+/// The children of an n-ary operator, to add or remove one.
 fn operator_children_mut(kind: &mut NodeKind) -> Option<&mut Vec<NodeId>> {
     match kind {
         NodeKind::Blend { children, .. }
