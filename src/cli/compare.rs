@@ -132,7 +132,7 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
     let mode = a.field.apply(&mut scene.model)?;
     let size = a.size.unwrap_or(scene.size);
     std::fs::create_dir_all(&a.out_dir).with_context(|| format!("creating {}", a.out_dir.display()))?;
-    let (ray, mesh, error_render, report) = with_threads(a.threads, || -> anyhow::Result<_> {
+    let (ray, mesh, error_render, errors, report) = with_threads(a.threads, || -> anyhow::Result<_> {
         a.polygonize.check(&scene)?;
         let (ray, ray_report) = render_scene(&scene, size, mode);
         let (mesh_model, mut mesh_report) = polygonize_scene(&scene, mode, &a.polygonize);
@@ -140,10 +140,10 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
         a.error.apply(&scene, &mut by_error, &mut mesh_report)?;
         let error_render = a.error.error.then(|| render_polygonized(&scene, &by_error, mesh_report.clone(), size).0);
         let (mesh, mesh_render) = render_polygonized(&scene, &mesh_model, mesh_report, size);
-        let report = measure(&ray, &mesh, ray_report, mesh_render);
-        Ok((ray, mesh, error_render, report))
+        let (errors, report) = measure(&ray, &mesh, ray_report, mesh_render);
+        Ok((ray, mesh, error_render, errors, report))
     })??;
-    let heat_maps = write_outputs(&a.out_dir, &ray, &mesh, &report)?;
+    let heat_maps = write_outputs(&a.out_dir, &ray, &mesh, &errors)?;
     if let Some(frame) = &error_render {
         frame.save_png(&a.out_dir.join("mesh_error.png"))?;
     }
@@ -167,14 +167,39 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Error images' statistics from the two frames.
-fn measure(ray: &Frame, mesh: &Frame, ray_report: RenderReport, mesh_report: MeshRenderReport) -> CompareReport {
+/// The per-pixel errors of the mesh render against the field render.
+struct ErrorImages {
+    /// Mesh − field depth, in lattice cells.
+    depth_cells: Vec<f32>,
+    /// Angle between normals, degrees.
+    normal_deg: Vec<f32>,
+    /// Largest linear RGB difference.
+    color: Vec<f32>,
+}
+
+impl ErrorImages {
+    fn of(ray: &Frame, mesh: &Frame, cell: f32) -> Self {
+        Self {
+            depth_cells: differences(mesh, ray, Metric::Depth).into_iter().map(|d| d / cell).collect(),
+            normal_deg: differences(mesh, ray, Metric::Normal),
+            color: differences(mesh, ray, Metric::Abs),
+        }
+    }
+}
+
+/// The error images and their statistics.
+fn measure(
+    ray: &Frame,
+    mesh: &Frame,
+    ray_report: RenderReport,
+    mesh_report: MeshRenderReport,
+) -> (ErrorImages, CompareReport) {
     let start = std::time::Instant::now();
     let tolerances = Tolerances { depth_cells: 0.25, normal_deg: 5.0, color: 0.05 };
-    let cell = mesh_report.mesh.cell_size;
-    let stats = |values: Vec<f32>, tolerance: f32| {
+    let errors = ErrorImages::of(ray, mesh, mesh_report.mesh.cell_size);
+    let stats = |values: &[f32], tolerance: f32| {
         // Pixels hit by one render only are the silhouette map's business.
-        let both: Vec<f32> = values.into_iter().map(|v| if v.is_infinite() { f32::NAN } else { v }).collect();
+        let both: Vec<f32> = values.iter().map(|&v| if v.is_infinite() { f32::NAN } else { v }).collect();
         let t = Thresholds {
             fail: tolerance,
             failpercent: 100.0,
@@ -184,10 +209,9 @@ fn measure(ray: &Frame, mesh: &Frame, ray_report: RenderReport, mesh_report: Mes
         };
         ErrorStats::from(&judge(Metric::Abs, &both, &vec![false; both.len()], t))
     };
-    let depth: Vec<f32> = differences(mesh, ray, Metric::Depth).into_iter().map(|d| d / cell).collect();
-    let depth_error_cells = stats(depth, tolerances.depth_cells);
-    let normal_error_deg = stats(differences(mesh, ray, Metric::Normal), tolerances.normal_deg);
-    let color_error = stats(differences(mesh, ray, Metric::Abs), tolerances.color);
+    let depth_error_cells = stats(&errors.depth_cells, tolerances.depth_cells);
+    let normal_error_deg = stats(&errors.normal_deg, tolerances.normal_deg);
+    let color_error = stats(&errors.color, tolerances.color);
     let stage_seconds = StageSeconds {
         field_render: ray_report.seconds,
         polygonize: mesh_report.mesh.seconds,
@@ -195,7 +219,7 @@ fn measure(ray: &Frame, mesh: &Frame, ray_report: RenderReport, mesh_report: Mes
         mesh_render: mesh_report.seconds,
         diff: start.elapsed().as_secs_f64(),
     };
-    CompareReport {
+    let report = CompareReport {
         stage_seconds,
         mismatch_px: ray.depth.iter().zip(&mesh.depth).filter(|(a, b)| a.is_finite() != b.is_finite()).count(),
         depth_error_cells,
@@ -204,7 +228,8 @@ fn measure(ray: &Frame, mesh: &Frame, ray_report: RenderReport, mesh_report: Mes
         tolerances,
         ray: ray_report,
         mesh: mesh_report,
-    }
+    };
+    (errors, report)
 }
 
 /// Writes the renders, EXRs and heat maps; returns the heat maps with their panel titles.
@@ -212,46 +237,36 @@ fn write_outputs(
     dir: &Path,
     ray: &Frame,
     mesh: &Frame,
-    report: &CompareReport,
+    errors: &ErrorImages,
 ) -> anyhow::Result<Vec<(String, Rgb8Image)>> {
     ray.save_png(&dir.join("ray.png"))?;
     mesh.save_png(&dir.join("mesh.png"))?;
     ray.save_exr(&dir.join("ray.exr"))?;
     mesh.save_exr(&dir.join("mesh.exr"))?;
     let (w, h) = (ray.width, ray.height);
-    let cell = report.mesh.mesh.cell_size;
-    let depth: Vec<f32> = differences(mesh, ray, Metric::Depth).into_iter().map(|d| d / cell).collect();
-    let maps: [(&str, Rgb8Image); 4] = [
-        ("silhouette.png", silhouette_map(&ray.depth, &mesh.depth, w, h, ["field", "mesh"])),
-        ("depth_error.png", heat_map(&depth, w, h, Scale::Signed { max: 1.0 }, "depth error, mesh - field", "cells")),
+    let heat = |values: &[f32], scale, title, unit| heat_map(values, w, h, scale, title, unit);
+    let maps = [
+        ("silhouette", "silhouette.png", silhouette_map(&ray.depth, &mesh.depth, w, h, ["field", "mesh"])),
         (
-            "normal_error.png",
-            heat_map(
-                &differences(mesh, ray, Metric::Normal),
-                w,
-                h,
-                Scale::Magnitude { max: 10.0 },
-                "normal error",
-                "deg",
-            ),
+            "depth error",
+            "depth_error.png",
+            heat(&errors.depth_cells, Scale::Signed { max: 1.0 }, "depth error, mesh - field", "cells"),
         ),
         (
+            "normal error",
+            "normal_error.png",
+            heat(&errors.normal_deg, Scale::Magnitude { max: 10.0 }, "normal error", "deg"),
+        ),
+        (
+            "colour difference",
             "color_error.png",
-            heat_map(
-                &differences(mesh, ray, Metric::Abs),
-                w,
-                h,
-                Scale::Magnitude { max: 0.1 },
-                "colour difference",
-                "",
-            ),
+            heat(&errors.color, Scale::Magnitude { max: 0.1 }, "colour difference", ""),
         ),
     ];
-    for (name, img) in &maps {
-        img.save_png(&dir.join(name))?;
+    for (_, file, img) in &maps {
+        img.save_png(&dir.join(file))?;
     }
-    let titles = ["silhouette", "depth error", "normal error", "colour difference"];
-    Ok(titles.iter().zip(maps).map(|(t, (_, img))| (t.to_string(), img)).collect())
+    Ok(maps.into_iter().map(|(title, _, img)| (title.to_string(), img)).collect())
 }
 
 /// The panel: both renders, the mesh by error_C when asked, and the heat maps.

@@ -15,7 +15,7 @@ use serde::Serialize;
 use super::mesh::PolygonizeArgs;
 use super::{EvalOptions, with_threads};
 use crate::bvh::{DynamicMesh, render_mesh, rerender_mesh};
-use crate::compare::{Metric, differences, frame_image, line_plot};
+use crate::compare::{Metric, difference_at, differences, frame_image, line_plot};
 use crate::field::{Edit, EvalMode, ModelField};
 use crate::frame::Frame;
 use crate::geom::Aabb;
@@ -266,12 +266,7 @@ fn update_depth_diff(diff: &mut [f32], mesh: &Frame, field: &Frame, rects: &[Pix
         for y in r.y0..r.y1 {
             for x in r.x0..r.x1 {
                 let i = (y * mesh.width + x) as usize;
-                let (a, b) = (mesh.depth[i], field.depth[i]);
-                diff[i] = match (a.is_finite(), b.is_finite()) {
-                    (true, true) => a - b,
-                    (false, false) => f32::NAN,
-                    _ => f32::INFINITY,
-                };
+                diff[i] = difference_at(mesh, field, i, Metric::Depth);
             }
         }
     }

@@ -38,25 +38,26 @@ impl Metric {
 /// neither image has a surface (for normal and depth), `+inf` where only one has.
 #[must_use]
 pub fn differences(a: &Frame, b: &Frame, metric: Metric) -> Vec<f32> {
-    (0..a.len())
-        .map(|i| match metric {
-            Metric::Abs => (a.color[i] - b.color[i]).abs().max_element(),
-            Metric::Rel => {
-                let d = (a.color[i] - b.color[i]).abs();
-                let m = a.color[i].abs().max(b.color[i].abs()).max(glam::Vec3::splat(1e-3));
-                (d / m).max_element()
-            }
-            Metric::Normal | Metric::Depth => {
-                let (ha, hb) = (a.depth[i].is_finite(), b.depth[i].is_finite());
-                match (ha, hb) {
-                    (false, false) => f32::NAN,
-                    (true, true) if metric == Metric::Depth => a.depth[i] - b.depth[i],
-                    (true, true) => a.normal[i].dot(b.normal[i]).clamp(-1.0, 1.0).acos().to_degrees(),
-                    _ => f32::INFINITY,
-                }
-            }
-        })
-        .collect()
+    (0..a.len()).map(|i| difference_at(a, b, i, metric)).collect()
+}
+
+/// The value of `metric` between `a` and `b` at pixel `i` (see [`differences`]).
+#[must_use]
+pub fn difference_at(a: &Frame, b: &Frame, i: usize, metric: Metric) -> f32 {
+    match metric {
+        Metric::Abs => (a.color[i] - b.color[i]).abs().max_element(),
+        Metric::Rel => {
+            let d = (a.color[i] - b.color[i]).abs();
+            let m = a.color[i].abs().max(b.color[i].abs()).max(glam::Vec3::splat(1e-3));
+            (d / m).max_element()
+        }
+        Metric::Normal | Metric::Depth => match (a.depth[i].is_finite(), b.depth[i].is_finite()) {
+            (false, false) => f32::NAN,
+            (true, true) if metric == Metric::Depth => a.depth[i] - b.depth[i],
+            (true, true) => a.normal[i].dot(b.normal[i]).clamp(-1.0, 1.0).acos().to_degrees(),
+            _ => f32::INFINITY,
+        },
+    }
 }
 
 /// Pixels within `k` pixels (Chebyshev distance) of a silhouette edge of
