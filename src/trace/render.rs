@@ -133,19 +133,25 @@ pub fn rerender_pixels(
     let pixels: Vec<(u32, u32)> =
         rects.iter().flat_map(|r| (r.y0..r.y1).flat_map(move |y| (r.x0..r.x1).map(move |x| (x, y)))).collect();
     let samples: Vec<PixelSample> = pixels.par_iter().map(|&(x, y)| pixel(x, y)).collect();
+    let channels = counters.map(|name| frame.extra.iter().position(|(n, _)| n == name));
     for (&(x, y), p) in pixels.iter().zip(&samples) {
         let i = (y * frame.width + x) as usize;
-        frame.color[i] = p.color;
-        frame.depth[i] = p.depth;
-        frame.normal[i] = p.normal;
-        frame.alpha[i] = if p.depth.is_finite() { 1.0 } else { 0.0 };
-        for (k, name) in counters.into_iter().enumerate() {
-            if let Some((_, channel)) = frame.extra.iter_mut().find(|(n, _)| n == name) {
-                channel[i] = p.counts[k] as f32;
+        write_sample(frame, i, p);
+        for (k, channel) in channels.iter().enumerate() {
+            if let Some(c) = *channel {
+                frame.extra[c].1[i] = p.counts[k] as f32;
             }
         }
     }
     samples
+}
+
+/// Stores what pixel `i` shows: colour, depth, normal, and coverage from the depth.
+fn write_sample(frame: &mut Frame, i: usize, p: &PixelSample) {
+    frame.color[i] = p.color;
+    frame.depth[i] = p.depth;
+    frame.normal[i] = p.normal;
+    frame.alpha[i] = if p.depth.is_finite() { 1.0 } else { 0.0 };
 }
 
 /// Calls `pixel` for every pixel, rows in parallel, in row-major order.
@@ -196,10 +202,7 @@ pub fn outward_normal(gradient: Vec3A, dir: Vec3A) -> Vec3A {
 pub fn assemble(samples: &[PixelSample], s: &RenderSettings, counters: [&str; 2]) -> Frame {
     let mut frame = Frame::new(s.width, s.height, s.background);
     for (i, p) in samples.iter().enumerate() {
-        frame.color[i] = p.color;
-        frame.depth[i] = p.depth;
-        frame.normal[i] = p.normal;
-        frame.alpha[i] = if p.depth.is_finite() { 1.0 } else { 0.0 };
+        write_sample(&mut frame, i, p);
     }
     for (k, name) in counters.into_iter().enumerate() {
         frame.extra.push((name.into(), samples.iter().map(|p| p.counts[k] as f32).collect()));
