@@ -85,9 +85,7 @@ fn draw_bar(img: &mut Rgb8Image, top: u32, scale: Scale, title: &str, unit: &str
     let (lo, hi) = scale.range();
     for dx in 0..bar_w {
         let v = lo + (hi - lo) * dx as f32 / (bar_w - 1).max(1) as f32;
-        for dy in 0..10 {
-            img.put(margin + dx, bar_y + dy, scale.color(v));
-        }
+        img.fill_rect(margin + dx, bar_y, 1, 10, scale.color(v));
     }
     let label_y = bar_y + 12;
     for (x, y, text) in bar_labels(img.width, top, scale, unit) {
@@ -98,13 +96,7 @@ fn draw_bar(img: &mut Rgb8Image, top: u32, scale: Scale, title: &str, unit: &str
     }
     let legend_y = label_y + i64::from(LINE_HEIGHT) + 3;
     for (k, (color, name)) in [(MISMATCH, "hit in one only"), (NO_VALUE, "missed by both")].into_iter().enumerate() {
-        let x = margin + k as i64 * 140;
-        for dy in 0..8 {
-            for dx in 0..8 {
-                img.put(x + dx, legend_y + dy, color);
-            }
-        }
-        img.text(x + 11, legend_y, name, black);
+        img.legend_entry(margin + k as i64 * 140, legend_y, color, name);
     }
 }
 
@@ -168,12 +160,7 @@ pub fn silhouette_map(first: &[f32], second: &[f32], width: u32, height: u32, na
     img.text(8, y0, "silhouette mismatch", [0, 0, 0]);
     for (k, label) in labels.iter().enumerate() {
         let (x, y) = (8 + (k as i64 % 2) * 140, y0 + 14 + (k as i64 / 2) * 12);
-        for dy in 0..8 {
-            for dx in 0..8 {
-                img.put(x + dx, y + dy, SILHOUETTE_COLORS[k]);
-            }
-        }
-        img.text(x + 11, y, label, [0, 0, 0]);
+        img.legend_entry(x, y, SILHOUETTE_COLORS[k], label);
     }
     img
 }

@@ -52,10 +52,7 @@ pub fn line_plot(title: &str, unit: &str, series: &[(&str, &[f64])], width: u32,
         }
         let lx = left + 8 + k as i64 * (pw / series.len().max(1) as i64);
         let ly = i64::from(LINE_HEIGHT) + 8;
-        for dx in 0..12 {
-            img.put(lx + dx, ly + 4, color);
-            img.put(lx + dx, ly + 3, color);
-        }
+        img.fill_rect(lx, ly + 3, 12, 2, color);
         img.text(lx + 16, ly, name, black);
     }
     img

@@ -34,6 +34,21 @@ impl Rgb8Image {
         }
     }
 
+    /// Fills the `w × h` rectangle with top-left corner (`x`, `y`); clipped.
+    pub fn fill_rect(&mut self, x: i64, y: i64, w: i64, h: i64, color: [u8; 3]) {
+        for dy in 0..h {
+            for dx in 0..w {
+                self.put(x + dx, y + dy, color);
+            }
+        }
+    }
+
+    /// A legend entry: an 8×8 swatch of `color` at (`x`, `y`) and `label` beside it.
+    pub fn legend_entry(&mut self, x: i64, y: i64, color: [u8; 3], label: &str) {
+        self.fill_rect(x, y, 8, 8, color);
+        self.text(x + 11, y, label, [0, 0, 0]);
+    }
+
     /// Draws `text` with its top-left corner at (`x`, `y`); the part outside is clipped.
     pub fn text(&mut self, x: i64, y: i64, text: &str, color: [u8; 3]) {
         for (k, ch) in text.chars().enumerate() {
