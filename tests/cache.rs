@@ -4,7 +4,7 @@
 mod common;
 
 use blobtrace::cache::{CacheGrid, CacheSpec, Filter, Refit, SamplePool, Storage};
-use blobtrace::field::{EvalMode, Field, Model, ModelField, NodeId, NodeKind, Placement, Primitive, Skeleton};
+use blobtrace::field::{EvalMode, Field, Model, ModelField, NodeId, NodeKind, Placement, Primitive, Region, Skeleton};
 use blobtrace::geom::Aabb;
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::{RenderSettings, render};
@@ -130,6 +130,13 @@ fn moved_probe() -> Primitive {
     Primitive::new(Skeleton::Point { center: Vec3A::new(0.2, 0.4, 0.1) }, 0.5, 1.0, Default::default())
 }
 
+/// Short segments (a couple of cells) from `points`, whose slope bounds the
+/// cache takes from its samples and keeps.
+fn short_segments(points: &[Vec3A]) -> Vec<Region> {
+    let step = Vec3A::new(0.05, -0.03, 0.04);
+    points.iter().map(|&p| Region::Segment(p, p + step)).collect()
+}
+
 #[test]
 fn invalidation_after_an_edit_matches_a_fresh_cache_and_spares_the_rest() {
     let mut scene = default_scene(32);
@@ -137,6 +144,10 @@ fn invalidation_after_an_edit_matches_a_fresh_cache_and_spares_the_rest() {
     let points = random_points(&scene.model, 5000, 5);
     for &p in &points {
         scene.model.node_value(cache, p, EvalMode::Cached);
+    }
+    let segments = short_segments(&points);
+    for s in &segments {
+        scene.model.node_lipschitz(cache, s, EvalMode::Cached);
     }
     let before = samples_evaluated(&scene.model);
     let id = probe(&scene.model);
@@ -148,6 +159,12 @@ fn invalidation_after_an_edit_matches_a_fresh_cache_and_spares_the_rest() {
     for &p in &points {
         let (a, b) = (scene.model.node_value(cache, p, EvalMode::Cached), fresh.node_value(cache, p, EvalMode::Cached));
         assert_eq!(a, b, "at {p}");
+    }
+    // The slope bounds kept before the edit were cleared where samples were.
+    for s in &segments {
+        let (a, b) =
+            (scene.model.node_lipschitz(cache, s, EvalMode::Cached), fresh.node_lipschitz(cache, s, EvalMode::Cached));
+        assert_eq!(a, b, "over {s:?}");
     }
     let refilled = samples_evaluated(&scene.model) - before;
     assert!(

@@ -6,6 +6,7 @@ mod common;
 
 use blobtrace::field::{Edit, EvalMode, Field, Model, ModelField};
 use blobtrace::frame::Frame;
+use blobtrace::geom::Aabb;
 use blobtrace::mesh::{Lattice, PolygonizeOptions, Polygonizer, skeleton_seeds};
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::{PixelRect, RenderSettings, merge_rects, render, rerender, screen_rect};
@@ -24,14 +25,15 @@ fn random_edit(rng: &mut Rng, node: &str, primitive: bool) -> Edit {
     }
 }
 
+/// The changed region and its dirty rectangles.
 fn dirty_rects(
     model: &Model,
     change: &blobtrace::field::Change,
     cached: bool,
     settings: &RenderSettings,
-) -> Vec<PixelRect> {
+) -> (Aabb, Vec<PixelRect>) {
     let region = model.change_region(change, cached);
-    merge_rects(screen_rect(&settings.camera, settings.width, settings.height, &region).into_iter().collect())
+    (region, merge_rects(screen_rect(&settings.camera, settings.width, settings.height, &region).into_iter().collect()))
 }
 
 fn changed_pixels(a: &Frame, b: &Frame) -> Vec<(u32, u32)> {
@@ -60,10 +62,10 @@ fn incremental_renders_after_random_edits_equal_full_renders() {
                 let (name, primitive) = names[step % names.len()];
                 let edit = random_edit(&mut rng, name, primitive);
                 let change = scene.model.apply(&edit).unwrap();
-                let rects = dirty_rects(&scene.model, &change, mode == EvalMode::Cached, &settings);
+                let (region, rects) = dirty_rects(&scene.model, &change, mode == EvalMode::Cached, &settings);
                 let before = frame.clone();
                 let field = ModelField::new(&scene.model, mode);
-                rerender(&field, &settings, &mut frame, &rects);
+                rerender(&field, &settings, &mut frame, &rects, &region);
                 let full = render(&field, &settings, &|_| {}).0;
                 if !frame.same_image(&full) {
                     let outside: Vec<(u32, u32)> = changed_pixels(&frame, &full);
@@ -187,10 +189,10 @@ fn adding_removing_and_changing_operators_update_incrementally() {
         let mut frame = render(&ModelField::new(&scene.model, mode), &settings, &|_| {}).0;
         for edit in &edits {
             let change = scene.model.apply(edit).unwrap();
-            let rects = dirty_rects(&scene.model, &change, mode == EvalMode::Cached, &settings);
+            let (region, rects) = dirty_rects(&scene.model, &change, mode == EvalMode::Cached, &settings);
             let before = frame.clone();
             let field = ModelField::new(&scene.model, mode);
-            rerender(&field, &settings, &mut frame, &rects);
+            rerender(&field, &settings, &mut frame, &rects, &region);
             let full = render(&field, &settings, &|_| {}).0;
             assert!(frame.same_image(&full), "{mode:?} {edit:?}");
             assert!(!changed_pixels(&before, &full).is_empty(), "{mode:?} {edit:?} changes the image");

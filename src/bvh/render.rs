@@ -47,7 +47,7 @@ pub fn rerender_mesh(
     frame: &mut Frame,
     rects: &[PixelRect],
 ) -> MeshRenderStats {
-    let samples = rerender_pixels(frame, rects, MESH_COUNTERS, |x, y| shade_pixel(target, settings, x, y));
+    let samples = rerender_pixels(frame, rects, MESH_COUNTERS, |x, y, _| Some(shade_pixel(target, settings, x, y)));
     let mut stats = MeshRenderStats { rays: samples.len() as u64, ..Default::default() };
     for p in &samples {
         stats.hits += u64::from(p.depth.is_finite());

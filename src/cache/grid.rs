@@ -6,6 +6,7 @@
 //! so a sample keeps its place when the bounds change: an edit clears only the
 //! samples inside the changed box, and the grid only grows its block table.
 
+use std::sync::OnceLock;
 use std::sync::atomic::{AtomicPtr, AtomicU32, AtomicU64, Ordering};
 
 use glam::{IVec3, UVec3, Vec3A};
@@ -49,6 +50,11 @@ pub struct CacheGrid {
     /// Cubes of 8 cells over the table's region, each with a lazily computed slope bound.
     summary: UniformGrid,
     slopes: Box<[AtomicU32]>,
+    /// Per block of the table, the sampled slope bound of each of its cells
+    /// once computed (the tracer's hottest query). Samples are pure functions
+    /// of their lattice points, so these stay valid when blocks are evicted;
+    /// only invalidation clears them.
+    cell_slopes: Box<[OnceLock<Box<[AtomicU32]>>]>,
     lookups: ShardedCounter,
     evaluated: AtomicU64,
 }
@@ -76,6 +82,8 @@ pub struct CacheStats {
     pub blocks: u64,
     /// Bytes of sample storage held now.
     pub bytes: u64,
+    /// Bytes holding the kept per-cell slope bounds.
+    pub slope_bytes: u64,
     /// Reconstructions asked of the cache (values and gradients).
     pub lookups: u64,
 }
@@ -106,6 +114,7 @@ impl CacheGrid {
             lattice_lo: IVec3::ZERO,
             summary: UniformGrid::new(Vec3A::ZERO, 1.0, UVec3::ONE),
             slopes: Box::new([]),
+            cell_slopes: Box::new([]),
             lookups: ShardedCounter::default(),
             evaluated: AtomicU64::new(0),
         };
@@ -170,6 +179,7 @@ impl CacheGrid {
         self.inv_cell = 1.0 / self.cell;
         self.child_bounds = child_bounds;
         self.table = Box::new([]);
+        self.cell_slopes = Box::new([]);
         self.table_dims = UVec3::ZERO;
         if !child_bounds.is_empty() {
             let (lo, hi) = self.block_range(&child_bounds);
@@ -190,11 +200,15 @@ impl CacheGrid {
         let dims = (hi - lo + IVec3::ONE).max(IVec3::ONE).as_uvec3();
         let mut table: Vec<AtomicPtr<Slot>> =
             (0..dims.as_usizevec3().element_product()).map(|_| AtomicPtr::new(std::ptr::null_mut())).collect();
+        let mut cell_slopes: Vec<OnceLock<Box<[AtomicU32]>>> = table.iter().map(|_| OnceLock::new()).collect();
         for (i, entry) in self.table.iter().enumerate() {
             let b = self.table_lo + cell_coords(i, self.table_dims).as_ivec3();
-            table[linear_index((b - lo).as_uvec3(), dims)] = AtomicPtr::new(entry.load(Ordering::Relaxed));
+            let to = linear_index((b - lo).as_uvec3(), dims);
+            table[to] = AtomicPtr::new(entry.load(Ordering::Relaxed));
+            cell_slopes[to] = std::mem::take(&mut self.cell_slopes[i]);
         }
         self.table = table.into_boxed_slice();
+        self.cell_slopes = cell_slopes.into_boxed_slice();
         self.table_lo = lo;
         self.table_dims = dims;
         // The cells over the same region, and slope summaries over cubes of 8
@@ -471,9 +485,53 @@ impl CacheGrid {
         let mut l = 0.0f32;
         self.lattice.walk_segment(a, b, |c| {
             let i = self.lattice_lo + self.lattice.coords(c).as_ivec3();
-            l = l.max(self.cell_slope(i, pool, eval));
+            l = l.max(self.kept_cell_slope(i, pool, eval));
         });
         l
+    }
+
+    /// [`Self::cell_slope`], kept once computed. Under a budget nothing is
+    /// kept, so the budget bounds all the memory the cache holds.
+    fn kept_cell_slope(&self, i: IVec3, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+        let Some((t, w)) = self.cell_slope_word(i).filter(|_| pool.budget_slots().is_none()) else {
+            return self.cell_slope(i, pool, eval);
+        };
+        let words =
+            self.cell_slopes[t].get_or_init(|| (0..self.block_volume()).map(|_| AtomicU32::new(UNSET_SLOPE)).collect());
+        let bits = words[w].load(Ordering::Relaxed);
+        if bits != UNSET_SLOPE {
+            return f32::from_bits(bits);
+        }
+        let l = self.cell_slope(i, pool, eval);
+        words[w].store(l.to_bits(), Ordering::Relaxed);
+        l
+    }
+
+    /// The table entry of cell `i`'s block and the cell's place in it.
+    fn cell_slope_word(&self, i: IVec3) -> Option<(usize, usize)> {
+        let t = self.table_index(self.block_of(i))?;
+        let (mask, z_mask) = ((1 << BLOCK_SHIFT) - 1, (1 << (BLOCK_SHIFT + self.spec.storage.z_extra_shift())) - 1);
+        Some((t, ((i.x & mask) | ((i.y & mask) << BLOCK_SHIFT) | ((i.z & z_mask) << (2 * BLOCK_SHIFT))) as usize))
+    }
+
+    /// Lattice points (and cells) per block.
+    fn block_volume(&self) -> usize {
+        self.block_cells().as_usizevec3().element_product()
+    }
+
+    /// Forgets the kept slope bounds of every cell reading a sample in `lo..=hi`.
+    fn clear_cell_slopes(&self, lo: IVec3, hi: IVec3) {
+        // Cell `i` reads samples `i - 1 ..= i + 2` at most (the quadratic filter).
+        for z in lo.z - 2..=hi.z + 1 {
+            for y in lo.y - 2..=hi.y + 1 {
+                for x in lo.x - 2..=hi.x + 1 {
+                    let Some((t, w)) = self.cell_slope_word(IVec3::new(x, y, z)) else { continue };
+                    if let Some(words) = self.cell_slopes[t].get() {
+                        words[w].store(UNSET_SLOPE, Ordering::Relaxed);
+                    }
+                }
+            }
+        }
     }
 
     fn slope_over(
@@ -522,6 +580,7 @@ impl CacheGrid {
                     }
                 }
             }
+            self.clear_cell_slopes(lo, hi);
         }
         let reach = self.sample_reach(b);
         let slopes = &self.slopes;
@@ -564,6 +623,8 @@ impl CacheGrid {
             touched_fraction: samples_held as f64 / grid_points.max(1) as f64,
             blocks,
             bytes: blocks * (SLOT_WORDS * 4) as u64,
+            slope_bytes: self.cell_slopes.iter().filter(|b| b.get().is_some()).count() as u64
+                * (self.block_volume() * 4) as u64,
             lookups: self.lookups.total(),
         }
     }

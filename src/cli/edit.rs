@@ -63,8 +63,13 @@ pub struct EditArgs {
 pub struct FrameRow {
     /// Frame number from 0.
     pub frame: usize,
-    /// Fraction of the pixels re-traced.
+    /// Fraction of the pixels inside the dirty rectangles.
     pub dirty_fraction: f64,
+    /// Fraction of the pixels whose rays were traced again, whole or in part:
+    /// those in the rectangles whose rays meet the change before their old hit.
+    pub retraced_fraction: f64,
+    /// Field evaluations re-tracing them.
+    pub field_evals: u64,
     /// Seconds applying the edits (caches invalidated, bounds refitted).
     pub apply_s: f64,
     /// Seconds re-tracing the field in the dirty rectangles.
@@ -100,8 +105,10 @@ pub struct EditReport {
     pub full_s: Option<f64>,
     /// Total seconds of the incremental updates.
     pub incremental_s: f64,
-    /// Mean fraction of pixels re-traced per frame.
+    /// Mean fraction of the pixels inside the dirty rectangles per frame.
     pub dirty_fraction: f64,
+    /// Mean fraction of the pixels whose rays were traced again per frame.
+    pub retraced_fraction: f64,
     /// Evaluation mode.
     pub eval: String,
     /// Each frame.
@@ -139,7 +146,7 @@ pub fn run(a: &EditArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
     } else {
         eprintln!(
-            "{}: {} frames, {:.3} s incremental{}, {:.1}% of the pixels re-traced per frame",
+            "{}: {} frames, {:.3} s incremental{}, {:.1}% of the pixels in dirty rectangles and {:.1}% re-traced per frame",
             a.out_dir.display(),
             report.frames,
             report.incremental_s,
@@ -147,7 +154,8 @@ pub fn run(a: &EditArgs) -> anyhow::Result<()> {
                 " against {f:.3} s from scratch ({} verified)",
                 report.verified_frames
             )),
-            100.0 * report.dirty_fraction
+            100.0 * report.dirty_fraction,
+            100.0 * report.retraced_fraction
         );
     }
     Ok(())
@@ -237,8 +245,10 @@ fn step(
     row.dirty_fraction = rects.iter().map(PixelRect::area).sum::<u64>() as f64 / f64::from(w * h);
     let field = ModelField::new(&scene.model, s.mode);
     let clock = Instant::now();
-    rerender(&field, &s.settings, &mut s.field_frame, &rects);
+    let retraced = rerender(&field, &s.settings, &mut s.field_frame, &rects, &region);
     row.field_s = clock.elapsed().as_secs_f64();
+    row.retraced_fraction = retraced.rays as f64 / f64::from(w * h);
+    row.field_evals = retraced.field_evals;
     let clock = Instant::now();
     let changed = s.polygonizer.repolygonize(&field, &region, &skeleton_seeds(&scene.model, scene.model.root()));
     row.polygonize_s = clock.elapsed().as_secs_f64();
@@ -310,6 +320,7 @@ fn summarize(rows: Vec<FrameRow>, verified: usize, mode: EvalMode) -> EditReport
         full_s: rows.iter().map(|r| r.full_s).sum::<Option<f64>>(),
         incremental_s: rows.iter().map(|r| r.incremental_s).sum(),
         dirty_fraction: rows.iter().map(|r| r.dirty_fraction).sum::<f64>() / n,
+        retraced_fraction: rows.iter().map(|r| r.retraced_fraction).sum::<f64>() / n,
         eval: format!("{mode:?}").to_lowercase(),
         per_frame: rows,
     }
@@ -317,15 +328,17 @@ fn summarize(rows: Vec<FrameRow>, verified: usize, mode: EvalMode) -> EditReport
 
 fn write_outputs(a: &EditArgs, r: &EditReport) -> anyhow::Result<()> {
     let mut csv = String::from(
-        "frame,dirty_fraction,apply_s,field_s,polygonize_s,bvh_s,mesh_render_s,diff_s,incremental_s,full_s,samples_cleared,triangles\n",
+        "frame,dirty_fraction,retraced_fraction,field_evals,apply_s,field_s,polygonize_s,bvh_s,mesh_render_s,diff_s,incremental_s,full_s,samples_cleared,triangles\n",
     );
     for f in &r.per_frame {
         let full = f.full_s.map_or(String::new(), |v| format!("{v:.6}"));
         let _ = writeln!(
             csv,
-            "{},{:.5},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{full},{},{}",
+            "{},{:.5},{:.5},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{full},{},{}",
             f.frame,
             f.dirty_fraction,
+            f.retraced_fraction,
+            f.field_evals,
             f.apply_s,
             f.field_s,
             f.polygonize_s,

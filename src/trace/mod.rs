@@ -11,5 +11,5 @@ pub use render::{
     PixelSample, RenderSettings, RenderStats, assemble, outward_normal, render, render_pixels, rerender,
     rerender_pixels,
 };
-pub use segment::{TraceOptions, TraceResult, trace_ray};
+pub use segment::{Crossing, TraceOptions, TraceResult, march, snap_reach, trace_ray};
 pub use shade::Lighting;

@@ -7,11 +7,12 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
-use super::segment::{TraceOptions, trace_ray};
+use super::segment::{Crossing, TraceOptions, march, snap_reach, trace_ray};
 use super::shade::Lighting;
 use crate::camera::Camera;
 use crate::field::Field;
 use crate::frame::Frame;
+use crate::geom::{Aabb, Ray};
 use crate::scene::{Scene, Size};
 
 /// Everything a field render needs besides the field.
@@ -100,18 +101,26 @@ pub fn render<F: Field + ?Sized>(
     (assemble(&samples, settings, FIELD_COUNTERS), stats)
 }
 
-/// Re-traces the pixels inside `rects` (which must not overlap; see
-/// [`super::merge_rects`]) into `frame`, a render of `field` with `settings`
-/// before an edit; the rest is kept. Because every pixel depends on its own ray
-/// only, the result equals a full render when the rectangles hold every pixel
-/// whose ray can meet the change.
+/// Updates `frame`, a render of `field` with `settings` before an edit that
+/// changed the field inside `region` only; `rects` (which must not overlap; see
+/// [`super::merge_rects`]) hold every pixel whose ray meets `region`.
+///
+/// Every pixel depends on its own ray only, and a snapped hit on the field
+/// near it only, so a ray is traced over the stretch inside `region` alone:
+/// before the stretch the field is unchanged and held no crossing (or the old
+/// hit stands), and after it the old hit stands. The result equals a full
+/// render. The stats count the rays traced, whole or in part.
 pub fn rerender<F: Field + ?Sized>(
     field: &F,
     settings: &RenderSettings,
     frame: &mut Frame,
     rects: &[super::PixelRect],
+    region: &Aabb,
 ) -> RenderStats {
-    let samples = rerender_pixels(frame, rects, FIELD_COUNTERS, |x, y| trace_pixel(field, settings, x, y));
+    let region = region.padded(snap_reach(&settings.trace, field.bounds().diagonal()));
+    let samples = rerender_pixels(frame, rects, FIELD_COUNTERS, |x, y, depth| {
+        retrace_pixel(field, settings, x, y, depth, &region)
+    });
     let mut stats = RenderStats { rays: samples.len() as u64, ..Default::default() };
     for p in &samples {
         stats.hits += u64::from(p.depth.is_finite());
@@ -121,21 +130,75 @@ pub fn rerender<F: Field + ?Sized>(
     stats
 }
 
-/// Calls `pixel` for every pixel inside `rects` (in parallel) and writes the
-/// samples into `frame`, counters into the extra channels named `counters`;
-/// returns the samples.
+/// What pixel (`x`, `y`) shows after the field changed inside `region`, given
+/// the hit distance `before` it had; `None` when it cannot have changed.
+fn retrace_pixel<F: Field + ?Sized>(
+    field: &F,
+    s: &RenderSettings,
+    x: u32,
+    y: u32,
+    before: f32,
+    region: &Aabb,
+) -> Option<PixelSample> {
+    let ray = s.camera.ray(x, y, s.width, s.height);
+    let inv = ray.dir.recip();
+    let (t_in, t_out) = region.clip_ray(ray.origin, inv, 0.0, f32::INFINITY)?;
+    if before < t_in {
+        // The old hit lies in front of the change.
+        return None;
+    }
+    let Some((t_start, t_end)) = field.bounds().clip_ray(ray.origin, inv, 0.0, f32::INFINITY) else {
+        return Some(PixelSample::miss(s.background, [0, 0]));
+    };
+    if t_in <= t_start {
+        return Some(trace_pixel(field, s, x, y));
+    }
+    let (found, inside) = march(field, &ray, &s.trace, (t_in, t_out.min(t_end)));
+    let mut work = [inside.steps, inside.evals];
+    let hit = match found {
+        Crossing::At(t) => Some(t),
+        // Entering the surface exactly at the region's edge: trace it whole.
+        Crossing::InsideAtStart => return Some(trace_pixel(field, s, x, y)),
+        Crossing::None if before > t_out => return None,
+        Crossing::None => {
+            // The old hit lay inside the region and is gone: go on past it.
+            let (found, after) = march(field, &ray, &s.trace, (t_out, t_end));
+            work = [work[0] + after.steps, work[1] + after.evals];
+            match found {
+                Crossing::At(t) => Some(t),
+                Crossing::InsideAtStart => return Some(trace_pixel(field, s, x, y)),
+                Crossing::None => None,
+            }
+        }
+    };
+    Some(match hit {
+        Some(t) => shade_hit(field, s, &ray, t, work),
+        None => PixelSample::miss(s.background, work),
+    })
+}
+
+/// Calls `pixel` with the hit distance each pixel inside `rects` had (in
+/// parallel) and writes the samples it returns into `frame`, counters into the
+/// extra channels named `counters`; returns those samples.
 pub fn rerender_pixels(
     frame: &mut Frame,
     rects: &[super::PixelRect],
     counters: [&str; 2],
-    pixel: impl Fn(u32, u32) -> PixelSample + Sync,
+    pixel: impl Fn(u32, u32, f32) -> Option<PixelSample> + Sync,
 ) -> Vec<PixelSample> {
     let pixels: Vec<(u32, u32)> =
         rects.iter().flat_map(|r| (r.y0..r.y1).flat_map(move |y| (r.x0..r.x1).map(move |x| (x, y)))).collect();
-    let samples: Vec<PixelSample> = pixels.par_iter().map(|&(x, y)| pixel(x, y)).collect();
+    let depth = &frame.depth;
+    let width = frame.width;
+    let samples: Vec<(usize, PixelSample)> = pixels
+        .par_iter()
+        .filter_map(|&(x, y)| {
+            let i = (y * width + x) as usize;
+            pixel(x, y, depth[i]).map(|p| (i, p))
+        })
+        .collect();
     let channels = counters.map(|name| frame.extra.iter().position(|(n, _)| n == name));
-    for (&(x, y), p) in pixels.iter().zip(&samples) {
-        let i = (y * frame.width + x) as usize;
+    for &(i, ref p) in &samples {
         write_sample(frame, i, p);
         for (k, channel) in channels.iter().enumerate() {
             if let Some(c) = *channel {
@@ -143,7 +206,7 @@ pub fn rerender_pixels(
             }
         }
     }
-    samples
+    samples.into_iter().map(|(_, p)| p).collect()
 }
 
 /// Stores what pixel `i` shows: colour, depth, normal, and coverage from the depth.
@@ -175,9 +238,15 @@ pub fn render_pixels(
 fn trace_pixel<F: Field + ?Sized>(field: &F, s: &RenderSettings, x: u32, y: u32) -> PixelSample {
     let ray = s.camera.ray(x, y, s.width, s.height);
     let r = trace_ray(field, &ray, &s.trace);
-    let Some(t) = r.hit else {
-        return PixelSample::miss(s.background, [r.steps, r.evals]);
-    };
+    match r.hit {
+        Some(t) => shade_hit(field, s, &ray, t, [r.steps, r.evals]),
+        None => PixelSample::miss(s.background, [r.steps, r.evals]),
+    }
+}
+
+/// The pixel showing the hit at distance `t` along `ray`, after `work` (steps,
+/// evaluations) spent finding it.
+fn shade_hit<F: Field + ?Sized>(field: &F, s: &RenderSettings, ray: &Ray, t: f32, work: [u32; 2]) -> PixelSample {
     let p = ray.at(t);
     let normal = outward_normal(field.gradient(p), ray.dir);
     let albedo = field.color(p);
@@ -185,7 +254,7 @@ fn trace_pixel<F: Field + ?Sized>(field: &F, s: &RenderSettings, x: u32, y: u32)
         color: s.lighting.shade(&s.camera, ray.dir, normal, albedo),
         depth: t,
         normal: normal.into(),
-        counts: [r.steps, r.evals + 2],
+        counts: [work[0], work[1] + 2],
     }
 }
 

@@ -57,21 +57,52 @@ pub struct TraceResult {
 
 /// Traces `ray` through `field`, returning the first entry into `f > T`.
 pub fn trace_ray<F: Field + ?Sized>(field: &F, ray: &Ray, opts: &TraceOptions) -> TraceResult {
-    let bounds = field.bounds();
-    let mut out = TraceResult::default();
-    let Some((t_start, t_end)) = bounds.clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY) else {
-        return out;
+    let Some(span) = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY) else {
+        return TraceResult::default();
     };
-    let diag = bounds.diagonal();
+    let (found, mut out) = march(field, ray, opts, span);
+    out.hit = match found {
+        // The eye (or the entry point) is already inside.
+        Crossing::InsideAtStart => Some(span.0),
+        Crossing::At(t) => Some(t),
+        Crossing::None => None,
+    };
+    out
+}
+
+/// What marching a stretch of a ray found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Crossing {
+    /// The stretch starts inside the surface.
+    InsideAtStart,
+    /// The first entry into the surface, snapped to the ray's lattice.
+    At(f32),
+    /// The field stays outside over the whole stretch.
+    None,
+}
+
+/// Marches `ray` over `[span.0, span.1]` only (the field is taken as zero
+/// beyond), returning the first crossing there and the work spent (`hit` unset).
+/// A snapped crossing depends on the field near it only, so marching a stretch
+/// that starts after a known crossing-free part finds what a whole trace finds.
+pub fn march<F: Field + ?Sized>(
+    field: &F,
+    ray: &Ray,
+    opts: &TraceOptions,
+    (t_start, t_end): (f32, f32),
+) -> (Crossing, TraceResult) {
+    let mut out = TraceResult::default();
+    if t_start >= t_end {
+        return (Crossing::None, out);
+    }
+    let diag = field.bounds().diagonal();
     let tol = (opts.tolerance * diag).max(f32::EPSILON * t_end.abs());
     let iso = field.threshold();
     let mut t = t_start;
     let mut v = field.value(ray.at(t)) - iso;
     out.evals = 1;
     if v > 0.0 {
-        // The eye (or the entry point) is already inside.
-        out.hit = Some(t);
-        return out;
+        return (Crossing::InsideAtStart, out);
     }
     let mut segment = opts.first_segment * diag;
     while out.steps < opts.max_steps {
@@ -86,23 +117,32 @@ pub fn trace_ray<F: Field + ?Sized>(field: &F, ray: &Ray, opts: &TraceOptions) -
         let step = step.max(tol);
         let t_next = t + step;
         if t_next >= t_end {
-            // The field is zero on and beyond the bounds: nothing is left to hit.
-            return out;
+            // The field is zero on and beyond the end: nothing is left to hit.
+            return (Crossing::None, out);
         }
         let v_next = field.value(ray.at(t_next)) - iso;
         out.evals += 1;
         if v_next > 0.0 {
             let ((a, b), evals) = refine(field, ray, (t, v), (t_next, v_next), tol);
             let (root, snap_evals) = snap(field, ray, a, b, opts.quantum.unwrap_or(tol));
-            out.hit = Some(root);
             out.evals += evals + snap_evals;
-            return out;
+            return (Crossing::At(root), out);
         }
         t = t_next;
         v = v_next;
         segment = opts.growth * step;
     }
-    out
+    (Crossing::None, out)
+}
+
+/// How far from a crossing the field can influence where the crossing is
+/// snapped: a change farther than this from a hit cannot move it.
+#[must_use]
+pub fn snap_reach(opts: &TraceOptions, diag: f32) -> f32 {
+    // Refinement stays within a tolerance of the crossing; snapping walks up
+    // to 2 × MAX_SNAP_WALK lattice steps from it. Doubled for rounding.
+    let tol = opts.tolerance * diag;
+    4.0 * (MAX_SNAP_WALK as f32 + 1.0) * opts.quantum.unwrap_or(tol).max(tol)
 }
 
 /// Illinois false position on a bracket `[a, b]` with `f(a) <= T < f(b)`, until
