@@ -1,5 +1,6 @@
-//! Exact field rendering of Medusa: indexed against naive evaluation, and the
-//! indexed render across thread counts. `cargo bench --bench render`.
+//! Field rendering of Medusa: exact indexed against exact naive evaluation and
+//! against the caches (warm after the first iteration), and the indexed render
+//! across thread counts. `cargo bench --bench render`.
 
 use blobtrace::field::{EvalMode, ModelField};
 use blobtrace::scene::{Scene, Size};
@@ -18,7 +19,8 @@ fn eval_modes(c: &mut Criterion) {
     let scene = medusa();
     let mut group = c.benchmark_group("medusa_160x120");
     group.sample_size(10);
-    for (name, mode) in [("indexed", EvalMode::Indexed), ("naive", EvalMode::Naive)] {
+    for (name, mode) in [("indexed", EvalMode::Indexed), ("naive", EvalMode::Naive), ("cached_warm", EvalMode::Cached)]
+    {
         let field = ModelField::new(&scene.model, mode);
         let s = settings(&scene, 160, 120);
         group.bench_function(name, |b| b.iter(|| render(&field, &s, &|_| {})));

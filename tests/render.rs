@@ -2,10 +2,10 @@
 
 mod common;
 
-use blobtrace::field::{EvalMode, ModelField};
+use blobtrace::field::{EvalMode, Field, ModelField};
 use blobtrace::geom::Ray;
 use blobtrace::scene::{Scene, Size};
-use blobtrace::trace::{RenderSettings, render};
+use blobtrace::trace::{Crossing, RenderSettings, march, render, trace_ray};
 use common::{assert_traces_like_brute_force, bundled};
 use glam::Vec3A;
 
@@ -154,4 +154,57 @@ fn peer_particles_scene_covers_what_the_reference_tracer_covers() {
     let hits = frame.hits() as f64;
     assert!((hits - 34_380.0).abs() / 34_380.0 < 0.002, "{hits} hit pixels");
     assert!(stats.steps as f64 / stats.rays as f64 > 1.0);
+}
+
+#[test]
+fn a_march_from_any_point_before_the_hit_finds_the_same_hit() {
+    // The property incremental re-rendering stands on: the snapped hit
+    // depends on the field near it, not on where the march began. Medusa's
+    // hair grazes many rays with features thinner than the tolerance.
+    let scene = bundled("medusa.ron");
+    let field = ModelField::new(&scene.model, EvalMode::Cached);
+    let s = settings(&scene, 48, 36);
+    let bounds = field.bounds();
+    let mut checked = 0;
+    for y in 0..s.height {
+        for x in 0..s.width {
+            let ray = s.camera.ray(x, y, s.width, s.height);
+            let Some(hit) = trace_ray(&field, &ray, &s.trace).hit else { continue };
+            let (t_start, t_end) = bounds.clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY).unwrap();
+            for k in 1..8 {
+                let t0 = t_start + (hit - t_start) * k as f32 / 8.0;
+                let (found, _) = march(&field, &ray, &s.trace, (t0, t_end));
+                assert_eq!(found, Crossing::At(hit), "pixel {x},{y} from {t0}");
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 1000, "{checked} marches checked");
+}
+
+#[test]
+fn a_feature_thinner_than_the_tolerance_is_found_from_any_start_when_it_holds_a_lattice_point() {
+    // A ray grazing a small sphere: inside over a chord of 0.6 lattice steps
+    // centred on a lattice point. Wherever the march starts, it must find it.
+    let scene = Scene::parse(
+        "Scene(camera: Camera(eye: (0.0, 0.0, 10.0), target: (0.0, 0.0, 0.0), up: (0.0, 1.0, 0.0), fov_y: 40.0),
+               size: (8, 8), threshold: 0.5,
+               model: Blend([Point(center: (0.0, 0.0, 0.0), radius: 0.01), Point(center: (5.0, 5.0, 5.0), radius: 1.0)]))",
+        "thin",
+    )
+    .unwrap();
+    let field = ModelField::new(&scene.model, EvalMode::Indexed);
+    let opts = settings(&scene, 8, 8).trace;
+    let q = opts.quantum.unwrap();
+    let iso_radius = 0.01 * (1.0 - 0.5f32.powf(1.0 / 3.0)).sqrt();
+    let half_chord = 0.3 * q;
+    let miss_distance = (iso_radius * iso_radius - half_chord * half_chord).sqrt();
+    let k = (2.0 / q).round();
+    let ray = Ray::new(Vec3A::new(-k * q, miss_distance, 0.0), Vec3A::X);
+    let hit = Crossing::At(k * q);
+    assert_eq!(trace_ray(&field, &ray, &opts).hit, Some(k * q));
+    for i in 0..64 {
+        let t0 = (k - 1000.0) * q + i as f32 * 0.37 * q;
+        assert_eq!(march(&field, &ray, &opts, (t0, 4.0)).0, hit, "from {t0}");
+    }
 }

@@ -199,8 +199,10 @@ pub fn replay(
     for (i, edits) in frames.iter().enumerate() {
         let (mut row, rects) = step(scene, &mut state, edits, i).with_context(|| format!("frame {i}"))?;
         if verify_frames {
-            let (render_s, full_s, ok) = verify(scene, &state, polygonize);
-            anyhow::ensure!(ok, "frame {i}: the incremental result differs from the full one");
+            let (render_s, full_s, mismatch) = verify(scene, &state, polygonize);
+            if let Some(what) = mismatch {
+                anyhow::bail!("frame {i}: the incremental result differs from the full one: {what}");
+            }
             row.full_s = Some(full_s);
             row.full_render_s = Some(render_s);
             verified += 1;
@@ -283,8 +285,8 @@ fn update_depth_diff(diff: &mut [f32], mesh: &Frame, field: &Frame, rects: &[Pix
 }
 
 /// Renders and polygonizes from scratch; returns the seconds rendering, the
-/// seconds in all, and whether the incremental image and mesh equal them.
-fn verify(scene: &Scene, s: &EditState, polygonize: &PolygonizeArgs) -> (f64, f64, bool) {
+/// seconds in all, and how the incremental image or mesh differ from them, if they do.
+fn verify(scene: &Scene, s: &EditState, polygonize: &PolygonizeArgs) -> (f64, f64, Option<String>) {
     let field = ModelField::new(&scene.model, s.mode);
     let clock = Instant::now();
     let full = render(&field, &s.settings, &|_| {}).0;
@@ -293,8 +295,32 @@ fn verify(scene: &Scene, s: &EditState, polygonize: &PolygonizeArgs) -> (f64, f6
     fresh.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
     let mesh = fresh.mesh();
     let seconds = clock.elapsed().as_secs_f64();
-    let same_mesh = mesh.triangle_set() == canonical_triangles(s.dynamic.triangles());
-    (render_s, seconds, full.same_image(&s.field_frame) && same_mesh)
+    let mut mismatch = image_mismatch(&full, &s.field_frame);
+    if mesh.triangle_set() != canonical_triangles(s.dynamic.triangles()) {
+        mismatch = Some(mismatch.map_or(String::new(), |m| m + "; ") + "the meshes differ");
+    }
+    (render_s, seconds, mismatch)
+}
+
+/// How the incremental image `kept` differs from the full render `full`, if it does.
+fn image_mismatch(full: &Frame, kept: &Frame) -> Option<String> {
+    if full.same_image(kept) {
+        return None;
+    }
+    let differs = |i: usize| {
+        full.color[i] != kept.color[i]
+            || full.depth[i].to_bits() != kept.depth[i].to_bits()
+            || full.normal[i] != kept.normal[i]
+    };
+    let pixels: Vec<usize> = (0..full.len()).filter(|&i| differs(i)).collect();
+    let first = pixels.first().copied().unwrap_or(0);
+    let (x, y) = (first as u32 % full.width, first as u32 / full.width);
+    Some(format!(
+        "{} pixels, the first at ({x}, {y}) with depth {} incrementally against {}",
+        pixels.len(),
+        kept.depth[first],
+        full.depth[first]
+    ))
 }
 
 fn save_frame(dir: &std::path::Path, i: usize, frame: &Frame, rects: &[PixelRect]) -> anyhow::Result<()> {

@@ -112,10 +112,16 @@ pub fn march<F: Field + ?Sized>(
         out.evals += 1;
         let room = seg_end - t;
         let step = if slope > 0.0 { (-v / slope).min(room) } else { room };
-        // A floor of one tolerance keeps grazing rays moving; a feature thinner
-        // than that is below the precision asked for.
-        let step = step.max(tol);
-        let t_next = t + step;
+        let t_next = if step >= tol {
+            t + step
+        } else {
+            // Near the surface the bound's steps shrink towards the crossing:
+            // walk the ray's lattice instead, which keeps grazing rays moving
+            // and finds the first lattice point inside whatever stretch a
+            // march starts from (a feature between two lattice points is
+            // below the precision asked for).
+            next_lattice_point(t, opts.quantum.unwrap_or(tol))
+        };
         if t_next >= t_end {
             // The field is zero on and beyond the end: nothing is left to hit.
             return (Crossing::None, out);
@@ -128,11 +134,20 @@ pub fn march<F: Field + ?Sized>(
             out.evals += evals + snap_evals;
             return (Crossing::At(root), out);
         }
+        segment = opts.growth * (t_next - t);
         t = t_next;
         v = v_next;
-        segment = opts.growth * step;
     }
     (Crossing::None, out)
+}
+
+/// The first point `k · q` after `t`.
+fn next_lattice_point(t: f32, q: f32) -> f32 {
+    let mut k = (t / q).floor() + 1.0;
+    while k * q <= t {
+        k += 1.0;
+    }
+    k * q
 }
 
 /// How far from a crossing the field can influence where the crossing is
