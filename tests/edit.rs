@@ -6,10 +6,11 @@ mod common;
 
 use blobtrace::field::{Edit, EvalMode, Field, Model, ModelField};
 use blobtrace::frame::Frame;
-use blobtrace::geom::Aabb;
 use blobtrace::mesh::{Lattice, PolygonizeOptions, Polygonizer, skeleton_seeds};
 use blobtrace::scene::{Scene, Size};
-use blobtrace::trace::{PixelRect, RenderSettings, merge_rects, render, rerender, screen_rect};
+use blobtrace::trace::{
+    ChangedSpace, PixelRect, RenderSettings, changed_space, merge_rects, render, rerender, screen_rect,
+};
 use common::{EVERY_NODE, Rng, bundled};
 use glam::Vec3;
 
@@ -25,15 +26,17 @@ fn random_edit(rng: &mut Rng, node: &str, primitive: bool) -> Edit {
     }
 }
 
-/// The changed region and its dirty rectangles.
+/// The space the change reached and its dirty rectangles.
 fn dirty_rects(
     model: &Model,
     change: &blobtrace::field::Change,
     cached: bool,
     settings: &RenderSettings,
-) -> (Aabb, Vec<PixelRect>) {
-    let region = model.change_region(change, cached);
-    (region, merge_rects(screen_rect(&settings.camera, settings.width, settings.height, &region).into_iter().collect()))
+) -> (ChangedSpace, Vec<PixelRect>) {
+    let field = ModelField::new(model, if cached { EvalMode::Cached } else { EvalMode::Indexed });
+    let space = changed_space(&field, settings, &model.change_supports(change, cached));
+    let rects = screen_rect(&settings.camera, settings.width, settings.height, &space.bounds());
+    (space, merge_rects(rects.into_iter().collect()))
 }
 
 fn changed_pixels(a: &Frame, b: &Frame) -> Vec<(u32, u32)> {
@@ -62,10 +65,10 @@ fn incremental_renders_after_random_edits_equal_full_renders() {
                 let (name, primitive) = names[step % names.len()];
                 let edit = random_edit(&mut rng, name, primitive);
                 let change = scene.model.apply(&edit).unwrap();
-                let (region, rects) = dirty_rects(&scene.model, &change, mode == EvalMode::Cached, &settings);
+                let (space, rects) = dirty_rects(&scene.model, &change, mode == EvalMode::Cached, &settings);
                 let before = frame.clone();
                 let field = ModelField::new(&scene.model, mode);
-                rerender(&field, &settings, &mut frame, &rects, &region);
+                rerender(&field, &settings, &mut frame, &rects, &space);
                 let full = render(&field, &settings, &|_| {}).0;
                 if !frame.same_image(&full) {
                     let outside: Vec<(u32, u32)> = changed_pixels(&frame, &full);
@@ -189,10 +192,10 @@ fn adding_removing_and_changing_operators_update_incrementally() {
         let mut frame = render(&ModelField::new(&scene.model, mode), &settings, &|_| {}).0;
         for edit in &edits {
             let change = scene.model.apply(edit).unwrap();
-            let (region, rects) = dirty_rects(&scene.model, &change, mode == EvalMode::Cached, &settings);
+            let (space, rects) = dirty_rects(&scene.model, &change, mode == EvalMode::Cached, &settings);
             let before = frame.clone();
             let field = ModelField::new(&scene.model, mode);
-            rerender(&field, &settings, &mut frame, &rects, &region);
+            rerender(&field, &settings, &mut frame, &rects, &space);
             let full = render(&field, &settings, &|_| {}).0;
             assert!(frame.same_image(&full), "{mode:?} {edit:?}");
             assert!(!changed_pixels(&before, &full).is_empty(), "{mode:?} {edit:?} changes the image");

@@ -21,7 +21,7 @@ use crate::frame::Frame;
 use crate::geom::Aabb;
 use crate::mesh::{Polygonizer, canonical_triangles, skeleton_seeds};
 use crate::scene::{Scene, Size, load_script};
-use crate::trace::{PixelRect, RenderSettings, merge_rects, render, rerender, screen_rect};
+use crate::trace::{PixelRect, RenderSettings, changed_space, merge_rects, render, rerender, screen_rect};
 
 /// Options of `blobtrace edit`.
 #[derive(Debug, Args)]
@@ -235,27 +235,30 @@ fn step(
 ) -> anyhow::Result<(FrameRow, Vec<PixelRect>)> {
     let mut row = FrameRow { frame, ..Default::default() };
     let clock = Instant::now();
-    let mut region = Aabb::EMPTY;
+    let (mut region, mut supports) = (Aabb::EMPTY, vec![]);
+    let cached = s.mode == EvalMode::Cached;
     for edit in edits {
         let change = scene.model.apply(edit)?;
         row.samples_cleared += change.samples_cleared;
-        region = region.union(&scene.model.change_region(&change, s.mode == EvalMode::Cached));
+        region = region.union(&scene.model.change_region(&change, cached));
+        supports.extend(scene.model.change_supports(&change, cached));
     }
     row.apply_s = clock.elapsed().as_secs_f64();
     let (w, h) = (s.settings.width, s.settings.height);
-    let rects = merge_rects(screen_rect(&s.settings.camera, w, h, &region).into_iter().collect());
-    row.dirty_fraction = rects.iter().map(PixelRect::area).sum::<u64>() as f64 / f64::from(w * h);
     let field = ModelField::new(&scene.model, s.mode);
     let clock = Instant::now();
-    let retraced = rerender(&field, &s.settings, &mut s.field_frame, &rects, &region);
+    let changed = changed_space(&field, &s.settings, &supports);
+    let rects = merge_rects(screen_rect(&s.settings.camera, w, h, &changed.bounds()).into_iter().collect());
+    row.dirty_fraction = rects.iter().map(PixelRect::area).sum::<u64>() as f64 / f64::from(w * h);
+    let retraced = rerender(&field, &s.settings, &mut s.field_frame, &rects, &changed);
     row.field_s = clock.elapsed().as_secs_f64();
     row.retraced_fraction = retraced.rays as f64 / f64::from(w * h);
     row.field_evals = retraced.field_evals;
     let clock = Instant::now();
-    let changed = s.polygonizer.repolygonize(&field, &region, &skeleton_seeds(&scene.model, scene.model.root()));
+    let remeshed = s.polygonizer.repolygonize(&field, &region, &skeleton_seeds(&scene.model, scene.model.root()));
     row.polygonize_s = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    s.dynamic.update(&s.polygonizer, &changed);
+    s.dynamic.update(&s.polygonizer, &remeshed);
     row.bvh_s = clock.elapsed().as_secs_f64();
     // Triangles change only within two lattice cells of the region.
     let mesh_region = region.padded(2.0 * s.polygonizer.lattice().cell);

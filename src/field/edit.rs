@@ -151,6 +151,24 @@ impl Model {
         let NodeKind::Named { child, .. } = self.node(named).kind else {
             return Err(ModelError::UnknownName(edit.node().to_string()));
         };
+        // The field can change only within the supports of this node's
+        // subtree before and after; a removal can change its whole parent
+        // (an intersection's minimum, say).
+        let scope = match edit {
+            Edit::Remove { .. } => self.node(named).parent.unwrap_or(named),
+            _ => named,
+        };
+        let mut supports = vec![];
+        self.support_boxes(scope, &mut supports);
+        let mut change = self.apply_found(edit, named, child)?;
+        self.support_boxes(scope, &mut supports);
+        change.supports = supports;
+        change.scope = scope;
+        Ok(change)
+    }
+
+    /// [`Self::apply`] on the validated edit of `Named` node `named` over `child`.
+    fn apply_found(&mut self, edit: &Edit, named: NodeId, child: NodeId) -> Result<Change, ModelError> {
         let operator = || {
             self.operator_under(named).ok_or_else(|| ModelError::WrongKind {
                 node: named,
@@ -223,6 +241,55 @@ impl Model {
         };
         let m = motion(self.node(transform).bounds.center()) * placement.to_world;
         self.set_placement(transform, Placement::from_affine(m).ok_or(ModelError::ZeroScale)?)
+    }
+
+    /// Appends boxes holding the support of node `id`'s field, in the frame
+    /// `id` is evaluated in: each primitive's bounds, through the transforms
+    /// and, for the cached field, widened at each cache by its filters' reach.
+    /// Every operator's field is zero outside its children's supports.
+    pub fn support_boxes(&self, id: NodeId, out: &mut Vec<Aabb>) {
+        let first = out.len();
+        match &self.node(id).kind {
+            NodeKind::Primitive(_) => out.push(self.node(id).bounds),
+            NodeKind::Transform { placement, child } => {
+                self.support_boxes(*child, out);
+                out[first..].iter_mut().for_each(|b| *b = b.transformed(&placement.to_world));
+            }
+            NodeKind::Cache { child, grid, .. } => {
+                self.support_boxes(*child, out);
+                let cache = self.cache(*grid);
+                out[first..].iter_mut().for_each(|b| *b = cache.sample_reach(b));
+            }
+            NodeKind::Difference(a, _) => self.support_boxes(*a, out),
+            kind => kind.children().into_iter().for_each(|c| self.support_boxes(c, out)),
+        }
+    }
+
+    /// Boxes in the world (the root's frame) holding everything `change` may
+    /// have changed in the field evaluated in `cached` or exact mode: its
+    /// supports carried up like [`Self::change_region`], or that region alone
+    /// when the change does not know its supports.
+    #[must_use]
+    pub fn change_supports(&self, change: &Change, cached: bool) -> Vec<Aabb> {
+        if change.supports.is_empty() {
+            return vec![self.change_region(change, cached)];
+        }
+        let mut boxes = change.supports.clone();
+        let mut at = change.scope;
+        while let Some(parent) = self.node(at).parent {
+            match &self.node(parent).kind {
+                NodeKind::Transform { placement, .. } => {
+                    boxes.iter_mut().for_each(|b| *b = b.transformed(&placement.to_world))
+                }
+                NodeKind::Cache { grid, .. } if cached => {
+                    let cache = self.cache(*grid);
+                    boxes.iter_mut().for_each(|b| *b = cache.sample_reach(b));
+                }
+                _ => {}
+            }
+            at = parent;
+        }
+        boxes
     }
 
     /// The world box (the root's frame) holding everything `change` may have

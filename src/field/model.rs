@@ -47,7 +47,7 @@ pub enum ModelError {
 
 /// What an edit changed: the edited node and its bounds before and after, in
 /// the frame its parent sees. Outside `old ∪ new` no node's field changed.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Change {
     /// The edited node.
     pub node: NodeId,
@@ -57,6 +57,13 @@ pub struct Change {
     pub new: Aabb,
     /// Cached samples cleared above it.
     pub samples_cleared: u64,
+    /// Boxes holding the support of the field that changed, before and after
+    /// (each primitive's, through transforms and caches), in the frame of
+    /// `scope`: much tighter than `old ∪ new` for a large moved subtree. Empty
+    /// when unknown (a change made below [`Model::apply`]).
+    pub supports: Vec<Aabb>,
+    /// The node in whose frame `supports` lie.
+    pub scope: NodeId,
 }
 
 /// A BlobTree: nodes in an arena, children before parents' use, parents known,
@@ -429,7 +436,7 @@ impl Model {
         };
         // Caches inside the operator's own frame: the op itself may be cached above.
         let samples_cleared = self.invalidate_from(op, old.union(&new));
-        Change { node: op, old, new, samples_cleared }
+        Change { node: op, old, new, samples_cleared, supports: Vec::new(), scope: op }
     }
 
     /// Clears the samples inside `region` (in `id`'s own frame) in `id` if it
@@ -447,7 +454,7 @@ impl Model {
         self.refresh_from(id);
         let new = self.node(id).bounds;
         let samples_cleared = self.invalidate_above(id, old.union(&new));
-        Change { node: id, old, new, samples_cleared }
+        Change { node: id, old, new, samples_cleared, supports: Vec::new(), scope: id }
     }
 
     /// Clears, in every cache above node `id`, the samples inside `changed` (a

@@ -7,6 +7,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
+use super::changed::ChangedSpace;
 use super::segment::{Crossing, TraceOptions, march, snap_reach, trace_ray};
 use super::shade::Lighting;
 use crate::camera::Camera;
@@ -101,25 +102,33 @@ pub fn render<F: Field + ?Sized>(
     (assemble(&samples, settings, FIELD_COUNTERS), stats)
 }
 
+/// The space an edit changed, as the tracer must see it: `boxes` (holding
+/// every change of the field, world frame) padded by how far a change can
+/// reach to move a snapped hit.
+#[must_use]
+pub fn changed_space<F: Field + ?Sized>(field: &F, settings: &RenderSettings, boxes: &[Aabb]) -> ChangedSpace {
+    ChangedSpace::new(boxes, snap_reach(&settings.trace, field.bounds().diagonal()))
+}
+
 /// Updates `frame`, a render of `field` with `settings` before an edit that
-/// changed the field inside `region` only; `rects` (which must not overlap; see
-/// [`super::merge_rects`]) hold every pixel whose ray meets `region`.
+/// changed the field inside `changed` only (see [`changed_space`]); `rects`
+/// (which must not overlap; see [`super::merge_rects`]) hold every pixel
+/// whose ray meets it.
 ///
 /// Every pixel depends on its own ray only, and a snapped hit on the field
-/// near it only, so a ray is traced over the stretch inside `region` alone:
-/// before the stretch the field is unchanged and held no crossing (or the old
-/// hit stands), and after it the old hit stands. The result equals a full
-/// render. The stats count the rays traced, whole or in part.
+/// near it only, so a ray is traced over its stretch inside the changed space
+/// alone: before the stretch the field is unchanged and held no crossing (or
+/// the old hit stands), and after it the old hit stands. The result equals a
+/// full render. The stats count the rays traced, whole or in part.
 pub fn rerender<F: Field + ?Sized>(
     field: &F,
     settings: &RenderSettings,
     frame: &mut Frame,
     rects: &[super::PixelRect],
-    region: &Aabb,
+    changed: &ChangedSpace,
 ) -> RenderStats {
-    let region = region.padded(snap_reach(&settings.trace, field.bounds().diagonal()));
     let samples = rerender_pixels(frame, rects, FIELD_COUNTERS, |x, y, depth| {
-        retrace_pixel(field, settings, x, y, depth, &region)
+        retrace_pixel(field, settings, x, y, depth, changed)
     });
     let mut stats = RenderStats { rays: samples.len() as u64, ..Default::default() };
     for p in &samples {
@@ -130,24 +139,23 @@ pub fn rerender<F: Field + ?Sized>(
     stats
 }
 
-/// What pixel (`x`, `y`) shows after the field changed inside `region`, given
-/// the hit distance `before` it had; `None` when it cannot have changed.
+/// What pixel (`x`, `y`) shows after the field changed inside `changed`,
+/// given the hit distance `before` it had; `None` when it cannot have changed.
 fn retrace_pixel<F: Field + ?Sized>(
     field: &F,
     s: &RenderSettings,
     x: u32,
     y: u32,
     before: f32,
-    region: &Aabb,
+    changed: &ChangedSpace,
 ) -> Option<PixelSample> {
     let ray = s.camera.ray(x, y, s.width, s.height);
-    let inv = ray.dir.recip();
-    let (t_in, t_out) = region.clip_ray(ray.origin, inv, 0.0, f32::INFINITY)?;
+    let (t_in, t_out) = changed.span(&ray)?;
     if before < t_in {
         // The old hit lies in front of the change.
         return None;
     }
-    let Some((t_start, t_end)) = field.bounds().clip_ray(ray.origin, inv, 0.0, f32::INFINITY) else {
+    let Some((t_start, t_end)) = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY) else {
         return Some(PixelSample::miss(s.background, [0, 0]));
     };
     if t_in <= t_start {
@@ -157,11 +165,11 @@ fn retrace_pixel<F: Field + ?Sized>(
     let mut work = [inside.steps, inside.evals];
     let hit = match found {
         Crossing::At(t) => Some(t),
-        // Entering the surface exactly at the region's edge: trace it whole.
+        // Entering the surface exactly where the stretch starts: trace it whole.
         Crossing::InsideAtStart => return Some(trace_pixel(field, s, x, y)),
         Crossing::None if before > t_out => return None,
         Crossing::None => {
-            // The old hit lay inside the region and is gone: go on past it.
+            // The old hit lay in the stretch and is gone: go on past it.
             let (found, after) = march(field, &ray, &s.trace, (t_out, t_end));
             work = [work[0] + after.steps, work[1] + after.evals];
             match found {
