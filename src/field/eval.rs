@@ -323,7 +323,12 @@ impl Model {
         let Region::Segment(a, b) = *region else {
             return ix.cell_lipschitz(region);
         };
-        if ix.cells_overlapped(&region.bounds()) > MAX_CELLS_FOR_LEAF_BOUNDS {
+        // The per-cell bounds cost one grid walk. Summing the leaves' own
+        // bounds is tighter but visits every leaf listed in every cell crossed:
+        // on Medusa it takes 1.5× fewer steps at 3× the cost each. Node leaves
+        // (a cache with its sampled slopes, say) can be far tighter along a
+        // short segment than over whole cells, so those keep the sum.
+        if !ix.has_node_leaves() || ix.cells_overlapped(&region.bounds()) > MAX_CELLS_FOR_LEAF_BOUNDS {
             return ix.cell_lipschitz(region);
         }
         SEEN.with(|cell| {

@@ -53,6 +53,7 @@ pub struct BlendIndex {
     items: Vec<u32>,
     cell_lipschitz: Vec<f32>,
     cell_range: Vec<Interval>,
+    has_node_leaves: bool,
 }
 
 impl BlendIndex {
@@ -65,6 +66,7 @@ impl BlendIndex {
         lipschitz: impl Fn(&IndexedLeaf, &Region) -> f32,
     ) -> Self {
         let cell = choose_cell_size(&bounds, &leaves);
+        let has_node_leaves = leaves.iter().any(|l| matches!(l.leaf, Leaf::Node(_)));
         let dims = (bounds.size() / cell).ceil().as_uvec3();
         let mut index = Self {
             leaves,
@@ -73,6 +75,7 @@ impl BlendIndex {
             items: vec![],
             cell_lipschitz: vec![],
             cell_range: vec![],
+            has_node_leaves,
         };
         index.bucket();
         index.precompute_cell_bounds(interval, lipschitz);
@@ -125,6 +128,12 @@ impl BlendIndex {
 
     fn cell_items(&self, c: usize) -> &[u32] {
         &self.items[self.offsets[c] as usize..self.offsets[c + 1] as usize]
+    }
+
+    /// True when some leaf is a node rather than a primitive.
+    #[must_use]
+    pub fn has_node_leaves(&self) -> bool {
+        self.has_node_leaves
     }
 
     /// Leaves whose bounds overlap the cell holding `p` (empty outside the grid).
