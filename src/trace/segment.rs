@@ -107,11 +107,9 @@ pub fn march<F: Field + ?Sized>(
     let mut segment = opts.first_segment * diag;
     while out.steps < opts.max_steps {
         out.steps += 1;
-        let seg_end = (t + segment).min(t_end);
-        let slope = field.lipschitz(&Region::Segment(ray.at(t), ray.at(seg_end)));
-        out.evals += 1;
-        let room = seg_end - t;
-        let step = if slope > 0.0 { (-v / slope).min(room) } else { room };
+        let halvings = if -v > HALVING_MARGIN * iso { MAX_BOUNDS_PER_STEP } else { 1 };
+        let (step, bounds) = bounded_step(field, ray, t, -v, (t + segment).min(t_end) - t, halvings);
+        out.evals += bounds;
         let t_next = if step >= tol {
             t + step
         } else {
@@ -159,6 +157,37 @@ pub fn snap_reach(opts: &TraceOptions, diag: f32) -> f32 {
     let tol = opts.tolerance * diag;
     4.0 * (MAX_SNAP_WALK as f32 + 1.0) * opts.quantum.unwrap_or(tol).max(tol)
 }
+
+/// The longest step from `t` that a slope bound shows cannot reach the
+/// surface, given the `margin` `T - f(t)` and the segment length `room` to
+/// bound over; returns it and the bounds taken. A bound over the whole
+/// segment is as steep as its steepest part, so when the far part is steep
+/// (the ray nears other primitives) the segment is halved while that can
+/// lengthen the step: crossing empty space next to dense parts costs one
+/// extra bound instead of restarting the segment's growth.
+fn bounded_step<F: Field + ?Sized>(
+    field: &F,
+    ray: &Ray,
+    t: f32,
+    margin: f32,
+    mut room: f32,
+    max_bounds: u32,
+) -> (f32, u32) {
+    let mut best = 0.0f32;
+    let mut bounds = 0;
+    while room > best && bounds < max_bounds {
+        let slope = field.lipschitz(&Region::Segment(ray.at(t), ray.at(t + room)));
+        bounds += 1;
+        best = best.max(if slope > 0.0 { (margin / slope).min(room) } else { room });
+        room *= 0.5;
+    }
+    (best, bounds)
+}
+
+/// Most slope bounds taken for one step (each halving the segment).
+const MAX_BOUNDS_PER_STEP: u32 = 3;
+/// Segments are halved only where `T - f` exceeds this fraction of `T`.
+const HALVING_MARGIN: f32 = 0.9;
 
 /// Illinois false position on a bracket `[a, b]` with `f(a) <= T < f(b)`, until
 /// the bracket is narrower than `tol`. Returns the bracket and the evaluations spent.
