@@ -106,6 +106,19 @@ impl UniformGrid {
         }
     }
 
+    /// Visits the cells a box overlaps as runs of consecutive linear indices
+    /// (one per row along x), for filling per-cell arrays a row at a time.
+    pub fn for_each_row(&self, b: &Aabb, mut f: impl FnMut(std::ops::Range<usize>)) {
+        if let Some((lo, hi, _)) = self.cell_range_of(b) {
+            for z in lo.z..=hi.z {
+                for y in lo.y..=hi.y {
+                    let first = self.linear(UVec3::new(lo.x, y, z));
+                    f(first..first + (hi.x - lo.x) as usize + 1);
+                }
+            }
+        }
+    }
+
     /// Visits the cells the segment `a..b` passes through, in order (Amanatides–Woo walk).
     pub fn walk_segment(&self, a: Vec3A, b: Vec3A, mut f: impl FnMut(usize)) {
         let d = b - a;

@@ -39,7 +39,7 @@ impl ChangedSpace {
         let grid = UniformGrid::new(bounds.min, cell, dims);
         let mut marked = vec![false; grid.cell_count()];
         for b in &boxes {
-            grid.for_each_cell(&b.padded(pad), |c| marked[c] = true);
+            grid.for_each_row(&b.padded(pad), |row| marked[row].fill(true));
         }
         Self { grid, marked, bounds }
     }

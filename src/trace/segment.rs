@@ -186,7 +186,9 @@ fn bounded_step<F: Field + ?Sized>(
 
 /// Most slope bounds taken for one step (each halving the segment).
 const MAX_BOUNDS_PER_STEP: u32 = 3;
-/// Segments are halved only where `T - f` exceeds this fraction of `T`.
+/// Segments are halved only where `T - f` exceeds this fraction of `T`:
+/// nearly empty space. Approaching a surface the bound is steep all along the
+/// segment, and halving would only spend bounds.
 const HALVING_MARGIN: f32 = 0.9;
 
 /// Illinois false position on a bracket `[a, b]` with `f(a) <= T < f(b)`, until
