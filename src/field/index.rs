@@ -8,6 +8,7 @@
 //! segment tracing and interval culling then cost one grid walk, not a sum.
 
 use glam::{Vec3, Vec3A};
+use rayon::prelude::*;
 
 use super::node::NodeId;
 use super::primitive::Primitive;
@@ -17,8 +18,11 @@ use crate::geom::{Aabb, Interval, UniformGrid};
 /// Fewest leaves for which a blend gets an index: below this a plain loop is as fast.
 pub const MIN_INDEXED_LEAVES: usize = 8;
 
-/// Cell edge as a fraction of the median leaf size.
-const CELL_PER_LEAF_SIZE: f32 = 0.25;
+/// Cell edge as a fraction of the median leaf size. Segment tracing bounds its
+/// steps by the cells' precomputed slopes, which tighten as cells shrink: on
+/// Medusa an eighth renders 1.5× faster than a quarter (8× the cells, 50 MB),
+/// and a sixteenth costs 400 MB and seconds of building for 15% more.
+const CELL_PER_LEAF_SIZE: f32 = 0.125;
 
 /// Most cells a grid may have, whatever the leaf count.
 const MAX_CELLS: usize = 1 << 22;
@@ -62,8 +66,8 @@ impl BlendIndex {
     pub fn build(
         bounds: Aabb,
         leaves: Vec<IndexedLeaf>,
-        interval: impl Fn(&IndexedLeaf, &Aabb) -> Interval,
-        lipschitz: impl Fn(&IndexedLeaf, &Region) -> f32,
+        interval: impl Fn(&IndexedLeaf, &Aabb) -> Interval + Sync,
+        lipschitz: impl Fn(&IndexedLeaf, &Region) -> f32 + Sync,
     ) -> Self {
         let cell = choose_cell_size(&bounds, &leaves);
         let has_node_leaves = leaves.iter().any(|l| matches!(l.leaf, Leaf::Node(_)));
@@ -106,24 +110,24 @@ impl BlendIndex {
 
     fn precompute_cell_bounds(
         &mut self,
-        interval: impl Fn(&IndexedLeaf, &Aabb) -> Interval,
-        lipschitz: impl Fn(&IndexedLeaf, &Region) -> f32,
+        interval: impl Fn(&IndexedLeaf, &Aabb) -> Interval + Sync,
+        lipschitz: impl Fn(&IndexedLeaf, &Region) -> f32 + Sync,
     ) {
-        let cells = self.grid.cell_count();
-        self.cell_lipschitz = vec![0.0; cells];
-        self.cell_range = vec![Interval::ZERO; cells];
-        for c in 0..cells {
-            let cell_box = self.grid.cell_box(c);
-            let region = Region::Box(cell_box);
-            let (mut l, mut range) = (0.0, Interval::ZERO);
-            for &i in self.cell_items(c) {
-                let leaf = &self.leaves[i as usize];
-                l += lipschitz(leaf, &region);
-                range = range + interval(leaf, &cell_box);
-            }
-            self.cell_lipschitz[c] = l;
-            self.cell_range[c] = range;
-        }
+        let bounds: Vec<(f32, Interval)> = (0..self.grid.cell_count())
+            .into_par_iter()
+            .map(|c| {
+                let cell_box = self.grid.cell_box(c);
+                let region = Region::Box(cell_box);
+                let (mut l, mut range) = (0.0, Interval::ZERO);
+                for &i in self.cell_items(c) {
+                    let leaf = &self.leaves[i as usize];
+                    l += lipschitz(leaf, &region);
+                    range = range + interval(leaf, &cell_box);
+                }
+                (l, range)
+            })
+            .collect();
+        (self.cell_lipschitz, self.cell_range) = bounds.into_iter().unzip();
     }
 
     fn cell_items(&self, c: usize) -> &[u32] {
