@@ -7,7 +7,7 @@
 //! samples inside the changed box, and the grid only grows its block table.
 
 use std::sync::OnceLock;
-use std::sync::atomic::{AtomicPtr, AtomicU32, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicPtr, AtomicU16, AtomicU32, AtomicU64, Ordering};
 
 use glam::{IVec3, UVec3, Vec3A};
 
@@ -30,6 +30,8 @@ const MAX_SUMMARY_CELLS: usize = 64;
 const SQRT_3: f32 = 1.732_050_8;
 /// The word of a slope summary not yet computed.
 const UNSET_SLOPE: u32 = u32::MAX;
+/// The half-precision word of a cell slope not yet computed (a NaN).
+const UNSET_CELL_SLOPE: u16 = u16::MAX;
 
 /// The lattice, the block table and the per-region slope summaries of one cache.
 pub struct CacheGrid {
@@ -54,7 +56,7 @@ pub struct CacheGrid {
     /// once computed (the tracer's hottest query). Samples are pure functions
     /// of their lattice points, so these stay valid when blocks are evicted;
     /// only invalidation clears them.
-    cell_slopes: Box<[OnceLock<Box<[AtomicU32]>>]>,
+    cell_slopes: Box<[OnceLock<Box<[AtomicU16]>>]>,
     lookups: ShardedCounter,
     evaluated: AtomicU64,
 }
@@ -200,7 +202,7 @@ impl CacheGrid {
         let dims = (hi - lo + IVec3::ONE).max(IVec3::ONE).as_uvec3();
         let mut table: Vec<AtomicPtr<Slot>> =
             (0..dims.as_usizevec3().element_product()).map(|_| AtomicPtr::new(std::ptr::null_mut())).collect();
-        let mut cell_slopes: Vec<OnceLock<Box<[AtomicU32]>>> = table.iter().map(|_| OnceLock::new()).collect();
+        let mut cell_slopes: Vec<OnceLock<Box<[AtomicU16]>>> = table.iter().map(|_| OnceLock::new()).collect();
         for (i, entry) in self.table.iter().enumerate() {
             let b = self.table_lo + cell_coords(i, self.table_dims).as_ivec3();
             let to = linear_index((b - lo).as_uvec3(), dims);
@@ -490,21 +492,21 @@ impl CacheGrid {
         l
     }
 
-    /// [`Self::cell_slope`], kept once computed. Under a budget nothing is
-    /// kept, so the budget bounds all the memory the cache holds.
+    /// [`Self::cell_slope`], kept once computed (in half precision, rounded
+    /// up, as it is always returned: kept or not, the same bound). Under a
+    /// budget nothing is kept, so the budget bounds all the memory the cache holds.
     fn kept_cell_slope(&self, i: IVec3, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
         let Some((t, w)) = self.cell_slope_word(i).filter(|_| pool.budget_slots().is_none()) else {
-            return self.cell_slope(i, pool, eval);
+            return half::f16::from_bits(half_up(self.cell_slope(i, pool, eval))).to_f32();
         };
-        let words =
-            self.cell_slopes[t].get_or_init(|| (0..self.block_volume()).map(|_| AtomicU32::new(UNSET_SLOPE)).collect());
-        let bits = words[w].load(Ordering::Relaxed);
-        if bits != UNSET_SLOPE {
-            return f32::from_bits(bits);
+        let words = self.cell_slopes[t]
+            .get_or_init(|| (0..self.block_volume()).map(|_| AtomicU16::new(UNSET_CELL_SLOPE)).collect());
+        let mut bits = words[w].load(Ordering::Relaxed);
+        if bits == UNSET_CELL_SLOPE {
+            bits = half_up(self.cell_slope(i, pool, eval));
+            words[w].store(bits, Ordering::Relaxed);
         }
-        let l = self.cell_slope(i, pool, eval);
-        words[w].store(l.to_bits(), Ordering::Relaxed);
-        l
+        half::f16::from_bits(bits).to_f32()
     }
 
     /// The table entry of cell `i`'s block and the cell's place in it.
@@ -527,7 +529,7 @@ impl CacheGrid {
                 for x in lo.x - 2..=hi.x + 1 {
                     let Some((t, w)) = self.cell_slope_word(IVec3::new(x, y, z)) else { continue };
                     if let Some(words) = self.cell_slopes[t].get() {
-                        words[w].store(UNSET_SLOPE, Ordering::Relaxed);
+                        words[w].store(UNSET_CELL_SLOPE, Ordering::Relaxed);
                     }
                 }
             }
@@ -624,7 +626,7 @@ impl CacheGrid {
             blocks,
             bytes: blocks * (SLOT_WORDS * 4) as u64,
             slope_bytes: self.cell_slopes.iter().filter(|b| b.get().is_some()).count() as u64
-                * (self.block_volume() * 4) as u64,
+                * (self.block_volume() * 2) as u64,
             lookups: self.lookups.total(),
         }
     }
@@ -650,6 +652,13 @@ impl CacheGrid {
     }
 }
 
+/// The bits of the smallest half-precision number at least `x` (`x ≥ 0`;
+/// infinity above the half range), a bound that stays a bound.
+fn half_up(x: f32) -> u16 {
+    let h = half::f16::from_f32(x);
+    if h.to_f32() >= x { h.to_bits() } else { h.to_bits() + 1 }
+}
+
 /// A counter split over cache lines by worker thread, so counting every lookup
 /// from every thread costs no contention.
 #[derive(Default)]
@@ -670,5 +679,23 @@ impl ShardedCounter {
 
     fn total(&self) -> u64 {
         self.shards.iter().map(|s| s.0.load(Ordering::Relaxed)).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::half_up;
+
+    #[test]
+    fn half_up_never_rounds_a_slope_down() {
+        for i in 0..100_000 {
+            let x = (i as f32 * 0.731).powf(1.7) * 1e-3;
+            let h = half::f16::from_bits(half_up(x)).to_f32();
+            assert!(h >= x, "{x} -> {h}");
+            if x < 65_000.0 {
+                assert!(h - x <= x * 1e-3 + 1e-7, "{x} -> {h}");
+            }
+        }
+        assert_eq!(half::f16::from_bits(half_up(70_000.0)).to_f32(), f32::INFINITY);
     }
 }
