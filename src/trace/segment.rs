@@ -105,27 +105,45 @@ pub fn march<F: Field + ?Sized>(
         return (Crossing::InsideAtStart, out);
     }
     let mut segment = opts.first_segment * diag;
+    let mut relax = true;
     while out.steps < opts.max_steps {
         out.steps += 1;
         let halvings = if -v > HALVING_MARGIN * iso { MAX_BOUNDS_PER_STEP } else { 1 };
-        let (step, bounds) = bounded_step(field, ray, t, -v, (t + segment).min(t_end) - t, halvings);
-        out.evals += bounds;
-        let t_next = if step >= tol {
-            t + step
-        } else {
+        let bound = bounded_step(field, ray, t, -v, (t + segment).min(t_end) - t, halvings);
+        out.evals += bound.bounds;
+        let mut ahead = None;
+        let t_next = if bound.step < tol {
             // Near the surface the bound's steps shrink towards the crossing:
             // walk the ray's lattice instead, which keeps grazing rays moving
             // and finds the first lattice point inside whatever stretch a
             // march starts from (a feature between two lattice points is
             // below the precision asked for).
             next_lattice_point(t, opts.quantum.unwrap_or(tol))
+        } else if relax && bound.step < bound.room {
+            // Try a longer step and keep it if the slope bound still shows,
+            // from both of its ends, that it crosses nothing (Keinert et al.
+            // 2014); after the first miss the march stays conservative.
+            let s = (OVER_RELAXATION * bound.step).min(bound.room);
+            let v_far = field.value(ray.at(t + s)) - iso;
+            out.evals += 1;
+            if v_far <= 0.0 && -v - v_far >= bound.slope * s {
+                ahead = Some(v_far);
+                t + s
+            } else {
+                relax = false;
+                t + bound.step
+            }
+        } else {
+            t + bound.step
         };
         if t_next >= t_end {
             // The field is zero on and beyond the end: nothing is left to hit.
             return (Crossing::None, out);
         }
-        let v_next = field.value(ray.at(t_next)) - iso;
-        out.evals += 1;
+        let v_next = ahead.unwrap_or_else(|| {
+            out.evals += 1;
+            field.value(ray.at(t_next)) - iso
+        });
         if v_next > 0.0 {
             let ((a, b), evals) = refine(field, ray, (t, v), (t_next, v_next), tol);
             let (root, snap_evals) = snap(field, ray, a, b, opts.quantum.unwrap_or(tol));
@@ -160,10 +178,10 @@ pub fn snap_reach(opts: &TraceOptions, diag: f32) -> f32 {
 
 /// The longest step from `t` that a slope bound shows cannot reach the
 /// surface, given the `margin` `T - f(t)` and the segment length `room` to
-/// bound over; returns it and the bounds taken. A bound over the whole
-/// segment is as steep as its steepest part, so when the far part is steep
-/// (the ray nears other primitives) the segment is halved while that can
-/// lengthen the step: crossing empty space next to dense parts costs one
+/// bound over, with the bound and segment that gave it. A bound over the
+/// whole segment is as steep as its steepest part, so when the far part is
+/// steep (the ray nears other primitives) the segment is halved while that
+/// can lengthen the step: crossing empty space next to dense parts costs one
 /// extra bound instead of restarting the segment's growth.
 fn bounded_step<F: Field + ?Sized>(
     field: &F,
@@ -172,17 +190,34 @@ fn bounded_step<F: Field + ?Sized>(
     margin: f32,
     mut room: f32,
     max_bounds: u32,
-) -> (f32, u32) {
-    let mut best = 0.0f32;
-    let mut bounds = 0;
-    while room > best && bounds < max_bounds {
+) -> BoundedStep {
+    let mut best = BoundedStep { step: 0.0, slope: 0.0, room, bounds: 0 };
+    while room > best.step && best.bounds < max_bounds {
         let slope = field.lipschitz(&Region::Segment(ray.at(t), ray.at(t + room)));
-        bounds += 1;
-        best = best.max(if slope > 0.0 { (margin / slope).min(room) } else { room });
+        best.bounds += 1;
+        let step = if slope > 0.0 { (margin / slope).min(room) } else { room };
+        if step > best.step {
+            (best.step, best.slope, best.room) = (step, slope, room);
+        }
         room *= 0.5;
     }
-    (best, bounds)
+    best
 }
+
+/// A step certified by a slope bound.
+struct BoundedStep {
+    /// Its length.
+    step: f32,
+    /// The bound, valid over `room` from the start.
+    slope: f32,
+    /// The length the bound covers.
+    room: f32,
+    /// Bounds taken to find it.
+    bounds: u32,
+}
+
+/// How much longer than certified an over-relaxed step tries to be.
+const OVER_RELAXATION: f32 = 1.4;
 
 /// Most slope bounds taken for one step (each halving the segment).
 const MAX_BOUNDS_PER_STEP: u32 = 3;
