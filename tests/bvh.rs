@@ -3,8 +3,8 @@
 
 mod common;
 
-use blobtrace::bvh::{DynamicMesh, MeshBvh, RayTarget, StaticMesh, brute_force_intersect, render_mesh};
-use blobtrace::field::{EvalMode, ModelField, NodeKind, Placement};
+use blobtrace::bvh::{BvhUpdate, DynamicMesh, MeshBvh, RayTarget, StaticMesh, brute_force_intersect, render_mesh};
+use blobtrace::field::{Edit, EvalMode, ModelField, NodeKind, Placement};
 use blobtrace::geom::Ray;
 use blobtrace::mesh::{Lattice, Mesh, PolygonizeOptions, Polygonizer, canonical_triangles, skeleton_seeds};
 use blobtrace::scene::{Scene, Size};
@@ -86,8 +86,11 @@ fn the_dynamic_bvh_follows_local_updates_and_stays_valid() {
         let field = ModelField::new(&scene.model, EvalMode::Indexed);
         polygonizer.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
     }
+    // One mesh takes the cheaper of update and rebuild; the other always updates.
     let mut dynamic = DynamicMesh::build(&polygonizer);
+    let mut incremental = DynamicMesh::build(&polygonizer);
     assert!(dynamic.is_valid());
+    let mut choices = vec![];
     let arm = scene.model.find("arm").unwrap();
     let NodeKind::Named { child, .. } = scene.model.node(arm).kind else { panic!("arm is named") };
     let mut rng = Rng(11);
@@ -99,10 +102,12 @@ fn the_dynamic_bvh_follows_local_updates_and_stays_valid() {
         let seeds = skeleton_seeds(&scene.model, scene.model.root());
         let changed = polygonizer.repolygonize(&field, &change.old.union(&change.new), &seeds);
         assert!(!changed.added.is_empty() && !changed.removed.is_empty());
-        dynamic.update(&polygonizer, &changed);
-        assert!(dynamic.is_valid(), "step {step}");
+        choices.push(dynamic.update(&polygonizer, &changed));
+        incremental.remove_and_insert(&polygonizer, &changed);
+        assert!(dynamic.is_valid() && incremental.is_valid(), "step {step}");
         let (fresh, _) = polygonized(&scene, 32);
         assert_eq!(canonical_triangles(dynamic.triangles()), fresh.triangle_set(), "step {step}");
+        assert_eq!(canonical_triangles(incremental.triangles()), fresh.triangle_set(), "step {step}");
         let bounds = scene.model.bounds();
         for _ in 0..300 {
             let target = rng.point_in(bounds.min, bounds.max);
@@ -110,6 +115,29 @@ fn the_dynamic_bvh_follows_local_updates_and_stays_valid() {
             let ray = Ray::new(origin, target - origin);
             let expected = brute_force_intersect(&fresh, &ray).map(|h| h.t);
             assert_eq!(dynamic.hit(&ray).0.map(|h| h.t), expected, "step {step}, ray {ray:?}");
+            assert_eq!(incremental.hit(&ray).0.map(|h| h.t), expected, "step {step}, ray {ray:?}");
         }
     }
+    // Moving the arm across the scene changes most of the mesh: rebuilt.
+    assert!(choices.contains(&BvhUpdate::Rebuilt), "{choices:?}");
+}
+
+#[test]
+fn a_small_change_updates_the_bvh_in_place() {
+    let mut scene = bundled("hair_point.ron");
+    let lattice = Lattice::across(&scene.model.bounds(), 48);
+    let mut polygonizer = Polygonizer::new(lattice, PolygonizeOptions::default());
+    polygonizer.polygonize(
+        &ModelField::new(&scene.model, EvalMode::Indexed),
+        &skeleton_seeds(&scene.model, scene.model.root()),
+    );
+    let mut dynamic = DynamicMesh::build(&polygonizer);
+    let change = scene.model.apply(&Edit::Translate { node: "probe".into(), by: Vec3::new(0.05, 0.0, 0.0) }).unwrap();
+    let field = ModelField::new(&scene.model, EvalMode::Indexed);
+    let region = scene.model.change_region(&change, false);
+    let changed = polygonizer.repolygonize(&field, &region, &skeleton_seeds(&scene.model, scene.model.root()));
+    assert!(!changed.added.is_empty());
+    assert_eq!(dynamic.update(&polygonizer, &changed), BvhUpdate::Incremental);
+    assert!(dynamic.is_valid());
+    assert_eq!(canonical_triangles(dynamic.triangles()), polygonizer.mesh().triangle_set());
 }

@@ -14,7 +14,7 @@ use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::ray::RayHit;
 use obvhs::triangle::Triangle;
 
-pub use dynamic::DynamicMesh;
+pub use dynamic::{BvhUpdate, DynamicMesh};
 pub use render::{MeshRenderStats, render_mesh, rerender_mesh, surface_at};
 
 use crate::geom::Ray;

@@ -14,7 +14,7 @@ use serde::Serialize;
 
 use super::mesh::PolygonizeArgs;
 use super::{EvalOptions, with_threads};
-use crate::bvh::{DynamicMesh, render_mesh, rerender_mesh};
+use crate::bvh::{BvhUpdate, DynamicMesh, render_mesh, rerender_mesh};
 use crate::compare::{Metric, difference_at, differences, frame_image, line_plot};
 use crate::field::{Edit, EvalMode, ModelField};
 use crate::frame::Frame;
@@ -78,6 +78,8 @@ pub struct FrameRow {
     pub polygonize_s: f64,
     /// Seconds updating the BVH2.
     pub bvh_s: f64,
+    /// Whether the BVH2 was rebuilt rather than updated in place (predicted cheaper).
+    pub bvh_rebuilt: bool,
     /// Seconds re-casting the mesh image in its dirty rectangles.
     pub mesh_render_s: f64,
     /// Seconds updating the field–mesh depth difference in the rectangles.
@@ -258,7 +260,7 @@ fn step(
     let remeshed = s.polygonizer.repolygonize(&field, &region, &skeleton_seeds(&scene.model, scene.model.root()));
     row.polygonize_s = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    s.dynamic.update(&s.polygonizer, &remeshed);
+    row.bvh_rebuilt = s.dynamic.update(&s.polygonizer, &remeshed) == BvhUpdate::Rebuilt;
     row.bvh_s = clock.elapsed().as_secs_f64();
     // Triangles change only within two lattice cells of the region.
     let mesh_region = region.padded(2.0 * s.polygonizer.lattice().cell);
@@ -357,13 +359,13 @@ fn summarize(rows: Vec<FrameRow>, verified: usize, mode: EvalMode) -> EditReport
 
 fn write_outputs(a: &EditArgs, r: &EditReport) -> anyhow::Result<()> {
     let mut csv = String::from(
-        "frame,dirty_fraction,retraced_fraction,field_evals,apply_s,field_s,polygonize_s,bvh_s,mesh_render_s,diff_s,incremental_s,full_s,samples_cleared,triangles\n",
+        "frame,dirty_fraction,retraced_fraction,field_evals,apply_s,field_s,polygonize_s,bvh_s,bvh_rebuilt,mesh_render_s,diff_s,incremental_s,full_s,samples_cleared,triangles\n",
     );
     for f in &r.per_frame {
         let full = f.full_s.map_or(String::new(), |v| format!("{v:.6}"));
         let _ = writeln!(
             csv,
-            "{},{:.5},{:.5},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{full},{},{}",
+            "{},{:.5},{:.5},{},{:.6},{:.6},{:.6},{:.6},{},{:.6},{:.6},{:.6},{full},{},{}",
             f.frame,
             f.dirty_fraction,
             f.retraced_fraction,
@@ -372,6 +374,7 @@ fn write_outputs(a: &EditArgs, r: &EditReport) -> anyhow::Result<()> {
             f.field_s,
             f.polygonize_s,
             f.bvh_s,
+            f.bvh_rebuilt,
             f.mesh_render_s,
             f.diff_s,
             f.incremental_s,
