@@ -66,10 +66,12 @@ impl Model {
             NodeKind::Blend { children, index } => match (mode, index) {
                 (m, Some(ix)) if m.indexed() => {
                     let leaves = &ix.leaves;
-                    let sum = ix
-                        .candidates(p)
-                        .iter()
-                        .fold(0.0f64, |s, &i| s + f64::from(self.leaf_value(&leaves[i as usize], p, mode)));
+                    let sum = ix.candidates(p).iter().fold(0.0f64, |s, &i| {
+                        s + f64::from(match ix.point_term(i) {
+                            Some(term) => term.value(p),
+                            None => self.leaf_value(&leaves[i as usize], p, mode),
+                        })
+                    });
                     sum as f32
                 }
                 _ => self.nested_blend_sum(children, p, mode) as f32,

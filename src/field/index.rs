@@ -11,7 +11,7 @@ use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
 use super::node::NodeId;
-use super::primitive::Primitive;
+use super::primitive::{PointTerm, Primitive};
 use super::region::Region;
 use crate::geom::{Aabb, Interval, UniformGrid};
 
@@ -58,6 +58,8 @@ pub struct BlendIndex {
     cell_lipschitz: Vec<f32>,
     cell_range: Vec<Interval>,
     has_node_leaves: bool,
+    /// Per leaf, its compact value term when it is a point primitive.
+    point_terms: Vec<Option<PointTerm>>,
 }
 
 impl BlendIndex {
@@ -71,6 +73,13 @@ impl BlendIndex {
     ) -> Self {
         let cell = choose_cell_size(&bounds, &leaves);
         let has_node_leaves = leaves.iter().any(|l| matches!(l.leaf, Leaf::Node(_)));
+        let point_terms = leaves
+            .iter()
+            .map(|l| match &l.leaf {
+                Leaf::Primitive(p) => p.point_term(),
+                Leaf::Node(_) => None,
+            })
+            .collect();
         let dims = (bounds.size() / cell).ceil().as_uvec3();
         let mut index = Self {
             leaves,
@@ -80,6 +89,7 @@ impl BlendIndex {
             cell_lipschitz: vec![],
             cell_range: vec![],
             has_node_leaves,
+            point_terms,
         };
         index.bucket();
         index.precompute_cell_bounds(interval, lipschitz);
@@ -132,6 +142,13 @@ impl BlendIndex {
 
     fn cell_items(&self, c: usize) -> &[u32] {
         &self.items[self.offsets[c] as usize..self.offsets[c + 1] as usize]
+    }
+
+    /// Leaf `i`'s compact value term, when it is a point primitive.
+    #[inline]
+    #[must_use]
+    pub fn point_term(&self, i: u32) -> Option<&PointTerm> {
+        self.point_terms[i as usize].as_ref()
     }
 
     /// True when some leaf is a node rather than a primitive.

@@ -46,6 +46,26 @@ pub struct Primitive {
     inv_r2: f32,
 }
 
+/// A point primitive reduced to what its value needs, a quarter the size of a
+/// blend index's leaf: the hot loop of an indexed evaluation reads these.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointTerm {
+    center: Vec3A,
+    inv_r2: f32,
+    weight: f32,
+    kernel: Kernel,
+}
+
+impl PointTerm {
+    /// Field value at `p`: the same arithmetic as [`Primitive::value`].
+    #[inline]
+    #[must_use]
+    pub fn value(&self, p: Vec3A) -> f32 {
+        let d2 = (p - self.center).length_squared();
+        self.weight * self.kernel.value(d2, self.inv_r2)
+    }
+}
+
 impl Primitive {
     /// A primitive from its parts.
     #[must_use]
@@ -80,6 +100,17 @@ impl Primitive {
                 let dir = if len > 1e-12 { radial / len } else { normal.any_orthonormal_vector() };
                 center + dir * ring
             }
+        }
+    }
+
+    /// The compact form of a point primitive's value, `None` for other skeletons.
+    #[must_use]
+    pub fn point_term(&self) -> Option<PointTerm> {
+        match self.skeleton {
+            Skeleton::Point { center } => {
+                Some(PointTerm { center, inv_r2: self.inv_r2, weight: self.weight, kernel: self.kernel })
+            }
+            _ => None,
         }
     }
 
