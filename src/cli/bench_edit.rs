@@ -1,6 +1,8 @@
 //! `blobtrace bench edit`: the caching paper's Figure 8 — per-frame time of an
 //! edit script with caches and without (exact naive, the paper's "no cache"),
 //! each as local updates and as work from scratch, in one process; with a plot.
+//! The incremental and from-scratch replays each start from a freshly loaded
+//! scene, so neither finds samples the other filled.
 
 use std::path::PathBuf;
 
@@ -8,7 +10,7 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 
-use super::edit::{FrameRow, replay};
+use super::edit::{FrameRow, ScratchFrame, replay, replay_from_scratch};
 use super::mesh::{CellsArg, PolygonizeArgs, VertexArg};
 use super::with_threads;
 use crate::compare::line_plot;
@@ -72,21 +74,25 @@ pub struct EditBenchReport {
 pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
     let frames = load_script(&a.script)?;
     let polygonize = PolygonizeArgs { res: a.res, cells: CellsArg::Cubes, vertex: VertexArg::Root, refine: 0 };
-    let mut rows = vec![];
+    let mut runs = vec![];
     for mode in [EvalMode::Cached, EvalMode::Naive] {
-        let mut scene = Scene::load(&a.scene)?;
-        polygonize.check(&scene)?;
-        let (r, _) =
-            with_threads(None, || replay(&mut scene, mode, &frames, &polygonize, a.size, true, |_, _, _| Ok(())))??;
-        rows.push(r);
+        let load = || -> anyhow::Result<Scene> {
+            let scene = Scene::load(&a.scene)?;
+            polygonize.check(&scene)?;
+            Ok(scene)
+        };
+        let (local, _) =
+            with_threads(None, || replay(&mut load()?, mode, &frames, &polygonize, a.size, false, |_, _, _| Ok(())))??;
+        let scratch = with_threads(None, || replay_from_scratch(&mut load()?, mode, &frames, &polygonize, a.size))??;
+        runs.push((local, scratch));
     }
-    let totals = |r: &[FrameRow]| ModeTotals {
-        local_polygonize_s: r.iter().map(|f| f.polygonize_s).sum(),
-        full_polygonize_s: r.iter().map(|f| f.full_s.unwrap_or(0.0) - f.full_render_s.unwrap_or(0.0)).sum(),
-        dirty_render_s: r.iter().map(|f| f.field_s).sum(),
-        full_render_s: r.iter().map(|f| f.full_render_s.unwrap_or(0.0)).sum(),
+    let totals = |(local, scratch): &(Vec<FrameRow>, Vec<ScratchFrame>)| ModeTotals {
+        local_polygonize_s: local.iter().map(|f| f.polygonize_s).sum(),
+        full_polygonize_s: scratch.iter().map(|f| f.polygonize_s).sum(),
+        dirty_render_s: local.iter().map(|f| f.field_s).sum(),
+        full_render_s: scratch.iter().map(|f| f.render_s).sum(),
     };
-    let (cached, naive) = (totals(&rows[0]), totals(&rows[1]));
+    let (cached, naive) = (totals(&runs[0]), totals(&runs[1]));
     let report = EditBenchReport {
         frames: frames.len(),
         res: a.res,
@@ -95,7 +101,7 @@ pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
         cached,
         naive,
     };
-    plot(a, &rows)?;
+    plot(a, &runs)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
     } else {
@@ -122,12 +128,10 @@ pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
 }
 
 /// Figure 8: polygonization seconds per frame, cached and naive, local and from scratch.
-fn plot(a: &EditBenchArgs, rows: &[Vec<FrameRow>]) -> anyhow::Result<()> {
+fn plot(a: &EditBenchArgs, runs: &[(Vec<FrameRow>, Vec<ScratchFrame>)]) -> anyhow::Result<()> {
     let local = |r: &[FrameRow]| r.iter().map(|f| f.polygonize_s).collect::<Vec<f64>>();
-    let full = |r: &[FrameRow]| {
-        r.iter().map(|f| f.full_s.unwrap_or(f64::NAN) - f.full_render_s.unwrap_or(0.0)).collect::<Vec<f64>>()
-    };
-    let (cl, cf, nl, nf) = (local(&rows[0]), full(&rows[0]), local(&rows[1]), full(&rows[1]));
+    let full = |r: &[ScratchFrame]| r.iter().map(|f| f.polygonize_s).collect::<Vec<f64>>();
+    let (cl, cf, nl, nf) = (local(&runs[0].0), full(&runs[0].1), local(&runs[1].0), full(&runs[1].1));
     let series: [(&str, &[f64]); 4] =
         [("cached, local", &cl), ("cached, full", &cf), ("naive, local", &nl), ("naive, full", &nf)];
     let title = format!("polygonization seconds per frame, res {}", a.res);

@@ -182,6 +182,45 @@ fn check_names(scene: &Scene, frames: &[Vec<Edit>]) -> Result<(), String> {
     Ok(())
 }
 
+/// Seconds one frame takes from scratch: a full render, a full polygonization.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ScratchFrame {
+    /// Rendering the field.
+    pub render_s: f64,
+    /// Polygonizing the field.
+    pub polygonize_s: f64,
+}
+
+/// Replays `frames` of edits on `scene`, rendering and polygonizing every frame
+/// from scratch: the baseline of the incremental updates, with caches that only
+/// its own work has filled (a from-scratch frame run after an incremental one
+/// would find the samples that frame filled).
+pub fn replay_from_scratch(
+    scene: &mut Scene,
+    mode: EvalMode,
+    frames: &[Vec<Edit>],
+    polygonize: &PolygonizeArgs,
+    size: Size,
+) -> anyhow::Result<Vec<ScratchFrame>> {
+    let settings = RenderSettings::for_scene(scene, size);
+    let lattice = crate::mesh::Lattice::across(&scene.model.bounds(), polygonize.res);
+    let mut rows = vec![];
+    for (i, edits) in frames.iter().enumerate() {
+        for edit in edits {
+            scene.model.apply(edit).with_context(|| format!("frame {i}"))?;
+        }
+        let field = ModelField::new(&scene.model, mode);
+        let clock = Instant::now();
+        render(&field, &settings, &|_| {});
+        let render_s = clock.elapsed().as_secs_f64();
+        let clock = Instant::now();
+        let mut fresh = Polygonizer::new(lattice, polygonize.options());
+        fresh.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
+        rows.push(ScratchFrame { render_s, polygonize_s: clock.elapsed().as_secs_f64() });
+    }
+    Ok(rows)
+}
+
 /// Replays `frames` of edits on `scene`, updating incrementally and timing each
 /// frame; with `verify`, checks each frame against from-scratch results.
 /// `after_frame` sees each frame's field image and dirty rectangles. Returns
