@@ -8,9 +8,7 @@ use blobtrace::field::{Edit, EvalMode, Field, Model, ModelField};
 use blobtrace::frame::Frame;
 use blobtrace::mesh::{Lattice, PolygonizeOptions, Polygonizer, skeleton_seeds};
 use blobtrace::scene::{Scene, Size};
-use blobtrace::trace::{
-    ChangedSpace, PixelRect, RenderSettings, changed_space, merge_rects, render, rerender, screen_rect,
-};
+use blobtrace::trace::{ChangedSpace, PixelRect, RenderSettings, changed_space, render, rerender};
 use common::{EVERY_NODE, Rng, bundled};
 use glam::Vec3;
 
@@ -35,8 +33,8 @@ fn dirty_rects(
 ) -> (ChangedSpace, Vec<PixelRect>) {
     let field = ModelField::new(model, if cached { EvalMode::Cached } else { EvalMode::Indexed });
     let space = changed_space(&field, settings, &model.change_supports(change, cached));
-    let rects = screen_rect(&settings.camera, settings.width, settings.height, &space.bounds());
-    (space, merge_rects(rects.into_iter().collect()))
+    let rects = space.screen_rect(&settings.camera, settings.width, settings.height).into_iter().collect();
+    (space, rects)
 }
 
 fn changed_pixels(a: &Frame, b: &Frame) -> Vec<(u32, u32)> {
@@ -68,7 +66,7 @@ fn incremental_renders_after_random_edits_equal_full_renders() {
                 let (space, rects) = dirty_rects(&scene.model, &change, mode == EvalMode::Cached, &settings);
                 let before = frame.clone();
                 let field = ModelField::new(&scene.model, mode);
-                rerender(&field, &settings, &mut frame, &rects, &space);
+                rerender(&field, &settings, &mut frame, &space);
                 let full = render(&field, &settings, &|_| {}).0;
                 if !frame.same_image(&full) {
                     let outside: Vec<(u32, u32)> = changed_pixels(&frame, &full);
@@ -195,7 +193,7 @@ fn adding_removing_and_changing_operators_update_incrementally() {
             let (space, rects) = dirty_rects(&scene.model, &change, mode == EvalMode::Cached, &settings);
             let before = frame.clone();
             let field = ModelField::new(&scene.model, mode);
-            rerender(&field, &settings, &mut frame, &rects, &space);
+            rerender(&field, &settings, &mut frame, &space);
             let full = render(&field, &settings, &|_| {}).0;
             assert!(frame.same_image(&full), "{mode:?} {edit:?}");
             assert!(!changed_pixels(&before, &full).is_empty(), "{mode:?} {edit:?} changes the image");

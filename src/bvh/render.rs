@@ -20,6 +20,18 @@ pub struct MeshRenderStats {
     pub triangle_tests: u64,
 }
 
+impl MeshRenderStats {
+    /// The totals over cast `samples`, whose first counter is triangle tests.
+    fn of(samples: &[PixelSample]) -> Self {
+        let mut stats = MeshRenderStats { rays: samples.len() as u64, ..Default::default() };
+        for p in samples {
+            stats.hits += u64::from(p.depth.is_finite());
+            stats.triangle_tests += u64::from(p.counts[0]);
+        }
+        stats
+    }
+}
+
 /// Names of the extra channels: triangle tests per ray, and the triangle hit (index + 1, 0 on a miss).
 const MESH_COUNTERS: [&str; 2] = ["tests.Y", "triangle.Y"];
 
@@ -31,12 +43,7 @@ pub fn render_mesh(
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Frame, MeshRenderStats) {
     let samples = render_pixels(settings, progress, |x, y| shade_pixel(target, settings, x, y));
-    let mut stats = MeshRenderStats { rays: samples.len() as u64, ..Default::default() };
-    for p in &samples {
-        stats.hits += u64::from(p.depth.is_finite());
-        stats.triangle_tests += u64::from(p.counts[0]);
-    }
-    (assemble(&samples, settings, MESH_COUNTERS), stats)
+    (assemble(&samples, settings, MESH_COUNTERS), MeshRenderStats::of(&samples))
 }
 
 /// Re-casts the pixels inside `rects` (not overlapping) into `frame`, a render
@@ -48,12 +55,7 @@ pub fn rerender_mesh(
     rects: &[PixelRect],
 ) -> MeshRenderStats {
     let samples = rerender_pixels(frame, rects, MESH_COUNTERS, |x, y, _| Some(shade_pixel(target, settings, x, y)));
-    let mut stats = MeshRenderStats { rays: samples.len() as u64, ..Default::default() };
-    for p in &samples {
-        stats.hits += u64::from(p.depth.is_finite());
-        stats.triangle_tests += u64::from(p.counts[0]);
-    }
-    stats
+    MeshRenderStats::of(&samples)
 }
 
 fn shade_pixel(target: &impl RayTarget, s: &RenderSettings, x: u32, y: u32) -> PixelSample {

@@ -276,22 +276,23 @@ fn step(
 ) -> anyhow::Result<(FrameRow, Vec<PixelRect>)> {
     let mut row = FrameRow { frame, ..Default::default() };
     let clock = Instant::now();
-    let (mut region, mut supports) = (Aabb::EMPTY, vec![]);
+    let (mut regions, mut supports) = (vec![], vec![]);
     let cached = s.mode == EvalMode::Cached;
     for edit in edits {
         let change = scene.model.apply(edit)?;
         row.samples_cleared += change.samples_cleared;
-        region = region.union(&scene.model.change_region(&change, cached));
+        regions.push(scene.model.change_region(&change, cached));
         supports.extend(scene.model.change_supports(&change, cached));
     }
+    let region = regions.iter().fold(Aabb::EMPTY, |u, r| u.union(r));
     row.apply_s = clock.elapsed().as_secs_f64();
     let (w, h) = (s.settings.width, s.settings.height);
     let field = ModelField::new(&scene.model, s.mode);
     let clock = Instant::now();
     let changed = changed_space(&field, &s.settings, &supports);
-    let rects = merge_rects(screen_rect(&s.settings.camera, w, h, &changed.bounds()).into_iter().collect());
+    let rects: Vec<PixelRect> = changed.screen_rect(&s.settings.camera, w, h).into_iter().collect();
     row.dirty_fraction = rects.iter().map(PixelRect::area).sum::<u64>() as f64 / f64::from(w * h);
-    let retraced = rerender(&field, &s.settings, &mut s.field_frame, &rects, &changed);
+    let retraced = rerender(&field, &s.settings, &mut s.field_frame, &changed);
     row.field_s = clock.elapsed().as_secs_f64();
     row.retraced_fraction = retraced.rays as f64 / f64::from(w * h);
     row.field_evals = retraced.field_evals;
@@ -301,9 +302,10 @@ fn step(
     let clock = Instant::now();
     row.bvh_rebuilt = s.dynamic.update(&s.polygonizer, &remeshed) == BvhUpdate::Rebuilt;
     row.bvh_s = clock.elapsed().as_secs_f64();
-    // Triangles change only within two lattice cells of the region.
-    let mesh_region = region.padded(2.0 * s.polygonizer.lattice().cell);
-    let mesh_rects = merge_rects(screen_rect(&s.settings.camera, w, h, &mesh_region).into_iter().collect());
+    // Triangles change only within two lattice cells of each edit's region.
+    let margin = 2.0 * s.polygonizer.lattice().cell;
+    let mesh_rects =
+        merge_rects(regions.iter().filter_map(|r| screen_rect(&s.settings.camera, w, h, &r.padded(margin))).collect());
     let clock = Instant::now();
     rerender_mesh(&s.dynamic, &s.settings, &mut s.mesh_frame, &mesh_rects);
     row.mesh_render_s = clock.elapsed().as_secs_f64();

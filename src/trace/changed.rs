@@ -3,6 +3,8 @@
 //! along it where the field may differ. A moved subtree of hundreds of
 //! primitives fills much less of its bounding box than the box itself.
 
+use super::dirty::{PixelRect, screen_rect};
+use crate::camera::Camera;
 use crate::geom::{Aabb, Ray, UniformGrid};
 
 /// Grid cells along the longest side of the changed space.
@@ -48,6 +50,13 @@ impl ChangedSpace {
     #[must_use]
     pub fn bounds(&self) -> Aabb {
         self.bounds
+    }
+
+    /// The rectangle of the `width × height` image whose rays can meet the
+    /// changed space (see [`screen_rect`]).
+    #[must_use]
+    pub fn screen_rect(&self, camera: &Camera, width: u32, height: u32) -> Option<PixelRect> {
+        screen_rect(camera, width, height, &self.bounds)
     }
 
     /// The stretch `(t0, t1)` of `ray` (with `t ≥ 0`) holding every point it

@@ -13,5 +13,5 @@ pub use render::{
     PixelSample, RenderSettings, RenderStats, assemble, changed_space, outward_normal, render, render_pixels, rerender,
     rerender_pixels,
 };
-pub use segment::{Crossing, TraceOptions, TraceResult, march, snap_reach, trace_ray};
+pub use segment::{Crossing, TraceOptions, TraceResult, march, trace_ray};
 pub use shade::Lighting;

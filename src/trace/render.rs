@@ -82,6 +82,19 @@ pub struct RenderStats {
     pub steps: u64,
 }
 
+impl RenderStats {
+    /// The totals over traced `samples`, whose counters are steps and evaluations.
+    fn of(samples: &[PixelSample]) -> Self {
+        let mut stats = RenderStats { rays: samples.len() as u64, ..Default::default() };
+        for p in samples {
+            stats.hits += u64::from(p.depth.is_finite());
+            stats.steps += u64::from(p.counts[0]);
+            stats.field_evals += u64::from(p.counts[1]);
+        }
+        stats
+    }
+}
+
 /// Names of the frame channels holding the field tracer's counters.
 const FIELD_COUNTERS: [&str; 2] = ["steps.Y", "evals.Y"];
 
@@ -93,13 +106,7 @@ pub fn render<F: Field + ?Sized>(
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Frame, RenderStats) {
     let samples = render_pixels(settings, progress, |x, y| trace_pixel(field, settings, x, y));
-    let mut stats = RenderStats { rays: samples.len() as u64, ..Default::default() };
-    for p in &samples {
-        stats.hits += u64::from(p.depth.is_finite());
-        stats.steps += u64::from(p.counts[0]);
-        stats.field_evals += u64::from(p.counts[1]);
-    }
-    (assemble(&samples, settings, FIELD_COUNTERS), stats)
+    (assemble(&samples, settings, FIELD_COUNTERS), RenderStats::of(&samples))
 }
 
 /// The space an edit changed, as the tracer must see it: `boxes` (holding
@@ -111,9 +118,8 @@ pub fn changed_space<F: Field + ?Sized>(field: &F, settings: &RenderSettings, bo
 }
 
 /// Updates `frame`, a render of `field` with `settings` before an edit that
-/// changed the field inside `changed` only (see [`changed_space`]); `rects`
-/// (which must not overlap; see [`super::merge_rects`]) hold every pixel
-/// whose ray meets it.
+/// changed the field inside `changed` only (see [`changed_space`]), within
+/// the rectangle of pixels whose rays can meet it.
 ///
 /// Every pixel depends on its own ray only, and a snapped hit on the field
 /// near it only, so a ray is traced over its stretch inside the changed space
@@ -124,19 +130,13 @@ pub fn rerender<F: Field + ?Sized>(
     field: &F,
     settings: &RenderSettings,
     frame: &mut Frame,
-    rects: &[super::PixelRect],
     changed: &ChangedSpace,
 ) -> RenderStats {
-    let samples = rerender_pixels(frame, rects, FIELD_COUNTERS, |x, y, depth| {
+    let rect = changed.screen_rect(&settings.camera, settings.width, settings.height);
+    let samples = rerender_pixels(frame, rect.as_slice(), FIELD_COUNTERS, |x, y, depth| {
         retrace_pixel(field, settings, x, y, depth, changed)
     });
-    let mut stats = RenderStats { rays: samples.len() as u64, ..Default::default() };
-    for p in &samples {
-        stats.hits += u64::from(p.depth.is_finite());
-        stats.steps += u64::from(p.counts[0]);
-        stats.field_evals += u64::from(p.counts[1]);
-    }
-    stats
+    RenderStats::of(&samples)
 }
 
 /// What pixel (`x`, `y`) shows after the field changed inside `changed`,

@@ -169,7 +169,7 @@ fn next_lattice_point(t: f32, q: f32) -> f32 {
 /// How far from a crossing the field can influence where the crossing is
 /// snapped: a change farther than this from a hit cannot move it.
 #[must_use]
-pub fn snap_reach(opts: &TraceOptions, diag: f32) -> f32 {
+pub(super) fn snap_reach(opts: &TraceOptions, diag: f32) -> f32 {
     // Refinement stays within a tolerance of the crossing; snapping walks up
     // to 2 × MAX_SNAP_WALK lattice steps from it. Doubled for rounding.
     let tol = opts.tolerance * diag;
