@@ -65,12 +65,11 @@ impl Model {
             NodeKind::Primitive(prim) => prim.value(p),
             NodeKind::Blend { children, index } => match (mode, index) {
                 (m, Some(ix)) if m.indexed() => {
-                    let leaves = &ix.leaves;
-                    let sum = ix.candidates(p).iter().fold(0.0f64, |s, &i| {
-                        s + f64::from(match ix.point_term(i) {
-                            Some(term) => term.value(p),
-                            None => self.leaf_value(&leaves[i as usize], p, mode),
-                        })
+                    let sum = ix.point_sum(p).unwrap_or_else(|| {
+                        let leaves = &ix.leaves;
+                        ix.candidates(p)
+                            .iter()
+                            .fold(0.0f64, |s, &i| s + f64::from(self.leaf_value(&leaves[i as usize], p, mode)))
                     });
                     sum as f32
                 }

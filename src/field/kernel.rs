@@ -1,5 +1,6 @@
 //! Falloff kernels: how a primitive's field decays with distance to its skeleton.
 
+use glam::Vec4;
 use serde::{Deserialize, Serialize};
 
 /// Radial falloff `g(r)` with compact support `R`: `g(0) = 1`, `g(r) = 0` for `r >= R`.
@@ -24,6 +25,15 @@ impl Kernel {
                 if s <= 0.0 { 0.0 } else { s * s * s }
             }
         }
+    }
+
+    /// Wyvill's `g` for four squared distances at once: the same arithmetic
+    /// as [`Kernel::value`], lane by lane.
+    #[inline]
+    #[must_use]
+    pub fn wyvill4(d2: Vec4, inv_r2: Vec4) -> Vec4 {
+        let s = (Vec4::ONE - d2 * inv_r2).max(Vec4::ZERO);
+        s * s * s
     }
 
     /// `dg/d(r²)`: the gradient of `g(|p - q|)` at `p` is `2 (p - q)` times this.

@@ -1,7 +1,7 @@
 //! Skeletal primitives: a skeleton (point, segment, circle), a support radius,
 //! a weight and a kernel. Their field is `w · g(distance to skeleton)`.
 
-use glam::Vec3A;
+use glam::{Vec3A, Vec4};
 
 use super::kernel::Kernel;
 use crate::geom::{Aabb, Interval};
@@ -46,26 +46,6 @@ pub struct Primitive {
     inv_r2: f32,
 }
 
-/// A point primitive reduced to what its value needs, a quarter the size of a
-/// blend index's leaf: the hot loop of an indexed evaluation reads these.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PointTerm {
-    center: Vec3A,
-    inv_r2: f32,
-    weight: f32,
-    kernel: Kernel,
-}
-
-impl PointTerm {
-    /// Field value at `p`: the same arithmetic as [`Primitive::value`].
-    #[inline]
-    #[must_use]
-    pub fn value(&self, p: Vec3A) -> f32 {
-        let d2 = (p - self.center).length_squared();
-        self.weight * self.kernel.value(d2, self.inv_r2)
-    }
-}
-
 impl Primitive {
     /// A primitive from its parts.
     #[must_use]
@@ -103,13 +83,12 @@ impl Primitive {
         }
     }
 
-    /// The compact form of a point primitive's value, `None` for other skeletons.
+    /// The centre and `1/R²` of a point primitive with Wyvill's kernel, the
+    /// leaves a blend index packs for its four-wide sum.
     #[must_use]
-    pub fn point_term(&self) -> Option<PointTerm> {
-        match self.skeleton {
-            Skeleton::Point { center } => {
-                Some(PointTerm { center, inv_r2: self.inv_r2, weight: self.weight, kernel: self.kernel })
-            }
+    pub fn wyvill_point(&self) -> Option<(Vec4, f32)> {
+        match (self.skeleton, self.kernel) {
+            (Skeleton::Point { center }, Kernel::Wyvill) => Some((center.extend(self.inv_r2), self.weight)),
             _ => None,
         }
     }

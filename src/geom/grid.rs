@@ -121,6 +121,16 @@ impl UniformGrid {
 
     /// Visits the cells the segment `a..b` passes through, in order (Amanatides–Woo walk).
     pub fn walk_segment(&self, a: Vec3A, b: Vec3A, mut f: impl FnMut(usize)) {
+        self.walk_segment_while(a, b, |c, _| {
+            f(c);
+            true
+        });
+    }
+
+    /// Walks the cells the segment `a..b` passes through, in order, while `f`
+    /// returns true; `f` gets each cell and the segment parameter (0 at `a`,
+    /// 1 at `b`) where the walk leaves it.
+    pub fn walk_segment_while(&self, a: Vec3A, b: Vec3A, mut f: impl FnMut(usize, f32) -> bool) {
         let d = b - a;
         let inv = d.recip();
         let Some((t0, t1)) = self.bounds().clip_ray(a, inv, 0.0, 1.0) else {
@@ -142,8 +152,7 @@ impl UniformGrid {
             } else {
                 2
             };
-            f(self.linear(cell.as_uvec3()));
-            if t_max[axis] > t1 {
+            if !f(self.linear(cell.as_uvec3()), t_max[axis].min(t1)) || t_max[axis] > t1 {
                 return;
             }
             cell[axis] += step[axis];
