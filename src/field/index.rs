@@ -146,42 +146,46 @@ impl BlendIndex {
         index
     }
 
-    /// Counting sort of (cell, leaf) pairs; stable, so each cell lists leaves in order.
+    /// Counting sort of (cell, leaf) pairs; stable, so each cell lists leaves
+    /// in order. The cells each leaf reaches are found in parallel.
     fn bucket(&mut self) {
+        let reached: Vec<Vec<u32>> = self.leaves.par_iter().map(|leaf| self.reached_cells(leaf)).collect();
         let cells = self.grid.cell_count();
         let mut counts = vec![0u32; cells + 1];
-        for leaf in &self.leaves {
-            self.for_each_reached_cell(leaf, |c| counts[c + 1] += 1);
+        for &c in reached.iter().flatten() {
+            counts[c as usize + 1] += 1;
         }
         for i in 0..cells {
             counts[i + 1] += counts[i];
         }
         let mut cursor = counts.clone();
         let mut items = vec![0u32; counts[cells] as usize];
-        for (i, leaf) in self.leaves.iter().enumerate() {
-            self.for_each_reached_cell(leaf, |c| {
-                items[cursor[c] as usize] = i as u32;
-                cursor[c] += 1;
-            });
+        for (i, leaf_cells) in reached.iter().enumerate() {
+            for &c in leaf_cells {
+                items[cursor[c as usize] as usize] = i as u32;
+                cursor[c as usize] += 1;
+            }
         }
         self.offsets = counts;
         self.items = items;
     }
 
-    /// Visits the cells where `leaf` can be non-zero: those its box overlaps,
-    /// less, for a primitive, those wholly outside its support (a ball's box
-    /// holds twice the ball, so a dense model's cells list about half as many
-    /// leaves).
-    fn for_each_reached_cell(&self, leaf: &IndexedLeaf, mut f: impl FnMut(usize)) {
-        match &leaf.leaf {
-            Leaf::Primitive(p) => self.grid.for_each_cell(&leaf.bounds, |c| {
+    /// The cells where `leaf` can be non-zero: those its box overlaps, less,
+    /// for a primitive, those wholly outside its support (a ball's box holds
+    /// twice the ball, so a dense model's cells list about half as many leaves).
+    fn reached_cells(&self, leaf: &IndexedLeaf) -> Vec<u32> {
+        let mut cells = Vec::with_capacity(self.grid.cells_overlapped(&leaf.bounds));
+        self.grid.for_each_cell(&leaf.bounds, |c| {
+            let reached = match &leaf.leaf {
                 // A hair wider than the support, against rounding in the value.
-                if p.distance_range_box(&self.grid.cell_box(c)).0 < p.radius * SUPPORT_SLACK {
-                    f(c);
-                }
-            }),
-            Leaf::Node(_) => self.grid.for_each_cell(&leaf.bounds, f),
-        }
+                Leaf::Primitive(p) => p.support_reaches(&self.grid.cell_box(c), SUPPORT_SLACK),
+                Leaf::Node(_) => true,
+            };
+            if reached {
+                cells.push(c as u32);
+            }
+        });
+        cells
     }
 
     fn precompute_cell_bounds(

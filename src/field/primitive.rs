@@ -123,6 +123,17 @@ impl Primitive {
         }
     }
 
+    /// True when the support, widened `slack` times, meets box `b`: outside,
+    /// the primitive is zero all over the box.
+    #[must_use]
+    pub fn support_reaches(&self, b: &Aabb, slack: f32) -> bool {
+        let reach = self.radius * slack;
+        match self.skeleton {
+            Skeleton::Point { center } => b.distance_squared(center) < reach * reach,
+            _ => self.distance_range_box(b).0 < reach,
+        }
+    }
+
     /// Bounds `[min, max]` of the distance to the skeleton over a box.
     #[must_use]
     pub fn distance_range_box(&self, b: &Aabb) -> (f32, f32) {
