@@ -2,7 +2,7 @@
 
 mod common;
 
-use blobtrace::field::{EvalMode, Field, ModelField};
+use blobtrace::field::{EmptySpace, EvalMode, Field, ModelField};
 use blobtrace::geom::Ray;
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::{Crossing, RenderSettings, march, render, trace_ray};
@@ -206,5 +206,28 @@ fn a_feature_thinner_than_the_tolerance_is_found_from_any_start_when_it_holds_a_
     for i in 0..64 {
         let t0 = (k - 1000.0) * q + i as f32 * 0.37 * q;
         assert_eq!(march(&field, &ray, &opts, (t0, 4.0)).0, hit, "from {t0}");
+    }
+}
+
+#[test]
+fn skipping_empty_space_changes_no_pixel() {
+    for (name, mode) in [
+        ("medusa.ron", EvalMode::Cached),
+        ("sharp.ron", EvalMode::Indexed),
+        ("bottle.ron", EvalMode::Cached),
+        ("hair_point.ron", EvalMode::Naive),
+    ] {
+        let scene = bundled(name);
+        let s = settings(&scene, 96, 72);
+        let field = ModelField::new(&scene.model, mode);
+        let empty = EmptySpace::build(&field);
+        assert!(empty.empty_fraction() > 0.3, "{name}: only {} of the cells are empty", empty.empty_fraction());
+        let (plain, plain_stats) = render(&field, &s, &|_| {});
+        let (skipping, skipping_stats) = render(&field.skipping(&empty), &s, &|_| {});
+        assert!(plain.depth.iter().any(|z| z.is_finite()), "{name}: nothing hit");
+        let same = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(same(&plain.depth, &skipping.depth), "{name} in {mode:?}: skipping moved a hit");
+        assert!(plain.color == skipping.color && plain.normal == skipping.normal, "{name}: shading changed");
+        assert!(skipping_stats.steps < plain_stats.steps, "{name}: skipping saved no steps");
     }
 }

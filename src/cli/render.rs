@@ -12,7 +12,7 @@ use super::progress::Progress;
 use super::{EvalOptions, check_output_dir, scene_stem, with_threads};
 use crate::bvh::{MeshBvh, MeshRenderStats, StaticMesh, render_mesh};
 use crate::cache::{CacheStats, SLOT_BYTES};
-use crate::field::{EvalMode, Model, ModelField, NodeKind};
+use crate::field::{EmptySpace, EvalMode, Model, ModelField, NodeKind};
 use crate::frame::Frame;
 use crate::mesh::Mesh;
 use crate::scene::{Scene, Size};
@@ -72,8 +72,12 @@ pub struct MeshRenderReport {
 /// Statistics printed by `render --json`.
 #[derive(Debug, Serialize)]
 pub struct RenderReport {
-    /// Wall-clock seconds spent tracing.
+    /// Wall-clock seconds spent tracing, marking the empty space included.
     pub seconds: f64,
+    /// Of those, seconds spent marking the empty space.
+    pub empty_space_seconds: f64,
+    /// Fraction of the empty-space grid's cells where the surface cannot be.
+    pub empty_fraction: f64,
     /// Image width.
     pub width: u32,
     /// Image height.
@@ -266,11 +270,15 @@ pub fn render_scene(scene: &Scene, size: Size, mode: EvalMode) -> (Frame, Render
     let field = ModelField::new(&scene.model, mode);
     let progress = Progress::new(u64::from(size.1), "tracing");
     let start = Instant::now();
-    let (frame, stats) = render(&field, &settings, &|rows| progress.set(rows));
+    let empty = EmptySpace::build(&field);
+    let empty_space_seconds = start.elapsed().as_secs_f64();
+    let (frame, stats) = render(&field.skipping(&empty), &settings, &|rows| progress.set(rows));
     let seconds = start.elapsed().as_secs_f64();
     progress.finish();
     let report = RenderReport {
         seconds,
+        empty_space_seconds,
+        empty_fraction: empty.empty_fraction(),
         width: size.0,
         height: size.1,
         stats,

@@ -8,6 +8,7 @@
 //! [`Field`], so exact, indexed and cached evaluation stay interchangeable.
 
 mod edit;
+mod empty;
 mod eval;
 mod index;
 mod kernel;
@@ -20,6 +21,7 @@ pub mod spline;
 use glam::{Vec3, Vec3A};
 
 pub use edit::{Edit, Operator};
+pub use empty::EmptySpace;
 pub use index::{BlendIndex, IndexedLeaf, Leaf};
 pub use kernel::Kernel;
 pub use model::{Change, Model, ModelBuilder, ModelCounts, ModelError};
@@ -27,7 +29,7 @@ pub use node::{Node, NodeId, NodeKind, Placement};
 pub use primitive::{Primitive, Skeleton};
 pub use region::Region;
 
-use crate::geom::{Aabb, Interval};
+use crate::geom::{Aabb, Interval, Ray};
 
 /// The surface colour used where the scene names none (linear RGB, a light clay).
 pub const DEFAULT_COLOR: Vec3 = Vec3::new(0.72, 0.66, 0.58);
@@ -75,6 +77,13 @@ pub trait Field: Sync {
     fn varies_in_color(&self) -> bool {
         true
     }
+    /// Where the empty space holding `ray.at(t)` ends along the ray (at most
+    /// `t_end`), if the field knows it is below the threshold there: see
+    /// [`EmptySpace::skip`]. By default nothing is known.
+    fn skip_empty(&self, ray: &Ray, t: f32, t_end: f32) -> Option<f32> {
+        let _ = (ray, t, t_end);
+        None
+    }
 }
 
 /// Evaluation of a [`Model`]: exact (indexed or naive) or through its caches.
@@ -82,13 +91,21 @@ pub trait Field: Sync {
 pub struct ModelField<'a> {
     model: &'a Model,
     mode: EvalMode,
+    empty: Option<&'a EmptySpace>,
 }
 
 impl<'a> ModelField<'a> {
     /// Evaluation of `model` in `mode`.
     #[must_use]
     pub fn new(model: &'a Model, mode: EvalMode) -> Self {
-        Self { model, mode }
+        Self { model, mode, empty: None }
+    }
+
+    /// The same evaluation, skipping the cells `empty` marks (built from this
+    /// field, and updated after every edit since).
+    #[must_use]
+    pub fn skipping(self, empty: &'a EmptySpace) -> Self {
+        Self { empty: Some(empty), ..self }
     }
 }
 
@@ -116,5 +133,8 @@ impl Field for ModelField<'_> {
     }
     fn threshold(&self) -> f32 {
         self.model.threshold()
+    }
+    fn skip_empty(&self, ray: &Ray, t: f32, t_end: f32) -> Option<f32> {
+        self.empty?.skip(ray, t, t_end)
     }
 }

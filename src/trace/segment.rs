@@ -106,7 +106,20 @@ pub fn march<F: Field + ?Sized>(
     }
     let mut segment = opts.first_segment * diag;
     let mut relax = true;
+    let mut skipped = false;
     while out.steps < opts.max_steps {
+        if !skipped {
+            match skip_empty(field, ray, (t, t_end), tol) {
+                Skip::ToEnd => return (Crossing::None, out),
+                Skip::To(t_skip, v_skip) => {
+                    (t, v, skipped) = (t_skip, v_skip, true);
+                    out.evals += 1;
+                    continue;
+                }
+                Skip::No => {}
+            }
+        }
+        skipped = false;
         out.steps += 1;
         let halvings = if -v > HALVING_MARGIN * iso { MAX_BOUNDS_PER_STEP } else { 1 };
         let bound = bounded_step(field, ray, t, -v, (t + segment).min(t_end) - t, halvings);
@@ -155,6 +168,32 @@ pub fn march<F: Field + ?Sized>(
         v = v_next;
     }
     (Crossing::None, out)
+}
+
+/// What the field's empty space allows from a point of a march.
+enum Skip {
+    /// Nothing: the point is not known to be in empty space.
+    No,
+    /// Empty space reaches the end of the stretch.
+    ToEnd,
+    /// A jump to this distance, with the field's value there less `T`.
+    To(f32, f32),
+}
+
+/// Jumps from `t` over the empty space the field knows of, stopping `margin`
+/// short of its end so that rounding cannot carry the jump past a face.
+fn skip_empty<F: Field + ?Sized>(field: &F, ray: &Ray, (t, t_end): (f32, f32), margin: f32) -> Skip {
+    let Some(end) = field.skip_empty(ray, t, t_end) else { return Skip::No };
+    if end >= t_end {
+        return Skip::ToEnd;
+    }
+    let to = end - margin;
+    if to <= t {
+        return Skip::No;
+    }
+    let v = field.value(ray.at(to)) - field.threshold();
+    // Inside cannot happen in empty space; were rounding to disagree, step as usual.
+    if v > 0.0 { Skip::No } else { Skip::To(to, v) }
 }
 
 /// The first point `k · q` after `t`.
