@@ -13,15 +13,16 @@ use clap::Args;
 use serde::Serialize;
 
 use super::mesh::PolygonizeArgs;
+use super::render::render_model;
 use super::{EvalOptions, with_threads};
 use crate::bvh::{BvhUpdate, DynamicMesh, render_mesh, rerender_mesh};
 use crate::compare::{Metric, difference_at, differences, frame_image, line_plot};
-use crate::field::{Edit, EvalMode, ModelField};
+use crate::field::{Edit, EmptySpace, EvalMode, ModelField};
 use crate::frame::Frame;
 use crate::geom::Aabb;
 use crate::mesh::{Polygonizer, canonical_triangles, skeleton_seeds};
 use crate::scene::{Scene, Size, load_script};
-use crate::trace::{PixelRect, RenderSettings, changed_space, merge_rects, render, rerender, screen_rect};
+use crate::trace::{PixelRect, RenderSettings, changed_space, merge_rects, rerender, screen_rect};
 
 /// Options of `blobtrace edit`.
 #[derive(Debug, Args)]
@@ -124,6 +125,8 @@ struct EditState {
     polygonizer: Polygonizer,
     dynamic: DynamicMesh,
     field_frame: Frame,
+    /// The field's empty space, updated where each edit changed the field.
+    empty: EmptySpace,
     mesh_frame: Frame,
     depth_diff: Vec<f32>,
 }
@@ -209,10 +212,10 @@ pub fn replay_from_scratch(
         for edit in edits {
             scene.model.apply(edit).with_context(|| format!("frame {i}"))?;
         }
-        let field = ModelField::new(&scene.model, mode);
         let clock = Instant::now();
-        render(&field, &settings, &|_| {});
+        render_model(&scene.model, mode, &settings, &|_| {});
         let render_s = clock.elapsed().as_secs_f64();
+        let field = ModelField::new(&scene.model, mode);
         let clock = Instant::now();
         let mut fresh = Polygonizer::new(lattice, polygonize.options());
         fresh.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
@@ -256,15 +259,15 @@ pub fn replay(
 
 fn initial_state(scene: &Scene, mode: EvalMode, size: Size, polygonize: &PolygonizeArgs) -> EditState {
     let settings = RenderSettings::for_scene(scene, size);
+    let (field_frame, _, empty) = render_model(&scene.model, mode, &settings, &|_| {});
     let field = ModelField::new(&scene.model, mode);
-    let field_frame = render(&field, &settings, &|_| {}).0;
     let lattice = crate::mesh::Lattice::across(&scene.model.bounds(), polygonize.res);
     let mut polygonizer = Polygonizer::new(lattice, polygonize.options());
     polygonizer.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
     let dynamic = DynamicMesh::build(&polygonizer);
     let mesh_frame = render_mesh(&dynamic, &settings, &|_| {}).0;
     let depth_diff = differences(&mesh_frame, &field_frame, Metric::Depth);
-    EditState { settings, mode, polygonizer, dynamic, field_frame, mesh_frame, depth_diff }
+    EditState { settings, mode, polygonizer, dynamic, field_frame, empty, mesh_frame, depth_diff }
 }
 
 /// Applies one frame's edits and updates everything incrementally.
@@ -289,10 +292,11 @@ fn step(
     let (w, h) = (s.settings.width, s.settings.height);
     let field = ModelField::new(&scene.model, s.mode);
     let clock = Instant::now();
+    s.empty.update(&field, &supports);
     let changed = changed_space(&field, &s.settings, &supports);
     let rects: Vec<PixelRect> = changed.screen_rect(&s.settings.camera, w, h).into_iter().collect();
     row.dirty_fraction = rects.iter().map(PixelRect::area).sum::<u64>() as f64 / f64::from(w * h);
-    let retraced = rerender(&field, &s.settings, &mut s.field_frame, &changed);
+    let retraced = rerender(&field.skipping(&s.empty), &s.settings, &mut s.field_frame, &changed);
     row.field_s = clock.elapsed().as_secs_f64();
     row.retraced_fraction = retraced.rays as f64 / f64::from(w * h);
     row.field_evals = retraced.field_evals;
@@ -333,10 +337,10 @@ fn update_depth_diff(diff: &mut [f32], mesh: &Frame, field: &Frame, rects: &[Pix
 /// Renders and polygonizes from scratch; returns the seconds rendering, the
 /// seconds in all, and how the incremental image or mesh differ from them, if they do.
 fn verify(scene: &Scene, s: &EditState, polygonize: &PolygonizeArgs) -> (f64, f64, Option<String>) {
-    let field = ModelField::new(&scene.model, s.mode);
     let clock = Instant::now();
-    let full = render(&field, &s.settings, &|_| {}).0;
+    let full = render_model(&scene.model, s.mode, &s.settings, &|_| {}).0;
     let render_s = clock.elapsed().as_secs_f64();
+    let field = ModelField::new(&scene.model, s.mode);
     let mut fresh = Polygonizer::new(s.polygonizer.lattice(), polygonize.options());
     fresh.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
     let mesh = fresh.mesh();

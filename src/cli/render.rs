@@ -74,8 +74,6 @@ pub struct MeshRenderReport {
 pub struct RenderReport {
     /// Wall-clock seconds spent tracing, marking the empty space included.
     pub seconds: f64,
-    /// Of those, seconds spent marking the empty space.
-    pub empty_space_seconds: f64,
     /// Fraction of the empty-space grid's cells where the surface cannot be.
     pub empty_fraction: f64,
     /// Image width.
@@ -264,20 +262,30 @@ pub fn render_polygonized(
     (frame, report)
 }
 
+/// Renders `model` in `mode`, marking its empty space first to skip it;
+/// returns the marks too, to update after edits.
+pub fn render_model(
+    model: &Model,
+    mode: EvalMode,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(usize) + Sync),
+) -> (Frame, RenderStats, EmptySpace) {
+    let field = ModelField::new(model, mode);
+    let empty = EmptySpace::build(&field);
+    let (frame, stats) = render(&field.skipping(&empty), settings, progress);
+    (frame, stats, empty)
+}
+
 /// Renders `scene` at `size` evaluating its field in `mode`, timing it.
 pub fn render_scene(scene: &Scene, size: Size, mode: EvalMode) -> (Frame, RenderReport) {
     let settings = RenderSettings::for_scene(scene, size);
-    let field = ModelField::new(&scene.model, mode);
     let progress = Progress::new(u64::from(size.1), "tracing");
     let start = Instant::now();
-    let empty = EmptySpace::build(&field);
-    let empty_space_seconds = start.elapsed().as_secs_f64();
-    let (frame, stats) = render(&field.skipping(&empty), &settings, &|rows| progress.set(rows));
+    let (frame, stats, empty) = render_model(&scene.model, mode, &settings, &|rows| progress.set(rows));
     let seconds = start.elapsed().as_secs_f64();
     progress.finish();
     let report = RenderReport {
         seconds,
-        empty_space_seconds,
         empty_fraction: empty.empty_fraction(),
         width: size.0,
         height: size.1,

@@ -41,14 +41,16 @@ impl EmptySpace {
     /// Marks again the cells overlapping `changed`, after the field changed
     /// inside those boxes only. Space the grid does not cover is never skipped.
     pub fn update<F: Field + ?Sized>(&mut self, field: &F, changed: &[Aabb]) {
-        let iso = field.threshold();
+        // An edit's boxes overlap (one per primitive moved): mark each cell once.
+        let mut touched = vec![false; self.empty.len()];
         for b in changed {
-            let mut cells = vec![];
-            self.grid.for_each_cell(b, |c| cells.push(c));
-            let marks: Vec<bool> = cells.par_iter().map(|&c| field.interval(&self.grid.cell_box(c)).hi < iso).collect();
-            for (c, empty) in cells.into_iter().zip(marks) {
-                self.empty[c] = empty;
-            }
+            self.grid.for_each_row(b, |row| touched[row].fill(true));
+        }
+        let cells: Vec<usize> = (0..touched.len()).filter(|&c| touched[c]).collect();
+        let iso = field.threshold();
+        let marks: Vec<bool> = cells.par_iter().map(|&c| field.interval(&self.grid.cell_box(c)).hi < iso).collect();
+        for (c, empty) in cells.into_iter().zip(marks) {
+            self.empty[c] = empty;
         }
     }
 
