@@ -1,10 +1,11 @@
 //! Field rendering of Medusa: exact indexed against exact naive evaluation and
-//! against the caches (warm after the first iteration), and the indexed render
-//! across thread counts. `cargo bench --bench render`.
+//! against the caches (warm after the first iteration), each marking its empty
+//! space as the command line does, and the indexed render across thread
+//! counts. `cargo bench --bench render`.
 
 use blobtrace::field::{EvalMode, ModelField};
 use blobtrace::scene::{Scene, Size};
-use blobtrace::trace::{RenderSettings, render};
+use blobtrace::trace::{RenderSettings, render, render_model};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 
 fn medusa() -> Scene {
@@ -21,9 +22,8 @@ fn eval_modes(c: &mut Criterion) {
     group.sample_size(10);
     for (name, mode) in [("indexed", EvalMode::Indexed), ("naive", EvalMode::Naive), ("cached_warm", EvalMode::Cached)]
     {
-        let field = ModelField::new(&scene.model, mode);
         let s = settings(&scene, 160, 120);
-        group.bench_function(name, |b| b.iter(|| render(&field, &s, &|_| {})));
+        group.bench_function(name, |b| b.iter(|| render_model(&scene.model, mode, &s, &|_| {})));
     }
     group.finish();
 }

@@ -4,11 +4,11 @@
 
 mod common;
 
-use blobtrace::field::{Edit, EvalMode, Field, Model, ModelField};
+use blobtrace::field::{Edit, EmptySpace, EvalMode, Field, Model, ModelField};
 use blobtrace::frame::Frame;
 use blobtrace::mesh::{Lattice, PolygonizeOptions, Polygonizer, skeleton_seeds};
 use blobtrace::scene::{Scene, Size};
-use blobtrace::trace::{ChangedSpace, PixelRect, RenderSettings, changed_space, render, rerender};
+use blobtrace::trace::{PixelRect, RenderSettings, changed_space, render, render_model, rerender};
 use common::{EVERY_NODE, Rng, bundled};
 use glam::Vec3;
 
@@ -25,16 +25,23 @@ fn random_edit(rng: &mut Rng, node: &str, primitive: bool) -> Edit {
 }
 
 /// The space the change reached and its dirty rectangles.
-fn dirty_rects(
+/// Re-renders `frame` after `change` as `blobtrace edit` does: the empty
+/// space marked again over the changed boxes, then the rays through them
+/// re-traced. Returns the dirty rectangles.
+fn rerender_after(
     model: &Model,
     change: &blobtrace::field::Change,
-    cached: bool,
+    mode: EvalMode,
     settings: &RenderSettings,
-) -> (ChangedSpace, Vec<PixelRect>) {
-    let field = ModelField::new(model, if cached { EvalMode::Cached } else { EvalMode::Indexed });
-    let space = changed_space(&field, settings, &model.change_supports(change, cached));
-    let rects = space.screen_rect(&settings.camera, settings.width, settings.height).into_iter().collect();
-    (space, rects)
+    frame: &mut Frame,
+    empty: &mut EmptySpace,
+) -> Vec<PixelRect> {
+    let field = ModelField::new(model, mode);
+    let supports = model.change_supports(change, mode == EvalMode::Cached);
+    empty.update(&field, &supports);
+    let space = changed_space(&field, settings, &supports);
+    rerender(&field.skipping(empty), settings, frame, &space);
+    space.screen_rect(&settings.camera, settings.width, settings.height).into_iter().collect()
 }
 
 fn changed_pixels(a: &Frame, b: &Frame) -> Vec<(u32, u32)> {
@@ -58,16 +65,15 @@ fn incremental_renders_after_random_edits_equal_full_renders() {
     for (label, mut scene, names) in cases {
         for mode in [EvalMode::Indexed, EvalMode::Cached] {
             let settings = RenderSettings::for_scene(&scene, Size(64, 48));
-            let mut frame = render(&ModelField::new(&scene.model, mode), &settings, &|_| {}).0;
+            let (mut frame, _, mut empty) = render_model(&scene.model, mode, &settings, &|_| {});
             for step in 0..4 {
                 let (name, primitive) = names[step % names.len()];
                 let edit = random_edit(&mut rng, name, primitive);
                 let change = scene.model.apply(&edit).unwrap();
-                let (space, rects) = dirty_rects(&scene.model, &change, mode == EvalMode::Cached, &settings);
                 let before = frame.clone();
-                let field = ModelField::new(&scene.model, mode);
-                rerender(&field, &settings, &mut frame, &space);
-                let full = render(&field, &settings, &|_| {}).0;
+                let rects = rerender_after(&scene.model, &change, mode, &settings, &mut frame, &mut empty);
+                // The reference skips nothing.
+                let full = render(&ModelField::new(&scene.model, mode), &settings, &|_| {}).0;
                 if !frame.same_image(&full) {
                     let outside: Vec<(u32, u32)> = changed_pixels(&frame, &full);
                     let extras = frame.extra != full.extra;
@@ -187,14 +193,12 @@ fn adding_removing_and_changing_operators_update_incrementally() {
     for mode in [EvalMode::Indexed, EvalMode::Cached] {
         let mut scene = Scene::parse(OPERATORS, "operators").unwrap();
         let settings = RenderSettings::for_scene(&scene, Size(64, 48));
-        let mut frame = render(&ModelField::new(&scene.model, mode), &settings, &|_| {}).0;
+        let (mut frame, _, mut empty) = render_model(&scene.model, mode, &settings, &|_| {});
         for edit in &edits {
             let change = scene.model.apply(edit).unwrap();
-            let (space, rects) = dirty_rects(&scene.model, &change, mode == EvalMode::Cached, &settings);
             let before = frame.clone();
-            let field = ModelField::new(&scene.model, mode);
-            rerender(&field, &settings, &mut frame, &space);
-            let full = render(&field, &settings, &|_| {}).0;
+            let rects = rerender_after(&scene.model, &change, mode, &settings, &mut frame, &mut empty);
+            let full = render(&ModelField::new(&scene.model, mode), &settings, &|_| {}).0;
             assert!(frame.same_image(&full), "{mode:?} {edit:?}");
             assert!(!changed_pixels(&before, &full).is_empty(), "{mode:?} {edit:?} changes the image");
             for (x, y) in changed_pixels(&before, &full) {

@@ -13,7 +13,6 @@ use clap::Args;
 use serde::Serialize;
 
 use super::mesh::PolygonizeArgs;
-use super::render::render_model;
 use super::{EvalOptions, with_threads};
 use crate::bvh::{BvhUpdate, DynamicMesh, render_mesh, rerender_mesh};
 use crate::compare::{Metric, difference_at, differences, frame_image, line_plot};
@@ -22,6 +21,7 @@ use crate::frame::Frame;
 use crate::geom::Aabb;
 use crate::mesh::{Polygonizer, canonical_triangles, skeleton_seeds};
 use crate::scene::{Scene, Size, load_script};
+use crate::trace::render_model;
 use crate::trace::{PixelRect, RenderSettings, changed_space, merge_rects, rerender, screen_rect};
 
 /// Options of `blobtrace edit`.

@@ -12,11 +12,11 @@ use super::progress::Progress;
 use super::{EvalOptions, check_output_dir, scene_stem, with_threads};
 use crate::bvh::{MeshBvh, MeshRenderStats, StaticMesh, render_mesh};
 use crate::cache::{CacheStats, SLOT_BYTES};
-use crate::field::{EmptySpace, EvalMode, Model, ModelField, NodeKind};
+use crate::field::{EvalMode, Model, NodeKind};
 use crate::frame::Frame;
 use crate::mesh::Mesh;
 use crate::scene::{Scene, Size};
-use crate::trace::{RenderSettings, RenderStats, render};
+use crate::trace::{RenderSettings, RenderStats, render_model};
 
 /// Options of `blobtrace render`.
 #[derive(Debug, Args)]
@@ -260,20 +260,6 @@ pub fn render_polygonized(
         mesh: mesh_report,
     };
     (frame, report)
-}
-
-/// Renders `model` in `mode`, marking its empty space first to skip it;
-/// returns the marks too, to update after edits.
-pub fn render_model(
-    model: &Model,
-    mode: EvalMode,
-    settings: &RenderSettings,
-    progress: &(dyn Fn(usize) + Sync),
-) -> (Frame, RenderStats, EmptySpace) {
-    let field = ModelField::new(model, mode);
-    let empty = EmptySpace::build(&field);
-    let (frame, stats) = render(&field.skipping(&empty), settings, progress);
-    (frame, stats, empty)
 }
 
 /// Renders `scene` at `size` evaluating its field in `mode`, timing it.

@@ -11,7 +11,7 @@ use super::changed::ChangedSpace;
 use super::segment::{Crossing, TraceOptions, march, snap_reach, trace_ray};
 use super::shade::Lighting;
 use crate::camera::Camera;
-use crate::field::Field;
+use crate::field::{EmptySpace, EvalMode, Field, Model, ModelField};
 use crate::frame::Frame;
 use crate::geom::{Aabb, Ray};
 use crate::scene::{Scene, Size};
@@ -107,6 +107,20 @@ pub fn render<F: Field + ?Sized>(
 ) -> (Frame, RenderStats) {
     let samples = render_pixels(settings, progress, |x, y| trace_pixel(field, settings, x, y));
     (assemble(&samples, settings, FIELD_COUNTERS), RenderStats::of(&samples))
+}
+
+/// Renders `model` in `mode`, marking its empty space first to skip it;
+/// returns the marks too, to update after edits.
+pub fn render_model(
+    model: &Model,
+    mode: EvalMode,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(usize) + Sync),
+) -> (Frame, RenderStats, EmptySpace) {
+    let field = ModelField::new(model, mode);
+    let empty = EmptySpace::build(&field);
+    let (frame, stats) = render(&field.skipping(&empty), settings, progress);
+    (frame, stats, empty)
 }
 
 /// The space an edit changed, as the tracer must see it: `boxes` (holding
