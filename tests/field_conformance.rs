@@ -146,8 +146,45 @@ fn check_lipschitz(field: &ModelField, a: Vec3A, c: Vec3A, seed: u64) -> Result<
     Ok(())
 }
 
+/// The curvature bound over a segment and over its box bounds the gradient's
+/// slope at sampled pairs, and the Taylor bound the tracer steps by holds.
+/// Returns whether a finite, non-zero bound was checked.
+fn check_curvature(field: &ModelField, a: Vec3A, c: Vec3A, seed: u64) -> Result<bool, TestCaseError> {
+    let mut rng = Rng(seed);
+    let bx = Aabb::from_points(a, c);
+    let mut checked = false;
+    for on_segment in [true, false] {
+        let m = field.curvature(&if on_segment { Region::Segment(a, c) } else { Region::Box(bx) });
+        if !m.is_finite() {
+            continue;
+        }
+        checked |= m > 0.0;
+        for _ in 0..32 {
+            let mut sample = || if on_segment { a.lerp(c, rng.next_f32()) } else { rng.point_in(bx.min, bx.max) };
+            let (p, q) = (sample(), sample());
+            let (gp, gq) = (field.gradient(p), field.gradient(q));
+            let slack = 1e-4 * (1.0 + gp.length() + gq.length());
+            let moved = (gp - gq).length();
+            prop_assert!(moved <= m * (p - q).length() * 1.001 + slack, "|Δ∇f| {moved} > M|Δx| with M = {m}");
+            let taylor = field.value(p) + gp.dot(q - p) + 0.5 * m * (q - p).length_squared();
+            prop_assert!(field.value(q) <= taylor + 1e-5, "f({q}) above the Taylor bound {taylor} from {p}");
+        }
+    }
+    Ok(checked)
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
+
+    #[test]
+    fn curvature_bounds_dominate_sampled_gradient_slopes(t in prop::array::uniform6(0.0f32..1.0), thin in 0.01f32..0.6, seed in 0u64..1000) {
+        for scene in [every_node(), medusa()] {
+            let (a, c) = region_from(&scene.model.bounds(), t, thin);
+            for mode in [EvalMode::Indexed, EvalMode::Naive] {
+                check_curvature(&ModelField::new(&scene.model, mode), a, c, seed)?;
+            }
+        }
+    }
 
     #[test]
     fn intervals_contain_sampled_values(t in prop::array::uniform6(0.0f32..1.0), thin in 0.01f32..0.6, seed in 0u64..1000) {
@@ -168,4 +205,18 @@ proptest! {
             }
         }
     }
+}
+
+#[test]
+fn medusa_has_finite_curvature_bounds_where_the_tracer_needs_them() {
+    let m = &medusa().model;
+    let mut rng = Rng(5);
+    let b = m.bounds();
+    let checked = (0..200)
+        .filter(|_| {
+            let (a, d) = (rng.point_in(b.min, b.max), Vec3A::new(rng.next_f32(), rng.next_f32(), 0.5) * 0.05);
+            check_curvature(&ModelField::new(m, EvalMode::Indexed), a, a + d, 9).unwrap()
+        })
+        .count();
+    assert!(checked > 20, "only {checked} of 200 short segments had a finite, non-zero bound");
 }

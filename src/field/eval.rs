@@ -130,11 +130,13 @@ impl Model {
         match &node.kind {
             NodeKind::Primitive(prim) => prim.gradient(p),
             NodeKind::Blend { children, index } => match (mode, index) {
-                (m, Some(ix)) if m.indexed() => ix.candidates(p).iter().fold(Vec3A::ZERO, |s, &i| {
-                    s + match &ix.leaves[i as usize].leaf {
-                        Leaf::Primitive(prim) => prim.gradient(p),
-                        Leaf::Node(id) => self.node_gradient(*id, p, mode),
-                    }
+                (m, Some(ix)) if m.indexed() => ix.point_gradient(p).unwrap_or_else(|| {
+                    ix.candidates(p).iter().fold(Vec3A::ZERO, |s, &i| {
+                        s + match &ix.leaves[i as usize].leaf {
+                            Leaf::Primitive(prim) => prim.gradient(p),
+                            Leaf::Node(id) => self.node_gradient(*id, p, mode),
+                        }
+                    })
                 }),
                 _ => children.iter().fold(Vec3A::ZERO, |s, &c| s + self.node_gradient(c, p, mode)),
             },
@@ -314,6 +316,35 @@ impl Model {
                 (self.pool(), &|q| self.node_value(*child, q, mode)),
             ),
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_lipschitz(*child, region, mode),
+        }
+    }
+
+    /// A bound on the slope of node `id`'s gradient over a region: `M` with
+    /// `|∇f(x) - ∇f(y)| <= M |x - y|` there, infinite where the gradient may
+    /// jump (the creases of unions, intersections and differences, a cache's
+    /// cell faces).
+    pub fn node_curvature(&self, id: NodeId, region: &Region, mode: EvalMode) -> f32 {
+        let node = self.node(id);
+        if !region.meets(&node.bounds) {
+            return 0.0;
+        }
+        match &node.kind {
+            NodeKind::Primitive(prim) => prim.curvature_over(region),
+            NodeKind::Blend { children, index } => match (mode, index) {
+                (m, Some(ix)) if m.indexed() => ix.cell_curvature(region),
+                _ => children.iter().map(|&c| self.node_curvature(c, region, mode)).sum(),
+            },
+            NodeKind::Transform { placement, child } => {
+                // The gradient maps through the inverse twice: once for the
+                // point, once for the gradient itself.
+                let stretch = placement.stretch;
+                stretch * stretch * self.node_curvature(*child, &region.transformed(&placement.to_local), mode)
+            }
+            NodeKind::Cache { .. } if mode == EvalMode::Cached => f32::INFINITY,
+            NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_curvature(*child, region, mode),
+            NodeKind::Union(_) | NodeKind::Intersection(_) | NodeKind::Difference(..) | NodeKind::Ricci { .. } => {
+                f32::INFINITY
+            }
         }
     }
 

@@ -60,6 +60,7 @@ pub struct BlendIndex {
     offsets: Vec<u32>,
     items: Vec<u32>,
     cell_lipschitz: Vec<f32>,
+    cell_curvature: Vec<f32>,
     cell_range: Vec<Interval>,
     has_node_leaves: bool,
     /// The leaves packed for a four-wide sum, when all are Wyvill points.
@@ -116,6 +117,34 @@ impl PackedPoints {
         }
         (acc.x + acc.y) + (acc.z + acc.w)
     }
+
+    /// The sum of the listed points' gradients at `p`, four at a time.
+    #[inline]
+    fn gradient(&self, items: &[u32], p: Vec3A) -> Vec3A {
+        let (terms, weights) = (&self.terms[..], &self.weights[..]);
+        let (mut gx, mut gy, mut gz) = (Vec4::ZERO, Vec4::ZERO, Vec4::ZERO);
+        let mut add = |q: [u32; 4], mask: Vec4| {
+            let [a, b, c, d] = q.map(|i| i as usize);
+            let m = Mat4::from_cols(terms[a], terms[b], terms[c], terms[d]).transpose();
+            // Towards the centres: the gradient of g(|p - c|²) is 2 g' (p - c), g' <= 0.
+            let (dx, dy, dz) = (m.x_axis - Vec4::splat(p.x), m.y_axis - Vec4::splat(p.y), m.z_axis - Vec4::splat(p.z));
+            let d2 = dx * dx + dy * dy + dz * dz;
+            let w = Vec4::new(weights[a], weights[b], weights[c], weights[d]) * mask;
+            let k = Kernel::wyvill4_pull(d2, m.w_axis) * w;
+            (gx, gy, gz) = (gx + dx * k, gy + dy * k, gz + dz * k);
+        };
+        let mut chunks = items.chunks_exact(4);
+        for q in &mut chunks {
+            add([q[0], q[1], q[2], q[3]], Vec4::ONE);
+        }
+        let rest = chunks.remainder();
+        if let Some(&first) = rest.first() {
+            let at = |k: usize| rest.get(k).copied().unwrap_or(first);
+            let mask = Vec4::new(1.0, f32::from(rest.len() > 1), f32::from(rest.len() > 2), 0.0);
+            add([at(0), at(1), at(2), first], mask);
+        }
+        Vec3A::new(gx.element_sum(), gy.element_sum(), gz.element_sum())
+    }
 }
 
 impl BlendIndex {
@@ -137,6 +166,7 @@ impl BlendIndex {
             offsets: vec![],
             items: vec![],
             cell_lipschitz: vec![],
+            cell_curvature: vec![],
             cell_range: vec![],
             has_node_leaves,
             points,
@@ -193,25 +223,39 @@ impl BlendIndex {
         interval: impl Fn(&IndexedLeaf, &Aabb) -> Interval + Sync,
         lipschitz: impl Fn(&IndexedLeaf, &Region) -> f32 + Sync,
     ) {
-        let bounds: Vec<(f32, Interval)> = (0..self.grid.cell_count())
+        let bounds: Vec<(f32, f32, Interval)> = (0..self.grid.cell_count())
             .into_par_iter()
             .map(|c| {
                 let cell_box = self.grid.cell_box(c);
                 let region = Region::Box(cell_box);
-                let (mut l, mut range) = (0.0, Interval::ZERO);
+                let (mut l, mut m, mut range) = (0.0, 0.0, Interval::ZERO);
                 for &i in self.cell_items(c) {
                     let leaf = &self.leaves[i as usize];
                     l += lipschitz(leaf, &region);
+                    m += match &leaf.leaf {
+                        Leaf::Primitive(p) => p.curvature_over(&region),
+                        // A node's gradient need not even be continuous (a union's crease).
+                        Leaf::Node(_) => f32::INFINITY,
+                    };
                     range = range + interval(leaf, &cell_box);
                 }
-                (l, range)
+                (l, m, range)
             })
             .collect();
-        (self.cell_lipschitz, self.cell_range) = bounds.into_iter().unzip();
+        self.cell_lipschitz = bounds.iter().map(|b| b.0).collect();
+        self.cell_curvature = bounds.iter().map(|b| b.1).collect();
+        self.cell_range = bounds.into_iter().map(|b| b.2).collect();
     }
 
     fn cell_items(&self, c: usize) -> &[u32] {
         &self.items[self.offsets[c] as usize..self.offsets[c + 1] as usize]
+    }
+
+    /// The blend's gradient at `p` when all its leaves are points (`None` otherwise).
+    #[inline]
+    #[must_use]
+    pub fn point_gradient(&self, p: Vec3A) -> Option<Vec3A> {
+        self.points.as_ref().map(|points| points.gradient(self.candidates(p), p))
     }
 
     /// The blend's value at `p` when all its leaves are points (`None` otherwise).
@@ -252,6 +296,18 @@ impl BlendIndex {
             Region::Box(b) => self.grid.for_each_cell(b, |c| l = l.max(self.cell_lipschitz[c])),
         }
         l
+    }
+
+    /// A bound on the slope of the blend's gradient over a region from the
+    /// precomputed cell bounds, as [`Self::cell_lipschitz`] bounds its value's.
+    #[must_use]
+    pub fn cell_curvature(&self, region: &Region) -> f32 {
+        let mut m = 0.0f32;
+        match region {
+            Region::Segment(a, b) => self.walk_segment(*a, *b, |c| m = m.max(self.cell_curvature[c])),
+            Region::Box(b) => self.grid.for_each_cell(b, |c| m = m.max(self.cell_curvature[c])),
+        }
+        m
     }
 
     /// The leaves listed in cell `c`.
@@ -320,7 +376,7 @@ mod tests {
     }
 
     #[test]
-    fn cells_list_every_leaf_reaching_them_and_the_packed_sum_matches_the_plain_one() {
+    fn cells_list_every_leaf_reaching_them_and_the_packed_sums_match_the_plain_ones() {
         let ix = cluster();
         let prim = |i: usize| match &ix.leaves[i].leaf {
             Leaf::Primitive(p) => *p,
@@ -342,6 +398,9 @@ mod tests {
                 let plain: f64 = (0..ix.leaves.len()).map(|j| f64::from(prim(j).value(q))).sum();
                 let packed = ix.point_sum(q).expect("all leaves are points");
                 assert!((packed - plain).abs() <= 1e-6, "at {q}: packed {packed} vs plain {plain}");
+                let plain = (0..ix.leaves.len()).fold(Vec3A::ZERO, |g, j| g + prim(j).gradient(q));
+                let packed = ix.point_gradient(q).expect("all leaves are points");
+                assert!((packed - plain).length() <= 1e-5 * (1.0 + plain.length()), "at {q}: {packed} vs {plain}");
             }
         }
         assert!(checked > 1000, "only {checked} points near support boundaries were checked");

@@ -36,6 +36,15 @@ impl Kernel {
         s * s * s
     }
 
+    /// `-2 dg/d(r²)` of Wyvill's kernel for four squared distances: the
+    /// gradient of `g(|p - q|²)` is this times `q - p`.
+    #[inline]
+    #[must_use]
+    pub fn wyvill4_pull(d2: Vec4, inv_r2: Vec4) -> Vec4 {
+        let s = (Vec4::ONE - d2 * inv_r2).max(Vec4::ZERO);
+        6.0 * s * s * inv_r2
+    }
+
     /// `dg/d(r²)`: the gradient of `g(|p - q|)` at `p` is `2 (p - q)` times this.
     #[inline]
     #[must_use]
@@ -82,11 +91,52 @@ impl Kernel {
             self.slope(r_min, radius).max(self.slope(r_max, radius))
         }
     }
+
+    /// A bound on the slope of the gradient (the Hessian's norm) of
+    /// `g(d(p))`, `d` the distance to a convex skeleton, where `d ∈ [r_min,
+    /// r_max]`.
+    ///
+    /// With `u = d²`, `∇f = 2 g'(u) (p - π(p))` for the projection `π` onto
+    /// the skeleton, whose complement is 1-Lipschitz, so the gradient moves
+    /// at most `2|g'(u)| + 4u|g''(u)|` per unit: for Wyvill, with `x = u/R²`,
+    /// `6 (1 - x)(1 + 3x) / R²`, rising to 8/R² at `x = 1/3`, then falling to 0.
+    #[must_use]
+    pub fn curvature(self, r_min: f32, r_max: f32, radius: f32) -> f32 {
+        match self {
+            Kernel::Wyvill => {
+                let inv_r2 = 1.0 / (radius * radius);
+                let (lo, hi) = (r_min * r_min * inv_r2, r_max * r_max * inv_r2);
+                // Not `clamp`: rounding can leave `lo` a hair above `hi`.
+                let x = (1.0f32 / 3.0).max(lo).min(hi);
+                if x >= 1.0 { 0.0 } else { 6.0 * (1.0 - x) * (1.0 + 3.0 * x) * inv_r2 }
+            }
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3A;
+
+    #[test]
+    fn curvature_bound_dominates_second_differences_along_lines() {
+        let k = Kernel::Wyvill;
+        let radius = 1.3;
+        let f = |p: Vec3A| k.value(p.length_squared(), 1.0 / (radius * radius));
+        let h = 1e-2;
+        for i in 0..400 {
+            let a = i as f32 * 0.37;
+            let p = Vec3A::new(a.cos(), a.sin(), (a * 0.3).cos()) * (i as f32 / 400.0) * radius;
+            let dir = Vec3A::new((a * 1.7).sin(), (a * 0.9).cos(), 0.5).normalize();
+            let second = (f(p + dir * h) - 2.0 * f(p) + f(p - dir * h)) / (h * h);
+            let d = p.length();
+            let m = k.curvature((d - h).max(0.0), d + h, radius);
+            assert!(second.abs() <= m * 1.01 + 1e-3, "at {p}: {second} against the bound {m}");
+        }
+        assert!((k.curvature(0.0, 10.0, 1.0) - 8.0).abs() < 1e-5, "the peak is 8/R²");
+        assert_eq!(k.curvature(1.0, 2.0, 1.0), 0.0, "zero outside the support");
+    }
 
     #[test]
     fn wyvill_global_bound_matches_galin() {

@@ -69,6 +69,13 @@ pub trait Field: Sync {
     fn interval(&self, b: &Aabb) -> Interval;
     /// A bound on `|∇f|` over a region: `|f(x) - f(y)| <= L |x - y|` for x, y in it.
     fn lipschitz(&self, region: &Region) -> f32;
+    /// A bound on the slope of `∇f` over a region (`|∇f(x) - ∇f(y)| <= M |x - y|`
+    /// for x, y in it), infinite where the gradient may jump. The default
+    /// knows nothing.
+    fn curvature(&self, region: &Region) -> f32 {
+        let _ = region;
+        f32::INFINITY
+    }
     /// A box outside which the field is zero.
     fn bounds(&self) -> Aabb;
     /// The iso-value `T`.
@@ -124,6 +131,9 @@ impl Field for ModelField<'_> {
     }
     fn lipschitz(&self, region: &Region) -> f32 {
         self.model.node_lipschitz(self.model.root(), region, self.mode)
+    }
+    fn curvature(&self, region: &Region) -> f32 {
+        self.model.node_curvature(self.model.root(), region, self.mode)
     }
     fn bounds(&self) -> Aabb {
         self.model.bounds()

@@ -270,6 +270,17 @@ impl Primitive {
         }
     }
 
+    /// A bound on the slope of `∇f` over a region (see [`Kernel::curvature`]);
+    /// infinite for a circle, whose distance is not smooth on its axis.
+    #[must_use]
+    pub fn curvature_over(&self, region: &super::Region) -> f32 {
+        if matches!(self.skeleton, Skeleton::Circle { .. }) {
+            return f32::INFINITY;
+        }
+        let (near, far) = self.distance_range(region);
+        self.weight.abs() * self.kernel.curvature(near, far, self.radius)
+    }
+
     /// A bound on `|∇f|` over a region: a Lipschitz constant of the field there.
     #[inline]
     #[must_use]

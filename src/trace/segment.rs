@@ -122,9 +122,17 @@ pub fn march<F: Field + ?Sized>(
         skipped = false;
         out.steps += 1;
         let halvings = if -v > HALVING_MARGIN * iso { MAX_BOUNDS_PER_STEP } else { 1 };
-        let bound = bounded_step(field, ray, t, -v, (t + segment).min(t_end) - t, halvings);
+        let mut bound = bounded_step(field, ray, t, -v, (t + segment).min(t_end) - t, halvings);
         out.evals += bound.bounds;
         let mut ahead = None;
+        let mut curved = false;
+        if -v < CURVATURE_MARGIN * iso {
+            let (step, evals) = curvature_step(field, ray, t, -v, bound.room);
+            out.evals += evals;
+            if step > bound.step {
+                (bound.step, curved) = (step, true);
+            }
+        }
         let t_next = if bound.step < tol {
             // Near the surface the bound's steps shrink towards the crossing:
             // walk the ray's lattice instead, which keeps grazing rays moving
@@ -132,7 +140,7 @@ pub fn march<F: Field + ?Sized>(
             // march starts from (a feature between two lattice points is
             // below the precision asked for).
             next_lattice_point(t, opts.quantum.unwrap_or(tol))
-        } else if relax && bound.step < bound.room {
+        } else if relax && !curved && bound.step < bound.room {
             // Try a longer step and keep it if the slope bound still shows,
             // from both of its ends, that it crosses nothing (Keinert et al.
             // 2014); after the first miss the march stays conservative.
@@ -243,6 +251,29 @@ fn bounded_step<F: Field + ?Sized>(
     best
 }
 
+/// The longest step from `t` that a bound on the gradient's slope shows
+/// cannot reach the surface, given the margin `m = T - f(t)` and the segment
+/// length `room` the bound covers, with the evaluations spent.
+///
+/// Along the ray `f(t + s) <= f(t) + g s + M s² / 2` with `g` the derivative
+/// at `t` and `M` the curvature bound, so no crossing comes before the root of
+/// `m = g s + M s² / 2`. Approaching a surface, `g` is the true slope where a
+/// Lipschitz bound takes the steepest anywhere near: the steps close in on the
+/// surface quadratically instead of by a fixed fraction.
+fn curvature_step<F: Field + ?Sized>(field: &F, ray: &Ray, t: f32, m: f32, room: f32) -> (f32, u32) {
+    let curvature = field.curvature(&Region::Segment(ray.at(t), ray.at(t + room)));
+    if !curvature.is_finite() {
+        // Known from the tree's shape alone (a crease, a cache): no evaluation.
+        return (0.0, 0);
+    }
+    let g = field.gradient(ray.at(t)).dot(ray.dir);
+    // The positive root of M s²/2 + g s - m, in the form without cancellation.
+    let root = 2.0 * m / (g + (g * g + 2.0 * curvature * m).sqrt());
+    // Shortened a little against rounding in f, g and the root.
+    let step = if root.is_finite() { (CURVATURE_SAFETY * root).min(room) } else { 0.0 };
+    (step, 2)
+}
+
 /// A step certified by a slope bound.
 struct BoundedStep {
     /// Its length.
@@ -254,6 +285,12 @@ struct BoundedStep {
     /// Bounds taken to find it.
     bounds: u32,
 }
+
+/// Curvature steps are tried where `T - f` is below this fraction of `T`:
+/// near the surface, where the Lipschitz steps shrink by a fixed fraction.
+const CURVATURE_MARGIN: f32 = 0.2;
+/// The fraction of a curvature step taken.
+const CURVATURE_SAFETY: f32 = 0.999;
 
 /// How much longer than certified an over-relaxed step tries to be.
 const OVER_RELAXATION: f32 = 1.4;
