@@ -7,7 +7,7 @@
 //! empty cells finds the same snapped hit as one that steps through them.
 //! After an edit, only the cells over the changed boxes are marked again.
 
-use glam::Vec3A;
+use glam::{UVec3, Vec3A};
 use rayon::prelude::*;
 
 use super::Field;
@@ -17,6 +17,9 @@ use crate::geom::{Aabb, Ray, UniformGrid};
 /// mark with the exact field and saves a third of the field evaluations;
 /// 128 saves a tenth more and costs eight times the marking.
 const CELLS_ALONG_LONGEST_SIDE: f32 = 64.0;
+
+/// Cells per block edge in the first, coarse pass of marking.
+const BLOCK: u32 = 4;
 
 /// The empty cells of a field, over the field's bounds when built.
 #[derive(Clone, Debug)]
@@ -33,8 +36,31 @@ impl EmptySpace {
         let cell = extent.max_element() / CELLS_ALONG_LONGEST_SIDE;
         let grid = UniformGrid::new(bounds.min, cell, (extent / cell).ceil().as_uvec3());
         let iso = field.threshold();
-        let empty =
-            (0..grid.cell_count()).into_par_iter().map(|c| field.interval(&grid.cell_box(c)).hi < iso).collect();
+        let mut empty = vec![false; grid.cell_count()];
+        // Whole blocks first: a range below the threshold over a block holds
+        // for every cell in it, and most of a model's bounds is such blocks.
+        let block_cell = cell * BLOCK as f32;
+        let blocks = UniformGrid::new(bounds.min, block_cell, (extent / block_cell).ceil().as_uvec3());
+        let marks: Vec<(usize, bool)> = (0..blocks.cell_count())
+            .into_par_iter()
+            .flat_map_iter(|b| {
+                let block_box = blocks.cell_box(b);
+                let block_empty = field.interval(&block_box).hi < iso;
+                let first = blocks.coords(b) * BLOCK;
+                let last = (first + UVec3::splat(BLOCK)).min(grid.dims);
+                let cells = (first.z..last.z).flat_map(move |z| {
+                    (first.y..last.y).flat_map(move |y| (first.x..last.x).map(move |x| UVec3::new(x, y, z)))
+                });
+                let grid = &grid;
+                cells.map(move |i| {
+                    let c = grid.linear(i);
+                    (c, block_empty || field.interval(&grid.cell_box(c)).hi < iso)
+                })
+            })
+            .collect();
+        for (c, e) in marks {
+            empty[c] = e;
+        }
         Self { grid, empty }
     }
 
@@ -128,6 +154,15 @@ mod tests {
             }
         }
         assert!(space.skip(&Ray::new(Vec3A::ZERO, Vec3A::X), 0.0, 1.0).is_none(), "skipped inside");
+    }
+
+    #[test]
+    fn marking_by_blocks_equals_marking_every_cell() {
+        let space = EmptySpace::build(&Ball);
+        let direct: Vec<bool> =
+            (0..space.grid.cell_count()).map(|c| Ball.interval(&space.grid.cell_box(c)).hi < 0.5).collect();
+        assert_eq!(space.empty, direct);
+        assert!(space.empty_fraction() > 0.9 && space.empty_fraction() < 1.0);
     }
 
     #[test]
