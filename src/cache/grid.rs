@@ -309,6 +309,9 @@ impl CacheGrid {
             return;
         }
         let (b0, b1) = (self.block_of(first), self.block_of(last));
+        if b0 == b1 && n == 2 && self.spec.storage == Storage::F32 {
+            return self.gather_corners(b0, first, out, pool, eval);
+        }
         let block_cells = self.block_cells();
         for bz in b0.z..=b1.z {
             for by in b0.y..=b1.y {
@@ -357,15 +360,7 @@ impl CacheGrid {
             }
         }
         let mut words = [UNSET; 64];
-        let read = self.table_index(block).is_some_and(|t| {
-            // SAFETY: as in `sample`.
-            let Some(slot) = (unsafe { self.table[t].load(Ordering::Acquire).as_ref() }) else { return false };
-            let ok = slot.read_many(block_key(self.serial, block), &at[..count], &mut words[..count]);
-            if ok {
-                pool.touch(slot);
-            }
-            ok
-        });
+        let read = self.read_block(block, &at[..count], &mut words[..count], pool);
         let storage = self.spec.storage;
         for k in 0..count {
             let m = usize::from(dest[k]);
@@ -374,6 +369,46 @@ impl CacheGrid {
                 _ => self.sample_at_offset(first, m, n, pool, eval),
             };
         }
+    }
+
+    /// The hot case of [`Self::gather_cube`]: the eight corners of one
+    /// lattice cell inside one block of 32-bit samples, at fixed offsets.
+    fn gather_corners(
+        &self,
+        block: IVec3,
+        first: IVec3,
+        out: &mut [f32],
+        pool: &SamplePool,
+        eval: &impl Fn(Vec3A) -> f32,
+    ) {
+        // Word offsets of the corners (x fastest) within a block.
+        const ROW: u16 = 1 << BLOCK_SHIFT;
+        const PLANE: u16 = 1 << (2 * BLOCK_SHIFT);
+        const CORNERS: [u16; 8] = [0, 1, ROW, ROW + 1, PLANE, PLANE + 1, PLANE + ROW, PLANE + ROW + 1];
+        let base = self.word_of(first).0 as u16;
+        let at = CORNERS.map(|o| base + o);
+        let mut words = [UNSET; 8];
+        let read = self.read_block(block, &at, &mut words, pool);
+        for (m, &word) in words.iter().enumerate() {
+            out[m] = match Storage::F32.decode(word, 0) {
+                Some(v) if read => v,
+                _ => self.sample_at_offset(first, m, 2, pool, eval),
+            };
+        }
+    }
+
+    /// Reads the words `at` of `block` into `words` in one consistent read;
+    /// false when the block holds no slot or the read raced a reassignment.
+    fn read_block(&self, block: IVec3, at: &[u16], words: &mut [u32], pool: &SamplePool) -> bool {
+        self.table_index(block).is_some_and(|t| {
+            // SAFETY: as in `sample`.
+            let Some(slot) = (unsafe { self.table[t].load(Ordering::Acquire).as_ref() }) else { return false };
+            let ok = slot.read_many(block_key(self.serial, block), at, words);
+            if ok {
+                pool.touch(slot);
+            }
+            ok
+        })
     }
 
     /// The sample at position `m` (x fastest) of the cube of edge `n` from `first`.
