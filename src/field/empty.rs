@@ -93,7 +93,8 @@ impl EmptySpace {
     #[must_use]
     pub fn skip(&self, ray: &Ray, t: f32, t_end: f32) -> Option<f32> {
         let (a, b) = (ray.at(t), ray.at(t_end));
-        if !self.grid.bounds().contains(a) {
+        // Most steps start in an occupied cell: answer those without a walk.
+        if !self.grid.cell_of(a).is_some_and(|c| self.empty[c]) {
             return None;
         }
         let mut end = None;
