@@ -319,10 +319,10 @@ impl Model {
         }
     }
 
-    /// A bound on the slope of node `id`'s gradient over a region: `M` with
-    /// `|∇f(x) - ∇f(y)| <= M |x - y|` there, infinite where the gradient may
-    /// jump (the creases of unions, intersections and differences, a cache's
-    /// cell faces).
+    /// An upper bound on node `id`'s second derivative along any line
+    /// through a region (it may be negative where the field is concave),
+    /// infinite where the gradient may jump (the creases of unions,
+    /// intersections and differences, a cache's cell faces).
     pub fn node_curvature(&self, id: NodeId, region: &Region, mode: EvalMode) -> f32 {
         let node = self.node(id);
         if !region.meets(&node.bounds) {
@@ -335,10 +335,11 @@ impl Model {
                 _ => children.iter().map(|&c| self.node_curvature(c, region, mode)).sum(),
             },
             NodeKind::Transform { placement, child } => {
-                // The gradient maps through the inverse twice: once for the
-                // point, once for the gradient itself.
+                // A unit step is at most `stretch` long in the child's frame,
+                // and a concave child stays concave.
                 let stretch = placement.stretch;
-                stretch * stretch * self.node_curvature(*child, &region.transformed(&placement.to_local), mode)
+                let child = self.node_curvature(*child, &region.transformed(&placement.to_local), mode);
+                stretch * stretch * child.max(0.0)
             }
             NodeKind::Cache { .. } if mode == EvalMode::Cached => f32::INFINITY,
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_curvature(*child, region, mode),

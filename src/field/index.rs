@@ -298,8 +298,9 @@ impl BlendIndex {
         l
     }
 
-    /// A bound on the slope of the blend's gradient over a region from the
-    /// precomputed cell bounds, as [`Self::cell_lipschitz`] bounds its value's.
+    /// An upper bound on the blend's second derivative along lines through a
+    /// region from the precomputed cell bounds, as [`Self::cell_lipschitz`]
+    /// bounds its slope; never below zero (the field is zero past the grid).
     #[must_use]
     pub fn cell_curvature(&self, region: &Region) -> f32 {
         let mut m = 0.0f32;

@@ -104,14 +104,38 @@ impl Kernel {
     pub fn curvature(self, r_min: f32, r_max: f32, radius: f32) -> f32 {
         match self {
             Kernel::Wyvill => {
-                let inv_r2 = 1.0 / (radius * radius);
-                let (lo, hi) = (r_min * r_min * inv_r2, r_max * r_max * inv_r2);
-                // Not `clamp`: rounding can leave `lo` a hair above `hi`.
+                let (lo, hi, inv_r2) = x_range(r_min, r_max, radius);
                 let x = (1.0f32 / 3.0).max(lo).min(hi);
                 if x >= 1.0 { 0.0 } else { 6.0 * (1.0 - x) * (1.0 + 3.0 * x) * inv_r2 }
             }
         }
     }
+
+    /// An upper bound on the second derivative of `g(|p - c|)` along any
+    /// line, where `|p - c| ∈ [r_min, r_max]`: one-sided, and far below
+    /// [`Kernel::curvature`].
+    ///
+    /// Along a unit direction `e` it is `2 g'(u) + 4 g''(u) (v·e)²` with
+    /// `v = p - c`; `g'' >= 0`, so at most `2 g'(u) + 4 u g''(u)`: for Wyvill
+    /// `6 (1 - x)(5x - 1) / R²`, negative near the centre (`x < 1/5`), 4.8/R²
+    /// at its peak `x = 3/5`, zero from the support's edge on.
+    #[must_use]
+    pub fn point_bend(self, r_min: f32, r_max: f32, radius: f32) -> f32 {
+        match self {
+            Kernel::Wyvill => {
+                let (lo, hi, inv_r2) = x_range(r_min, r_max, radius);
+                let x = 0.6f32.max(lo).min(hi);
+                if x >= 1.0 { 0.0 } else { 6.0 * (1.0 - x) * (5.0 * x - 1.0) * inv_r2 }
+            }
+        }
+    }
+}
+
+/// `d²/R²` over `[r_min, r_max]`, and `1/R²`. The ends may cross by a
+/// rounding, so callers use `max`/`min`, not `clamp`.
+fn x_range(r_min: f32, r_max: f32, radius: f32) -> (f32, f32, f32) {
+    let inv_r2 = 1.0 / (radius * radius);
+    (r_min * r_min * inv_r2, r_max * r_max * inv_r2, inv_r2)
 }
 
 #[cfg(test)]
@@ -134,6 +158,17 @@ mod tests {
             let m = k.curvature((d - h).max(0.0), d + h, radius);
             assert!(second.abs() <= m * 1.01 + 1e-3, "at {p}: {second} against the bound {m}");
         }
+        for i in 0..400 {
+            let a = i as f32 * 0.53;
+            let p = Vec3A::new(a.cos(), a.sin(), (a * 0.7).cos()) * (i as f32 / 400.0) * radius;
+            let dir = Vec3A::new((a * 1.3).sin(), (a * 0.4).cos(), -0.3).normalize();
+            let second = (f(p + dir * h) - 2.0 * f(p) + f(p - dir * h)) / (h * h);
+            let d = p.length();
+            let bend = k.point_bend((d - h).max(0.0), d + h, radius);
+            assert!(second <= bend + 1e-2 * (1.0 + bend.abs()), "at {p}: {second} above the one-sided bound {bend}");
+        }
+        assert!(k.point_bend(0.0, 0.1, 1.0) < 0.0, "a point's field is concave near its centre");
+        assert!((k.point_bend(0.0, 10.0, 1.0) - 4.8).abs() < 1e-5, "the one-sided peak is 4.8/R²");
         assert!((k.curvature(0.0, 10.0, 1.0) - 8.0).abs() < 1e-5, "the peak is 8/R²");
         assert_eq!(k.curvature(1.0, 2.0, 1.0), 0.0, "zero outside the support");
     }

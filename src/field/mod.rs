@@ -69,8 +69,9 @@ pub trait Field: Sync {
     fn interval(&self, b: &Aabb) -> Interval;
     /// A bound on `|∇f|` over a region: `|f(x) - f(y)| <= L |x - y|` for x, y in it.
     fn lipschitz(&self, region: &Region) -> f32;
-    /// A bound on the slope of `∇f` over a region (`|∇f(x) - ∇f(y)| <= M |x - y|`
-    /// for x, y in it), infinite where the gradient may jump. The default
+    /// An upper bound `M` on the second derivative of `f` along any line
+    /// through a region (`d²/ds² f(x + s u) <= M` for unit `u`; negative where
+    /// `f` is concave), infinite where the gradient may jump. The default
     /// knows nothing.
     fn curvature(&self, region: &Region) -> f32 {
         let _ = region;

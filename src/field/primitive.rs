@@ -270,15 +270,22 @@ impl Primitive {
         }
     }
 
-    /// A bound on the slope of `∇f` over a region (see [`Kernel::curvature`]);
-    /// infinite for a circle, whose distance is not smooth on its axis.
+    /// An upper bound on the field's second derivative along any line
+    /// through a region (see [`Kernel::point_bend`]; a segment's or a
+    /// negative weight's falls back on the Hessian's norm); infinite for a
+    /// circle, whose distance is not smooth on its axis.
     #[must_use]
     pub fn curvature_over(&self, region: &super::Region) -> f32 {
-        if matches!(self.skeleton, Skeleton::Circle { .. }) {
-            return f32::INFINITY;
+        let (near, far) = match self.skeleton {
+            Skeleton::Circle { .. } => return f32::INFINITY,
+            _ => self.distance_range(region),
+        };
+        match self.skeleton {
+            Skeleton::Point { .. } if self.weight >= 0.0 => {
+                self.weight * self.kernel.point_bend(near, far, self.radius)
+            }
+            _ => self.weight.abs() * self.kernel.curvature(near, far, self.radius),
         }
-        let (near, far) = self.distance_range(region);
-        self.weight.abs() * self.kernel.curvature(near, far, self.radius)
     }
 
     /// A bound on `|∇f|` over a region: a Lipschitz constant of the field there.

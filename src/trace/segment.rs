@@ -255,8 +255,8 @@ fn bounded_step<F: Field + ?Sized>(
 /// length `room` to bound over; `None` where the field has no such bound.
 ///
 /// Along the ray `f(t + s) <= f(t) + g s + M s² / 2` with `g` the derivative
-/// at `t` and `M` the curvature bound, so no crossing comes before the root of
-/// `m = g s + M s² / 2`. Approaching a surface, `g` is the true slope where a
+/// at `t` and `M` the bound on the second derivative, so no crossing comes
+/// before the root of `m = g s + M s² / 2`. Approaching a surface, `g` is the true slope where a
 /// Lipschitz bound takes the steepest anywhere near: the steps close in on the
 /// surface quadratically instead of by a fixed fraction.
 fn curvature_step<F: Field + ?Sized>(field: &F, ray: &Ray, t: f32, m: f32, room: f32) -> Option<BoundedStep> {
@@ -265,10 +265,14 @@ fn curvature_step<F: Field + ?Sized>(field: &F, ray: &Ray, t: f32, m: f32, room:
         return None;
     }
     let g = field.gradient(ray.at(t)).dot(ray.dir);
-    // The positive root of M s²/2 + g s - m, in the form without cancellation.
-    let root = 2.0 * m / (g + (g * g + 2.0 * curvature * m).sqrt());
+    if !g.is_finite() {
+        return None;
+    }
+    // The positive root of M s²/2 + g s - m, in the form without
+    // cancellation; none when the field cannot rise (g <= 0, M <= 0).
+    let denominator = g + (g * g + 2.0 * curvature.max(0.0) * m).sqrt();
     // Shortened a little against rounding in f, g and the root.
-    let step = if root.is_finite() { (CURVATURE_SAFETY * root).min(room) } else { 0.0 };
+    let step = if denominator > 0.0 { (CURVATURE_SAFETY * 2.0 * m / denominator).min(room) } else { room };
     // Counted as two evaluations: the bound and the gradient.
     Some(BoundedStep { step, slope: f32::INFINITY, room, bounds: 2 })
 }
