@@ -123,7 +123,7 @@ pub fn march<F: Field + ?Sized>(
         out.steps += 1;
         let room = (t + segment).min(t_end) - t;
         // Near the surface a curvature step is longer than a Lipschitz one
-        // in all but a few hundredths of the steps on Medusa: take it alone
+        // in all but one step in two hundred on Medusa: take it alone
         // where the field's gradient is smooth enough to have one.
         let curved = if -v < CURVATURE_MARGIN * iso { curvature_step(field, ray, t, -v, room) } else { None };
         let bound = curved.unwrap_or_else(|| {
