@@ -250,15 +250,16 @@ fn bounded_step<F: Field + ?Sized>(
     best
 }
 
-/// The longest step from `t` that a bound on the gradient's slope shows
-/// cannot reach the surface, given the margin `m = T - f(t)` and the segment
-/// length `room` to bound over; `None` where the field has no such bound.
+/// The longest step from `t` that a bound on the field's second derivative
+/// along the ray shows cannot reach the surface, given the margin
+/// `m = T - f(t)` and the segment length `room` to bound over; `None` where
+/// the field has no such bound.
 ///
 /// Along the ray `f(t + s) <= f(t) + g s + M s² / 2` with `g` the derivative
-/// at `t` and `M` the bound on the second derivative, so no crossing comes
-/// before the root of `m = g s + M s² / 2`. Approaching a surface, `g` is the true slope where a
-/// Lipschitz bound takes the steepest anywhere near: the steps close in on the
-/// surface quadratically instead of by a fixed fraction.
+/// at `t` and `M` the bound, so no crossing comes before the root of
+/// `m = g s + M s² / 2`. Approaching a surface, `g` is the true slope where a
+/// Lipschitz bound takes the steepest anywhere near: the steps close in on
+/// the surface quadratically instead of by a fixed fraction.
 fn curvature_step<F: Field + ?Sized>(field: &F, ray: &Ray, t: f32, m: f32, room: f32) -> Option<BoundedStep> {
     let curvature = field.curvature(&Region::Segment(ray.at(t), ray.at(t + room)));
     if !curvature.is_finite() {
