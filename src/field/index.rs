@@ -94,57 +94,67 @@ impl PackedPoints {
     /// double precision.
     #[inline]
     fn sum(&self, items: &[u32], p: Vec3A) -> f64 {
-        let (terms, weights) = (&self.terms[..], &self.weights[..]);
-        let lanes = |a: u32, b: u32, c: u32, d: u32| {
-            let (a, b, c, d) = (a as usize, b as usize, c as usize, d as usize);
-            // Columns are leaves; transposed, rows are x, y, z and 1/R².
-            let m = Mat4::from_cols(terms[a], terms[b], terms[c], terms[d]).transpose();
-            let (dx, dy, dz) = (m.x_axis - Vec4::splat(p.x), m.y_axis - Vec4::splat(p.y), m.z_axis - Vec4::splat(p.z));
-            let d2 = dx * dx + dy * dy + dz * dz;
-            Kernel::wyvill4(d2, m.w_axis) * Vec4::new(weights[a], weights[b], weights[c], weights[d])
-        };
         let mut acc = glam::DVec4::ZERO;
-        let mut chunks = items.chunks_exact(4);
-        for q in &mut chunks {
-            acc += lanes(q[0], q[1], q[2], q[3]).as_dvec4();
-        }
-        // The tail repeats a listed leaf with its value masked out.
-        let rest = chunks.remainder();
-        if let Some(&first) = rest.first() {
-            let at = |k: usize| rest.get(k).copied().unwrap_or(first);
-            let mask = Vec4::new(1.0, f32::from(rest.len() > 1), f32::from(rest.len() > 2), 0.0);
-            acc += (lanes(at(0), at(1), at(2), first) * mask).as_dvec4();
-        }
+        self.for_each_quad(items, p, |lanes| {
+            acc += (Kernel::wyvill4(lanes.d2, lanes.inv_r2) * lanes.weight).as_dvec4();
+        });
         (acc.x + acc.y) + (acc.z + acc.w)
     }
 
     /// The sum of the listed points' gradients at `p`, four at a time.
     #[inline]
     fn gradient(&self, items: &[u32], p: Vec3A) -> Vec3A {
-        let (terms, weights) = (&self.terms[..], &self.weights[..]);
         let (mut gx, mut gy, mut gz) = (Vec4::ZERO, Vec4::ZERO, Vec4::ZERO);
-        let mut add = |q: [u32; 4], mask: Vec4| {
-            let [a, b, c, d] = q.map(|i| i as usize);
-            let m = Mat4::from_cols(terms[a], terms[b], terms[c], terms[d]).transpose();
+        self.for_each_quad(items, p, |lanes| {
             // Towards the centres: the gradient of g(|p - c|²) is 2 g' (p - c), g' <= 0.
-            let (dx, dy, dz) = (m.x_axis - Vec4::splat(p.x), m.y_axis - Vec4::splat(p.y), m.z_axis - Vec4::splat(p.z));
-            let d2 = dx * dx + dy * dy + dz * dz;
-            let w = Vec4::new(weights[a], weights[b], weights[c], weights[d]) * mask;
-            let k = Kernel::wyvill4_pull(d2, m.w_axis) * w;
-            (gx, gy, gz) = (gx + dx * k, gy + dy * k, gz + dz * k);
+            let k = Kernel::wyvill4_pull(lanes.d2, lanes.inv_r2) * lanes.weight;
+            (gx, gy, gz) = (gx + lanes.to_center[0] * k, gy + lanes.to_center[1] * k, gz + lanes.to_center[2] * k);
+        });
+        Vec3A::new(gx.element_sum(), gy.element_sum(), gz.element_sum())
+    }
+
+    /// Calls `f` with the listed points four at a time, laid out by lane.
+    /// The tail repeats a listed point with its weight masked to zero.
+    #[inline]
+    fn for_each_quad(&self, items: &[u32], p: Vec3A, mut f: impl FnMut(Quad)) {
+        let quad = |q: [u32; 4], mask: Vec4| {
+            let [a, b, c, d] = q.map(|i| i as usize);
+            let t = &self.terms;
+            // Columns are points; transposed, rows are x, y, z and 1/R².
+            let m = Mat4::from_cols(t[a], t[b], t[c], t[d]).transpose();
+            let to_center = [m.x_axis - Vec4::splat(p.x), m.y_axis - Vec4::splat(p.y), m.z_axis - Vec4::splat(p.z)];
+            let [dx, dy, dz] = to_center;
+            let w = &self.weights;
+            Quad {
+                d2: dx * dx + dy * dy + dz * dz,
+                inv_r2: m.w_axis,
+                weight: Vec4::new(w[a], w[b], w[c], w[d]) * mask,
+                to_center,
+            }
         };
         let mut chunks = items.chunks_exact(4);
         for q in &mut chunks {
-            add([q[0], q[1], q[2], q[3]], Vec4::ONE);
+            f(quad([q[0], q[1], q[2], q[3]], Vec4::ONE));
         }
         let rest = chunks.remainder();
         if let Some(&first) = rest.first() {
             let at = |k: usize| rest.get(k).copied().unwrap_or(first);
             let mask = Vec4::new(1.0, f32::from(rest.len() > 1), f32::from(rest.len() > 2), 0.0);
-            add([at(0), at(1), at(2), first], mask);
+            f(quad([at(0), at(1), at(2), first], mask));
         }
-        Vec3A::new(gx.element_sum(), gy.element_sum(), gz.element_sum())
     }
+}
+
+/// Four points seen from a query point, one per lane.
+struct Quad {
+    /// Squared distances.
+    d2: Vec4,
+    /// `1/R²`.
+    inv_r2: Vec4,
+    /// Weights (zero in masked lanes).
+    weight: Vec4,
+    /// `centre - p`, per axis.
+    to_center: [Vec4; 3],
 }
 
 impl BlendIndex {
@@ -290,12 +300,7 @@ impl BlendIndex {
     /// that cell's bound.
     #[must_use]
     pub fn cell_lipschitz(&self, region: &Region) -> f32 {
-        let mut l = 0.0f32;
-        match region {
-            Region::Segment(a, b) => self.walk_segment(*a, *b, |c| l = l.max(self.cell_lipschitz[c])),
-            Region::Box(b) => self.grid.for_each_cell(b, |c| l = l.max(self.cell_lipschitz[c])),
-        }
-        l
+        self.largest_over(region, &self.cell_lipschitz)
     }
 
     /// An upper bound on the blend's second derivative along lines through a
@@ -303,12 +308,17 @@ impl BlendIndex {
     /// bounds its slope; never below zero (the field is zero past the grid).
     #[must_use]
     pub fn cell_curvature(&self, region: &Region) -> f32 {
-        let mut m = 0.0f32;
+        self.largest_over(region, &self.cell_curvature)
+    }
+
+    /// The largest of the per-cell `values` over the cells a region meets, and zero.
+    fn largest_over(&self, region: &Region, values: &[f32]) -> f32 {
+        let mut largest = 0.0f32;
         match region {
-            Region::Segment(a, b) => self.walk_segment(*a, *b, |c| m = m.max(self.cell_curvature[c])),
-            Region::Box(b) => self.grid.for_each_cell(b, |c| m = m.max(self.cell_curvature[c])),
+            Region::Segment(a, b) => self.walk_segment(*a, *b, |c| largest = largest.max(values[c])),
+            Region::Box(b) => self.grid.for_each_cell(b, |c| largest = largest.max(values[c])),
         }
-        m
+        largest
     }
 
     /// The leaves listed in cell `c`.
