@@ -21,8 +21,7 @@ use crate::frame::Frame;
 use crate::geom::Aabb;
 use crate::mesh::{Polygonizer, canonical_triangles, skeleton_seeds};
 use crate::scene::{Scene, Size, load_script};
-use crate::trace::render_model;
-use crate::trace::{PixelRect, RenderSettings, changed_space, merge_rects, rerender, screen_rect};
+use crate::trace::{PixelRect, RenderSettings, changed_space, merge_rects, render_model, rerender, screen_rect};
 
 /// Options of `blobtrace edit`.
 #[derive(Debug, Args)]
