@@ -6,24 +6,20 @@ mod common;
 use blobtrace::bvh::{BvhUpdate, DynamicMesh, MeshBvh, RayTarget, StaticMesh, brute_force_intersect, render_mesh};
 use blobtrace::field::{Edit, EvalMode, ModelField, NodeKind, Placement};
 use blobtrace::geom::Ray;
-use blobtrace::mesh::{Lattice, Mesh, PolygonizeOptions, Polygonizer, canonical_triangles, skeleton_seeds};
+use blobtrace::mesh::{Mesh, PolygonizeOptions, Polygonizer, canonical_triangles, skeleton_seeds};
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::RenderSettings;
-use common::{EVERY_NODE, Rng, bundled};
+use common::{EVERY_NODE, Rng, bundled, polygonize};
 use glam::{Vec3, Vec3A};
 
-fn polygonized(scene: &Scene, res: u32) -> (Mesh, Lattice) {
-    let field = ModelField::new(&scene.model, EvalMode::Indexed);
-    let lattice = Lattice::across(&scene.model.bounds(), res);
-    let mut p = Polygonizer::new(lattice, PolygonizeOptions::default());
-    p.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
-    (p.mesh(), lattice)
+fn polygonized(scene: &Scene, res: u32) -> (Polygonizer, Mesh) {
+    polygonize(&scene.model, EvalMode::Indexed, res, PolygonizeOptions::default())
 }
 
 #[test]
 fn bvh_hits_equal_a_brute_force_loop_over_every_triangle() {
     let scene = Scene::parse(EVERY_NODE, "every").unwrap();
-    let (mesh, _) = polygonized(&scene, 24);
+    let (_, mesh) = polygonized(&scene, 24);
     let bvh = MeshBvh::build(&mesh);
     assert!(bvh.is_valid());
     let bounds = scene.model.bounds();
@@ -49,7 +45,8 @@ fn bvh_hits_equal_a_brute_force_loop_over_every_triangle() {
 #[test]
 fn sphere_mesh_depth_is_within_one_cell_of_the_analytic_depth() {
     let scene = bundled("sphere.ron");
-    let (mesh, lattice) = polygonized(&scene, 48);
+    let (polygonizer, mesh) = polygonized(&scene, 48);
+    let lattice = polygonizer.lattice();
     let settings = RenderSettings::for_scene(&scene, Size(96, 72));
     let (frame, stats) = render_mesh(&StaticMesh { mesh: &mesh, bvh: &MeshBvh::build(&mesh) }, &settings, &|_| {});
     let radius = 2.0 * (1.0 - 0.5f32.cbrt()).sqrt();
@@ -80,12 +77,7 @@ fn sphere_mesh_depth_is_within_one_cell_of_the_analytic_depth() {
 #[test]
 fn the_dynamic_bvh_follows_local_updates_and_stays_valid() {
     let mut scene = Scene::parse(EVERY_NODE, "every").unwrap();
-    let lattice = Lattice::across(&scene.model.bounds(), 32);
-    let mut polygonizer = Polygonizer::new(lattice, PolygonizeOptions::default());
-    {
-        let field = ModelField::new(&scene.model, EvalMode::Indexed);
-        polygonizer.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
-    }
+    let (mut polygonizer, _) = polygonized(&scene, 32);
     // One mesh takes the cheaper of update and rebuild; the other always updates.
     let mut dynamic = DynamicMesh::build(&polygonizer);
     let mut incremental = DynamicMesh::build(&polygonizer);
@@ -105,7 +97,7 @@ fn the_dynamic_bvh_follows_local_updates_and_stays_valid() {
         choices.push(dynamic.update(&polygonizer, &changed));
         incremental.remove_and_insert(&polygonizer, &changed);
         assert!(dynamic.is_valid() && incremental.is_valid(), "step {step}");
-        let (fresh, _) = polygonized(&scene, 32);
+        let (_, fresh) = polygonized(&scene, 32);
         assert_eq!(canonical_triangles(dynamic.triangles()), fresh.triangle_set(), "step {step}");
         assert_eq!(canonical_triangles(incremental.triangles()), fresh.triangle_set(), "step {step}");
         let bounds = scene.model.bounds();
@@ -125,12 +117,7 @@ fn the_dynamic_bvh_follows_local_updates_and_stays_valid() {
 #[test]
 fn a_small_change_updates_the_bvh_in_place() {
     let mut scene = bundled("hair_point.ron");
-    let lattice = Lattice::across(&scene.model.bounds(), 48);
-    let mut polygonizer = Polygonizer::new(lattice, PolygonizeOptions::default());
-    polygonizer.polygonize(
-        &ModelField::new(&scene.model, EvalMode::Indexed),
-        &skeleton_seeds(&scene.model, scene.model.root()),
-    );
+    let (mut polygonizer, _) = polygonized(&scene, 48);
     let mut dynamic = DynamicMesh::build(&polygonizer);
     let change = scene.model.apply(&Edit::Translate { node: "probe".into(), by: Vec3::new(0.05, 0.0, 0.0) }).unwrap();
     let field = ModelField::new(&scene.model, EvalMode::Indexed);

@@ -6,10 +6,10 @@ mod common;
 
 use blobtrace::field::{Edit, EmptySpace, EvalMode, Field, Model, ModelField};
 use blobtrace::frame::Frame;
-use blobtrace::mesh::{Lattice, PolygonizeOptions, Polygonizer, skeleton_seeds};
+use blobtrace::mesh::{PolygonizeOptions, Polygonizer, skeleton_seeds};
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::{PixelRect, RenderSettings, changed_space, render, render_model, rerender};
-use common::{EVERY_NODE, Rng, bundled};
+use common::{EVERY_NODE, Rng, bundled, polygonize};
 use glam::Vec3;
 
 fn random_edit(rng: &mut Rng, node: &str, primitive: bool) -> Edit {
@@ -100,18 +100,13 @@ fn incremental_renders_after_random_edits_equal_full_renders() {
 #[test]
 fn moving_a_cached_component_costs_no_samples_and_repolygonizes_locally() {
     let mut scene = bundled("medusa.ron");
-    let lattice = Lattice::across(&scene.model.bounds(), 40);
-    let mut local = Polygonizer::new(lattice, PolygonizeOptions::default());
-    local.polygonize(
-        &ModelField::new(&scene.model, EvalMode::Cached),
-        &skeleton_seeds(&scene.model, scene.model.root()),
-    );
+    let (mut local, _) = polygonize(&scene.model, EvalMode::Cached, 40, PolygonizeOptions::default());
     let change = scene.model.apply(&Edit::Translate { node: "head".into(), by: Vec3::new(0.0, -0.3, 0.1) }).unwrap();
     assert_eq!(change.samples_cleared, 0);
     let field = ModelField::new(&scene.model, EvalMode::Cached);
     let seeds = skeleton_seeds(&scene.model, scene.model.root());
     local.repolygonize(&field, &scene.model.change_region(&change, true), &seeds);
-    let mut full = Polygonizer::new(lattice, PolygonizeOptions::default());
+    let mut full = Polygonizer::new(local.lattice(), PolygonizeOptions::default());
     full.polygonize(&field, &seeds);
     assert_eq!(local.mesh().triangle_set(), full.mesh().triangle_set());
 }

@@ -3,10 +3,10 @@
 
 mod common;
 
-use blobtrace::field::{EvalMode, Model, ModelField, NodeKind, Placement};
-use blobtrace::mesh::{CellShape, Lattice, Mesh, PolygonizeOptions, Polygonizer, VertexPlacement, skeleton_seeds};
+use blobtrace::field::{EvalMode, ModelField, NodeKind, Placement};
+use blobtrace::mesh::{CellShape, PolygonizeOptions, Polygonizer, VertexPlacement, skeleton_seeds};
 use blobtrace::scene::Scene;
-use common::{EVERY_NODE, bundled};
+use common::{EVERY_NODE, bundled, polygonize};
 use glam::Vec3;
 
 const SHAPES: [CellShape; 2] = [CellShape::Cubes, CellShape::Bcc];
@@ -18,14 +18,6 @@ fn sphere() -> Scene {
 /// Iso radius of a point primitive of support radius `r` at threshold 0.5.
 fn iso_radius(r: f32) -> f32 {
     r * (1.0 - 0.5f32.cbrt()).sqrt()
-}
-
-fn polygonize(model: &Model, mode: EvalMode, res: u32, options: PolygonizeOptions) -> (Polygonizer, Mesh) {
-    let field = ModelField::new(model, mode);
-    let mut p = Polygonizer::new(Lattice::across(&model.bounds(), res), options);
-    p.polygonize(&field, &skeleton_seeds(model, model.root()));
-    let mesh = p.mesh();
-    (p, mesh)
 }
 
 #[test]

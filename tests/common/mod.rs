@@ -2,8 +2,9 @@
 #![allow(dead_code)]
 
 use blobtrace::camera::Camera;
-use blobtrace::field::Field;
+use blobtrace::field::{EvalMode, Field, Model, ModelField};
 use blobtrace::geom::Ray;
+use blobtrace::mesh::{Lattice, Mesh, PolygonizeOptions, Polygonizer, skeleton_seeds};
 use blobtrace::scene::Scene;
 use blobtrace::trace::{TraceOptions, trace_ray};
 use glam::Vec3A;
@@ -30,6 +31,16 @@ pub const EVERY_NODE: &str = r#"Scene(
 /// Loads a bundled scene by file name.
 pub fn bundled(name: &str) -> Scene {
     Scene::load(format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))).expect("bundled scene loads")
+}
+
+/// `model` polygonized in `mode` on the lattice of `res` cells across its
+/// bounds, grown from every skeleton; the polygonizer and its mesh.
+pub fn polygonize(model: &Model, mode: EvalMode, res: u32, options: PolygonizeOptions) -> (Polygonizer, Mesh) {
+    let field = ModelField::new(model, mode);
+    let mut p = Polygonizer::new(Lattice::across(&model.bounds(), res), options);
+    p.polygonize(&field, &skeleton_seeds(model, model.root()));
+    let mesh = p.mesh();
+    (p, mesh)
 }
 
 /// A small deterministic generator (SplitMix64) so tests need no seed plumbing.
