@@ -3,9 +3,9 @@
 //! space as the command line does, and the indexed render across thread
 //! counts. `cargo bench --bench render`.
 
-use blobtrace::field::{EvalMode, ModelField};
+use blobtrace::field::EvalMode;
 use blobtrace::scene::{Scene, Size};
-use blobtrace::trace::{RenderSettings, render, render_model};
+use blobtrace::trace::{RenderSettings, render_model};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 
 fn medusa() -> Scene {
@@ -30,14 +30,13 @@ fn eval_modes(c: &mut Criterion) {
 
 fn threads(c: &mut Criterion) {
     let scene = medusa();
-    let field = ModelField::new(&scene.model, EvalMode::Indexed);
     let mut group = c.benchmark_group("medusa_indexed_threads");
     group.sample_size(10);
     for n in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
         let s = settings(&scene, 160, 120);
         group.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
-            b.iter(|| pool.install(|| render(&field, &s, &|_| {})))
+            b.iter(|| pool.install(|| render_model(&scene.model, EvalMode::Indexed, &s, &|_| {})))
         });
     }
     group.finish();
