@@ -107,6 +107,26 @@ fn wide_blends_are_indexed() {
     assert_eq!(c.indexed_blends, 7, "each Medusa component is one indexed cluster");
 }
 
+/// On boxes smaller than its cells, an index sums the leaves over the box
+/// itself, as naive evaluation does, instead of taking the hull of the larger
+/// cells: the empty space it marks is the naive one.
+#[test]
+fn indexed_intervals_over_small_boxes_are_as_tight_as_naive_ones() {
+    let m = &medusa().model;
+    let (fast, slow) = (ModelField::new(m, EvalMode::Indexed), ModelField::new(m, EvalMode::Naive));
+    let b = m.bounds();
+    let side = b.size().max_element() / 64.0;
+    let mut rng = Rng(5);
+    let mut near_surface = 0;
+    for _ in 0..4000 {
+        let bx = Aabb::around(rng.point_in(b.min, b.max), 0.5 * side);
+        let (indexed, naive) = (fast.interval(&bx), slow.interval(&bx));
+        assert!(indexed.hi <= naive.hi * (1.0 + 1e-5) + 1e-6, "over {bx:?}: indexed {indexed:?}, naive {naive:?}");
+        near_surface += usize::from(naive.hi > 0.25);
+    }
+    assert!(near_surface > 100, "too few boxes near the surface: {near_surface}");
+}
+
 /// A random box or segment inside the scene bounds, from unit-cube parameters.
 fn region_from(b: &Aabb, t: [f32; 6], thin: f32) -> (Vec3A, Vec3A) {
     let a = b.min + b.size() * Vec3A::new(t[0], t[1], t[2]);

@@ -29,8 +29,8 @@ struct SeenLeaves {
 }
 
 impl SeenLeaves {
-    /// Sums `f(leaf)` over the distinct leaves in the cells the segment `a..b` crosses.
-    fn sum_unique(&mut self, ix: &BlendIndex, a: Vec3A, b: Vec3A, mut f: impl FnMut(u32) -> f32) -> f32 {
+    /// Calls `f(leaf)` once for each distinct leaf listed in the cells a region meets.
+    fn for_each_unique(&mut self, ix: &BlendIndex, region: &Region, mut f: impl FnMut(u32)) {
         if self.stamp.len() < ix.leaves.len() {
             self.stamp.resize(ix.leaves.len(), 0);
         }
@@ -39,18 +39,27 @@ impl SeenLeaves {
             self.stamp.fill(0);
             self.generation = 1;
         }
-        let mut total = 0.0;
-        ix.walk_segment(a, b, |c| {
+        ix.for_each_cell_in(region, |c| {
             for &i in ix.leaves_in(c) {
                 let mark = &mut self.stamp[i as usize];
                 if *mark != self.generation {
                     *mark = self.generation;
-                    total += f(i);
+                    f(i);
                 }
             }
         });
-        total
     }
+}
+
+/// Calls `f(leaf)` once for each distinct leaf of `ix` listed in the cells a
+/// region meets, with this thread's scratch marks.
+fn for_each_unique_leaf(ix: &BlendIndex, region: &Region, f: impl FnMut(u32)) {
+    SEEN.with(|cell| {
+        // Taken out while in use, so a nested index gets its own scratch.
+        let mut seen = cell.take();
+        seen.for_each_unique(ix, region, f);
+        cell.set(seen);
+    });
 }
 
 impl Model {
@@ -245,7 +254,7 @@ impl Model {
         match &node.kind {
             NodeKind::Primitive(prim) => prim.interval(b),
             NodeKind::Blend { children, index } => match (mode, index) {
-                (m, Some(ix)) if m.indexed() => ix.interval(b),
+                (m, Some(ix)) if m.indexed() => self.indexed_interval(ix, b, mode),
                 _ => sum(children),
             },
             NodeKind::Union(cs) => reduce(cs, Interval::max),
@@ -331,7 +340,7 @@ impl Model {
         match &node.kind {
             NodeKind::Primitive(prim) => prim.curvature_over(region),
             NodeKind::Blend { children, index } => match (mode, index) {
-                (m, Some(ix)) if m.indexed() => ix.cell_curvature(region),
+                (m, Some(ix)) if m.indexed() => self.indexed_curvature(ix, region, mode),
                 _ => children.iter().map(|&c| self.node_curvature(c, region, mode)).sum(),
             },
             NodeKind::Transform { placement, child } => {
@@ -353,31 +362,54 @@ impl Model {
     /// sum of the local bounds of the leaves listed in the cells the segment
     /// crosses (each leaf once). Long segments use the per-cell bounds instead.
     fn indexed_lipschitz(&self, ix: &BlendIndex, region: &Region, mode: EvalMode) -> f32 {
-        let Region::Segment(a, b) = *region else {
-            return ix.cell_lipschitz(region);
-        };
         // The per-cell bounds cost one grid walk. Summing the leaves' own
         // bounds is tighter but visits every leaf listed in every cell crossed:
         // on Medusa it takes 1.5× fewer steps at 3× the cost each. Node leaves
         // (a cache with its sampled slopes, say) can be far tighter along a
         // short segment than over whole cells, so those keep the sum.
-        if !ix.has_node_leaves() || ix.cells_overlapped(&region.bounds()) > MAX_CELLS_FOR_LEAF_BOUNDS {
+        if !matches!(region, Region::Segment(..)) || !sums_node_leaves(ix, region) {
             return ix.cell_lipschitz(region);
         }
-        SEEN.with(|cell| {
-            // Taken out while in use, so a nested index gets its own scratch.
-            let mut seen = cell.take();
-            let l = seen.sum_unique(ix, a, b, |i| {
-                let leaf = &ix.leaves[i as usize];
-                match &leaf.leaf {
-                    // The distance range already gives zero slope outside the support.
-                    Leaf::Primitive(prim) => prim.lipschitz_over(region),
-                    Leaf::Node(id) => self.node_lipschitz(*id, region, mode),
-                }
-            });
-            cell.set(seen);
-            l
-        })
+        let mut total = 0.0;
+        for_each_unique_leaf(ix, region, |i| total += self.leaf_lipschitz(&ix.leaves[i as usize], region, mode));
+        total
+    }
+
+    /// Curvature bound of an indexed blend along a region, as
+    /// [`Self::indexed_lipschitz`] bounds its slope. The per-cell bounds are
+    /// infinite where a node leaf reaches (they must hold for cached
+    /// evaluation too, where a cache's gradient jumps at its cell faces); the
+    /// sum over the leaves asks each node in the mode at hand.
+    fn indexed_curvature(&self, ix: &BlendIndex, region: &Region, mode: EvalMode) -> f32 {
+        if !sums_node_leaves(ix, region) {
+            return ix.cell_curvature(region);
+        }
+        let mut total = 0.0;
+        for_each_unique_leaf(ix, region, |i| {
+            let leaf = &ix.leaves[i as usize];
+            total += match &leaf.leaf {
+                Leaf::Primitive(prim) => prim.curvature_over(region),
+                Leaf::Node(id) => self.node_curvature(*id, region, mode),
+            };
+        });
+        total.max(0.0)
+    }
+
+    /// Value range of an indexed blend over a box: the hull of the cells it
+    /// meets. That is loose where the cells stick out past the box (an
+    /// empty-space cell is smaller than an index cell on Medusa), so where
+    /// the hull cannot rule out the surface and the box meets few cells, the
+    /// leaves are summed one by one, each answering for the box itself.
+    fn indexed_interval(&self, ix: &BlendIndex, b: &Aabb, mode: EvalMode) -> Interval {
+        let hull = ix.interval(b);
+        if ix.cells_overlapped(b) > MAX_CELLS_FOR_LEAF_BOUNDS {
+            return hull;
+        }
+        let mut total = Interval::ZERO;
+        for_each_unique_leaf(ix, &Region::Box(*b), |i| {
+            total = total + self.leaf_interval(&ix.leaves[i as usize], b, mode)
+        });
+        total
     }
 
     pub(super) fn leaf_lipschitz(&self, leaf: &IndexedLeaf, region: &Region, mode: EvalMode) -> f32 {
@@ -405,4 +437,10 @@ fn mix<F: FnOnce() -> Vec3>(parts: impl Iterator<Item = (f32, F)>) -> Vec3 {
         }
     }
     if total > 0.0 { acc / total } else { DEFAULT_COLOR }
+}
+
+/// True when a bound of `ix` over a region should sum its leaves one by one:
+/// some are nodes, and the region meets few enough cells for the walk to be cheap.
+fn sums_node_leaves(ix: &BlendIndex, region: &Region) -> bool {
+    ix.has_node_leaves() && ix.cells_overlapped(&region.bounds()) <= MAX_CELLS_FOR_LEAF_BOUNDS
 }

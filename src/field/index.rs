@@ -314,10 +314,7 @@ impl BlendIndex {
     /// The largest of the per-cell `values` over the cells a region meets, and zero.
     fn largest_over(&self, region: &Region, values: &[f32]) -> f32 {
         let mut largest = 0.0f32;
-        match region {
-            Region::Segment(a, b) => self.walk_segment(*a, *b, |c| largest = largest.max(values[c])),
-            Region::Box(b) => self.grid.for_each_cell(b, |c| largest = largest.max(values[c])),
-        }
+        self.for_each_cell_in(region, |c| largest = largest.max(values[c]));
         largest
     }
 
@@ -327,9 +324,13 @@ impl BlendIndex {
         self.cell_items(c)
     }
 
-    /// Visits the cells the segment `a..b` passes through (Amanatides–Woo walk).
-    pub fn walk_segment(&self, a: Vec3A, b: Vec3A, f: impl FnMut(usize)) {
-        self.grid.walk_segment(a, b, f);
+    /// Visits the cells a region meets: those a segment passes through
+    /// (Amanatides–Woo walk), or those a box overlaps.
+    pub fn for_each_cell_in(&self, region: &Region, f: impl FnMut(usize)) {
+        match region {
+            Region::Segment(a, b) => self.grid.walk_segment(*a, *b, f),
+            Region::Box(b) => self.grid.for_each_cell(b, f),
+        }
     }
 
     /// Bounds of the blend's value over a box: the hull of the cells it meets.
