@@ -522,12 +522,21 @@ impl Model {
             Box::new(BlendIndex::build(
                 bounds,
                 leaves,
-                // Per-cell bounds must hold for exact and cached evaluation alike.
-                |leaf, b| {
-                    self.leaf_interval(leaf, b, EvalMode::Naive).join(self.leaf_interval(leaf, b, EvalMode::Cached))
+                // Per-cell bounds must hold for exact and cached evaluation
+                // alike; only a node leaf can hold a cache and answer differently.
+                |leaf, b| match leaf.leaf {
+                    Leaf::Primitive(_) => self.leaf_interval(leaf, b, EvalMode::Naive),
+                    Leaf::Node(_) => {
+                        self.leaf_interval(leaf, b, EvalMode::Naive).join(self.leaf_interval(leaf, b, EvalMode::Cached))
+                    }
                 },
-                |leaf, r: &Region| {
-                    self.leaf_lipschitz(leaf, r, EvalMode::Naive).max(self.leaf_lipschitz(leaf, r, EvalMode::Cached))
+                |leaf, r: &Region| match leaf.leaf {
+                    Leaf::Primitive(_) => self.leaf_lipschitz(leaf, r, EvalMode::Naive),
+                    Leaf::Node(_) => self.leaf_lipschitz(leaf, r, EvalMode::Naive).max(self.leaf_lipschitz(
+                        leaf,
+                        r,
+                        EvalMode::Cached,
+                    )),
                 },
             ))
         });
