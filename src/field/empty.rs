@@ -35,33 +35,9 @@ impl EmptySpace {
         let extent = bounds.size().max(Vec3A::splat(1e-6));
         let cell = extent.max_element() / CELLS_ALONG_LONGEST_SIDE;
         let grid = UniformGrid::new(bounds.min, cell, (extent / cell).ceil().as_uvec3());
-        let iso = field.threshold();
-        let mut empty = vec![false; grid.cell_count()];
-        // Whole blocks first: a range below the threshold over a block holds
-        // for every cell in it, and most of a model's bounds is such blocks.
-        let block_cell = cell * BLOCK as f32;
-        let blocks = UniformGrid::new(bounds.min, block_cell, (extent / block_cell).ceil().as_uvec3());
-        let marks: Vec<(usize, bool)> = (0..blocks.cell_count())
-            .into_par_iter()
-            .flat_map_iter(|b| {
-                let block_box = blocks.cell_box(b);
-                let block_empty = field.interval(&block_box).hi < iso;
-                let first = blocks.coords(b) * BLOCK;
-                let last = (first + UVec3::splat(BLOCK)).min(grid.dims);
-                let cells = (first.z..last.z).flat_map(move |z| {
-                    (first.y..last.y).flat_map(move |y| (first.x..last.x).map(move |x| UVec3::new(x, y, z)))
-                });
-                let grid = &grid;
-                cells.map(move |i| {
-                    let c = grid.linear(i);
-                    (c, block_empty || field.interval(&grid.cell_box(c)).hi < iso)
-                })
-            })
-            .collect();
-        for (c, e) in marks {
-            empty[c] = e;
-        }
-        Self { grid, empty }
+        let mut space = Self { empty: vec![false; grid.cell_count()], grid };
+        space.mark(field, |_| true);
+        space
     }
 
     /// Marks again the cells overlapping `changed`, after the field changed
@@ -72,11 +48,35 @@ impl EmptySpace {
         for b in changed {
             self.grid.for_each_row(b, |row| touched[row].fill(true));
         }
-        let cells: Vec<usize> = (0..touched.len()).filter(|&c| touched[c]).collect();
+        self.mark(field, |c| touched[c]);
+    }
+
+    /// Marks the cells `chosen` picks. Whole blocks of cells go first: a range
+    /// below the threshold over a block holds for every cell in it, and most
+    /// of a model's bounds (and of an edit's boxes) is such blocks.
+    fn mark<F: Field + ?Sized>(&mut self, field: &F, chosen: impl Fn(usize) -> bool + Sync) {
+        let grid = &self.grid;
         let iso = field.threshold();
-        let marks: Vec<bool> = cells.par_iter().map(|&c| field.interval(&self.grid.cell_box(c)).hi < iso).collect();
-        for (c, empty) in cells.into_iter().zip(marks) {
-            self.empty[c] = empty;
+        let block_cell = grid.cell * BLOCK as f32;
+        let blocks = UniformGrid::new(grid.origin, block_cell, (grid.dims + UVec3::splat(BLOCK - 1)) / BLOCK);
+        let marks: Vec<(usize, bool)> = (0..blocks.cell_count())
+            .into_par_iter()
+            .flat_map_iter(|b| {
+                let first = blocks.coords(b) * BLOCK;
+                let last = (first + UVec3::splat(BLOCK)).min(grid.dims);
+                let cells: Vec<usize> = (first.z..last.z)
+                    .flat_map(|z| {
+                        (first.y..last.y).flat_map(move |y| (first.x..last.x).map(move |x| UVec3::new(x, y, z)))
+                    })
+                    .map(|i| grid.linear(i))
+                    .filter(|&c| chosen(c))
+                    .collect();
+                let block_empty = !cells.is_empty() && field.interval(&blocks.cell_box(b)).hi < iso;
+                cells.into_iter().map(move |c| (c, block_empty || field.interval(&grid.cell_box(c)).hi < iso))
+            })
+            .collect();
+        for (c, e) in marks {
+            self.empty[c] = e;
         }
     }
 
