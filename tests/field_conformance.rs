@@ -22,6 +22,30 @@ fn medusa() -> &'static Scene {
     SCENE.get_or_init(|| bundled("medusa.ron"))
 }
 
+/// Nine rotated rows of ten points: an indexed blend whose leaves are
+/// transforms of indexed blends, so bounds over it nest one index in another.
+fn nested() -> &'static Scene {
+    static SCENE: OnceLock<Scene> = OnceLock::new();
+    SCENE.get_or_init(|| {
+        let rows: String = (0..9)
+            .map(|k| {
+                let points: String = (0..10)
+                    .map(|j| format!("Point(center: ({:.2}, {:.2}, 0.0), radius: 0.5),", 0.2 * j as f32, 0.1 * k as f32))
+                    .collect();
+                format!(
+                    "Transform(translate: ({:.1}, 0.0, {:.1}), rotate: (10.0, 20.0, 30.0), child: Blend([{points}])),",
+                    0.3 * k as f32,
+                    0.2 * k as f32
+                )
+            })
+            .collect();
+        let source = format!(
+            "Scene(camera: Camera(eye: (0.0, 1.0, 7.0), target: (0.0, 0.0, 0.0), fov_y: 40.0), size: (8, 8), model: Blend([{rows}]))"
+        );
+        Scene::parse(&source, "nested").expect("nested scene parses")
+    })
+}
+
 /// Central difference of node `id` at `p` with step `h`.
 fn central_difference(m: &Model, id: NodeId, p: Vec3A, h: f32, mode: EvalMode) -> Vec3A {
     let d = |axis: Vec3A| (m.node_value(id, p + axis * h, mode) - m.node_value(id, p - axis * h, mode)) / (2.0 * h);
@@ -105,6 +129,7 @@ fn wide_blends_are_indexed() {
     assert_eq!(c.primitives, 9490);
     assert_eq!(c.caches, 7);
     assert_eq!(c.indexed_blends, 7, "each Medusa component is one indexed cluster");
+    assert_eq!(nested().model.counts().indexed_blends, 10, "the rows and the blend of them");
 }
 
 /// On boxes smaller than its cells, an index sums the leaves over the box
@@ -199,7 +224,7 @@ proptest! {
 
     #[test]
     fn curvature_bounds_dominate_sampled_second_differences(t in prop::array::uniform6(0.0f32..1.0), thin in 0.01f32..0.6, seed in 0u64..1000) {
-        for scene in [every_node(), medusa()] {
+        for scene in [every_node(), medusa(), nested()] {
             let (a, c) = region_from(&scene.model.bounds(), t, thin);
             for mode in [EvalMode::Indexed, EvalMode::Naive] {
                 check_curvature(&ModelField::new(&scene.model, mode), a, c, seed)?;
@@ -209,7 +234,7 @@ proptest! {
 
     #[test]
     fn intervals_contain_sampled_values(t in prop::array::uniform6(0.0f32..1.0), thin in 0.01f32..0.6, seed in 0u64..1000) {
-        for scene in [every_node(), medusa()] {
+        for scene in [every_node(), medusa(), nested()] {
             let (a, c) = region_from(&scene.model.bounds(), t, thin);
             for mode in [EvalMode::Indexed, EvalMode::Naive, EvalMode::Cached] {
                 check_interval(&ModelField::new(&scene.model, mode), a, c, seed)?;
@@ -219,13 +244,29 @@ proptest! {
 
     #[test]
     fn lipschitz_bounds_dominate_sampled_slopes(t in prop::array::uniform6(0.0f32..1.0), thin in 0.01f32..0.6, seed in 0u64..1000) {
-        for scene in [every_node(), medusa()] {
+        for scene in [every_node(), medusa(), nested()] {
             let (a, c) = region_from(&scene.model.bounds(), t, thin);
             for mode in [EvalMode::Indexed, EvalMode::Naive, EvalMode::Cached] {
                 check_lipschitz(&ModelField::new(&scene.model, mode), a, c, seed)?;
             }
         }
     }
+}
+
+/// Where an index holds nodes, its curvature bound sums them one by one
+/// instead of giving up, as its per-cell bounds (which must hold for caches) do.
+#[test]
+fn an_index_of_nodes_has_finite_curvature_bounds() {
+    let m = &nested().model;
+    let mut rng = Rng(8);
+    let b = m.bounds();
+    let finite = (0..200)
+        .filter(|_| {
+            let (a, d) = (rng.point_in(b.min, b.max), Vec3A::new(rng.next_f32(), 0.5, rng.next_f32()) * 0.1);
+            check_curvature(&ModelField::new(m, EvalMode::Indexed), a, a + d, 4).unwrap()
+        })
+        .count();
+    assert!(finite > 20, "only {finite} of 200 short segments had a finite, non-zero bound");
 }
 
 #[test]

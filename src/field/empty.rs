@@ -53,7 +53,9 @@ impl EmptySpace {
 
     /// Marks the cells `chosen` picks. Whole blocks of cells go first: a range
     /// below the threshold over a block holds for every cell in it, and most
-    /// of a model's bounds (and of an edit's boxes) is such blocks.
+    /// of a model's bounds (and of an edit's boxes) is such blocks. Blocks
+    /// with no chosen cell are passed over: visiting every block costs well
+    /// under a millisecond at 64 cells across, far less than one range query.
     fn mark<F: Field + ?Sized>(&mut self, field: &F, chosen: impl Fn(usize) -> bool + Sync) {
         let grid = &self.grid;
         let iso = field.threshold();

@@ -13,7 +13,8 @@ use super::region::Region;
 use super::{DEFAULT_COLOR, EvalMode};
 use crate::geom::{Aabb, Interval};
 
-/// Above this many cells, a segment's slope bound comes from the per-cell bounds.
+/// Above this many index cells, a region's bounds come from the per-cell
+/// bounds; at or below it they may sum the leaves listed there one by one.
 const MAX_CELLS_FOR_LEAF_BOUNDS: usize = 64;
 
 thread_local! {
@@ -358,9 +359,10 @@ impl Model {
         }
     }
 
-    /// Slope bound of an indexed blend over a region: for a segment, Galin's
-    /// sum of the local bounds of the leaves listed in the cells the segment
-    /// crosses (each leaf once). Long segments use the per-cell bounds instead.
+    /// Slope bound of an indexed blend over a region: the largest per-cell
+    /// bound along it, or, for a short segment through an index with node
+    /// leaves, Galin's sum of the local bounds of the leaves listed in the
+    /// cells it crosses (each leaf once).
     fn indexed_lipschitz(&self, ix: &BlendIndex, region: &Region, mode: EvalMode) -> f32 {
         // The per-cell bounds cost one grid walk. Summing the leaves' own
         // bounds is tighter but visits every leaf listed in every cell crossed:
@@ -385,31 +387,37 @@ impl Model {
             return ix.cell_curvature(region);
         }
         let mut total = 0.0;
-        for_each_unique_leaf(ix, region, |i| {
-            let leaf = &ix.leaves[i as usize];
-            total += match &leaf.leaf {
-                Leaf::Primitive(prim) => prim.curvature_over(region),
-                Leaf::Node(id) => self.node_curvature(*id, region, mode),
-            };
-        });
-        total.max(0.0)
+        for_each_unique_leaf(ix, region, |i| total += self.leaf_curvature(&ix.leaves[i as usize], region, mode));
+        total
     }
 
-    /// Value range of an indexed blend over a box: the hull of the cells it
-    /// meets. That is loose where the cells stick out past the box (an
-    /// empty-space cell is smaller than an index cell on Medusa), so where
-    /// the hull cannot rule out the surface and the box meets few cells, the
-    /// leaves are summed one by one, each answering for the box itself.
+    /// Value range of an indexed blend over a box. A box meeting few cells
+    /// sums its leaves one by one, each answering for the box itself: the hull
+    /// of the precomputed cell ranges is loose where the cells stick out past
+    /// the box (an empty-space cell is smaller than an index cell on Medusa).
+    /// Larger boxes take that hull.
     fn indexed_interval(&self, ix: &BlendIndex, b: &Aabb, mode: EvalMode) -> Interval {
-        let hull = ix.interval(b);
         if ix.cells_overlapped(b) > MAX_CELLS_FOR_LEAF_BOUNDS {
-            return hull;
+            return ix.interval(b);
         }
         let mut total = Interval::ZERO;
         for_each_unique_leaf(ix, &Region::Box(*b), |i| {
             total = total + self.leaf_interval(&ix.leaves[i as usize], b, mode)
         });
         total
+    }
+
+    fn leaf_curvature(&self, leaf: &IndexedLeaf, region: &Region, mode: EvalMode) -> f32 {
+        match &leaf.leaf {
+            Leaf::Primitive(prim) => {
+                if region.meets(&leaf.bounds) {
+                    prim.curvature_over(region)
+                } else {
+                    0.0
+                }
+            }
+            Leaf::Node(id) => self.node_curvature(*id, region, mode),
+        }
     }
 
     pub(super) fn leaf_lipschitz(&self, leaf: &IndexedLeaf, region: &Region, mode: EvalMode) -> f32 {

@@ -3,9 +3,11 @@
 //!
 //! Blends nest (a component is a blend of splines, each a blend of points), and
 //! sums are associative, so the index flattens a whole cluster of nested blends
-//! into one list of leaves. Each cell also stores a Lipschitz bound and a value
-//! range of the sum over the cell, precomputed from the leaves that overlap it:
-//! segment tracing and interval culling then cost one grid walk, not a sum.
+//! into one list of leaves. Each cell also stores a Lipschitz bound, a
+//! curvature bound and a value range of the sum over the cell, precomputed
+//! from the leaves that reach it: a long segment's or a large box's bounds
+//! then cost one grid walk, not a sum. (Short regions may still sum their
+//! leaves, where the cells would be too loose: see `field::eval`.)
 
 use glam::{Mat4, Vec3, Vec3A, Vec4};
 use rayon::prelude::*;

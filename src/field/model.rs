@@ -10,7 +10,7 @@ use super::node::{Node, NodeId, NodeKind, Placement};
 use super::primitive::Primitive;
 use super::region::Region;
 use crate::cache::{CacheGrid, CacheSpec, CacheStats, SLOT_BYTES, SamplePool};
-use crate::geom::Aabb;
+use crate::geom::{Aabb, Interval};
 
 /// Why a model could not be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -522,22 +522,9 @@ impl Model {
             Box::new(BlendIndex::build(
                 bounds,
                 leaves,
-                // Per-cell bounds must hold for exact and cached evaluation
-                // alike; only a node leaf can hold a cache and answer differently.
-                |leaf, b| match leaf.leaf {
-                    Leaf::Primitive(_) => self.leaf_interval(leaf, b, EvalMode::Naive),
-                    Leaf::Node(_) => {
-                        self.leaf_interval(leaf, b, EvalMode::Naive).join(self.leaf_interval(leaf, b, EvalMode::Cached))
-                    }
-                },
-                |leaf, r: &Region| match leaf.leaf {
-                    Leaf::Primitive(_) => self.leaf_lipschitz(leaf, r, EvalMode::Naive),
-                    Leaf::Node(_) => self.leaf_lipschitz(leaf, r, EvalMode::Naive).max(self.leaf_lipschitz(
-                        leaf,
-                        r,
-                        EvalMode::Cached,
-                    )),
-                },
+                // Per-cell bounds must hold for exact and cached evaluation alike.
+                |leaf, b| in_every_mode(leaf, |m| self.leaf_interval(leaf, b, m), Interval::join),
+                |leaf, r: &Region| in_every_mode(leaf, |m| self.leaf_lipschitz(leaf, r, m), f32::max),
             ))
         });
         if let NodeKind::Blend { index: slot, .. } = &mut self.nodes[id as usize].kind {
@@ -573,6 +560,16 @@ impl Model {
             }
         }
         c
+    }
+}
+
+/// A bound on `leaf` that holds in every evaluation mode, the `widest` of its
+/// exact and cached `bound`s: only a node leaf can hold a cache and answer
+/// differently; a primitive answers alike in all.
+fn in_every_mode<T>(leaf: &IndexedLeaf, bound: impl Fn(EvalMode) -> T, widest: impl Fn(T, T) -> T) -> T {
+    match leaf.leaf {
+        Leaf::Primitive(_) => bound(EvalMode::Naive),
+        Leaf::Node(_) => widest(bound(EvalMode::Naive), bound(EvalMode::Cached)),
     }
 }
 
