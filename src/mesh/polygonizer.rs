@@ -16,7 +16,7 @@ use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
-use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key};
+use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, sort_key};
 use super::seeds::Seed;
 use super::vertex::{VertexPlacement, place_on_edge};
 use super::{Mesh, bcc, cubes};
@@ -231,7 +231,7 @@ impl Polygonizer {
                 });
             }
         }
-        edges.sort_unstable_by_key(|[a, b]| (a.to_array(), b.to_array()));
+        edges.sort_unstable_by_key(|&[a, b]| (sort_key(a), sort_key(b)));
         edges.dedup();
         let seeds = self.fine_crossings(field, &edges, scale);
         let mut around = vec![];
@@ -418,7 +418,7 @@ impl Polygonizer {
                 (0..n).map(move |i| v[i]).filter(|q| !corners.contains_key(q))
             })
             .collect();
-        missing.par_sort_unstable_by_key(|q| q.to_array());
+        missing.par_sort_unstable_by_key(|&q| sort_key(q));
         missing.dedup();
         let lattice = self.lattice;
         let values: Vec<f32> = missing.par_iter().map(|&q| field.value(lattice.position(q))).collect();
@@ -455,7 +455,8 @@ impl Polygonizer {
                 new_edges
             })
             .collect();
-        edges.par_sort_unstable_by_key(|[a, b]| (a.to_array(), b.to_array()));
+        // An edge's key names it alone: sorting by it brings each edge together.
+        edges.par_sort_unstable_by_key(|&[a, b]| sort_key(edge_key(a, b)));
         edges.dedup();
         let (lattice, placement, with_colors) = (self.lattice, self.options.vertex, self.with_colors);
         let corners = &self.corners;
