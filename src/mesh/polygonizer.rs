@@ -23,6 +23,11 @@ use super::{Mesh, bcc, cubes};
 use crate::field::{DEFAULT_COLOR, Field};
 use crate::geom::Aabb;
 
+/// The fewest cells, corners or edges a parallel task takes on: a local
+/// update grows through many small waves, which splitting among the threads
+/// would slow down.
+const MIN_PARALLEL_ITEMS: usize = 64;
+
 /// How space is cut into cells.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum CellShape {
@@ -207,7 +212,7 @@ impl Polygonizer {
     pub fn polygonize<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Seed]) {
         self.with_colors = field.varies_in_color();
         self.threshold = field.threshold();
-        let frontier = self.seed(field, seeds);
+        let frontier = self.seed(field, seeds, None);
         self.grow(field, frontier);
         self.place_vertices(field);
     }
@@ -312,7 +317,7 @@ impl Polygonizer {
             }
         }
         let mut frontier = self.claim(around);
-        frontier.extend(self.seed(field, seeds));
+        frontier.extend(self.seed(field, seeds, Some(&near)));
         let added = self.grow(field, frontier);
         self.place_vertices(field);
         Repolygonized { removed, added }
@@ -326,11 +331,24 @@ impl Polygonizer {
     /// in one lattice row march in order, and a start lying on a stretch an
     /// earlier march crossed to a sign change is skipped, since it would find
     /// that same change; rows march in parallel.
-    fn seed<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Seed]) -> Vec<Cell> {
+    ///
+    /// With `dropped`, the box whose corners were just forgotten, only starts
+    /// whose march along +x can enter it march: every other march reads only
+    /// corners kept from before and finds the crossings it found then, whose
+    /// cells are visited already.
+    fn seed<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Seed], dropped: Option<&Aabb>) -> Vec<Cell> {
         let lattice = self.lattice;
+        // Padded against rounding in the corners' positions.
+        let reaches = |q: LatticePoint| {
+            dropped.is_none_or(|b| {
+                let (b, p) = (b.padded(0.5 * lattice.cell), lattice.position(q));
+                p.x <= b.max.x && (b.min.y..=b.max.y).contains(&p.y) && (b.min.z..=b.max.z).contains(&p.z)
+            })
+        };
         let mut starts: Vec<(LatticePoint, i32)> = seeds
             .iter()
             .map(|s| (lattice.nearest_corner(s.point), 2 * (s.reach / lattice.cell).ceil() as i32 + 2))
+            .filter(|&(q, _)| reaches(q))
             .collect();
         // One start per corner, with the longest reach; rows of equal (z, y) by x.
         starts.sort_unstable_by_key(|&(q, reach)| (q.z, q.y, q.x, std::cmp::Reverse(reach)));
@@ -379,6 +397,7 @@ impl Polygonizer {
             // Masks and neighbour lists in parallel; marking cells visited in order.
             let examined: Vec<(u8, Neighbours)> = frontier
                 .par_iter()
+                .with_min_len(MIN_PARALLEL_ITEMS)
                 .map_init(Vec::new, |scratch, &cell| {
                     let mask = self.mask(cell);
                     scratch.clear();
@@ -413,6 +432,7 @@ impl Polygonizer {
         let corners = &self.corners;
         let mut missing: Vec<LatticePoint> = cells
             .par_iter()
+            .with_min_len(MIN_PARALLEL_ITEMS)
             .flat_map_iter(|&cell| {
                 let (v, n) = shape.vertices(cell);
                 (0..n).map(move |i| v[i]).filter(|q| !corners.contains_key(q))
@@ -421,7 +441,8 @@ impl Polygonizer {
         missing.par_sort_unstable_by_key(|&q| sort_key(q));
         missing.dedup();
         let lattice = self.lattice;
-        let values: Vec<f32> = missing.par_iter().map(|&q| field.value(lattice.position(q))).collect();
+        let values: Vec<f32> =
+            missing.par_iter().with_min_len(MIN_PARALLEL_ITEMS).map(|&q| field.value(lattice.position(q))).collect();
         self.stats.corner_evals += missing.len() as u64;
         self.corners.extend(missing.into_iter().zip(values));
     }
@@ -442,6 +463,7 @@ impl Polygonizer {
         let known = &self.vertices;
         let mut edges: Vec<[LatticePoint; 2]> = crossed_cells
             .par_iter()
+            .with_min_len(MIN_PARALLEL_ITEMS)
             .flat_map_iter(|&(cell, mask)| {
                 let mut new_edges = vec![];
                 shape.polygons(cell, mask, &mut |polygon| {
@@ -462,6 +484,7 @@ impl Polygonizer {
         let corners = &self.corners;
         let placed: Vec<(EdgeKey, EdgeVertex, u32)> = edges
             .par_iter()
+            .with_min_len(MIN_PARALLEL_ITEMS)
             .map(|&[a, b]| {
                 let ends = |q: LatticePoint| (lattice.position(q), corners[&q]);
                 let (p, evals) = place_on_edge(field, ends(a), ends(b), placement);
