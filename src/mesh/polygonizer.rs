@@ -214,7 +214,7 @@ impl Polygonizer {
         self.threshold = field.threshold();
         let frontier = self.seed(field, seeds, None);
         self.grow(field, frontier);
-        self.place_vertices(field);
+        self.place_vertices(field, &self.crossed_with_masks());
     }
 
     /// Polygonizes on this polygonizer's lattice, which must be `coarse`'s refined
@@ -245,7 +245,7 @@ impl Polygonizer {
         }
         let frontier = self.claim(around);
         self.grow(field, frontier);
-        self.place_vertices(field);
+        self.place_vertices(field, &self.crossed_with_masks());
     }
 
     /// For each coarse edge (in fine coordinates, `scale` fine steps long), the
@@ -310,16 +310,23 @@ impl Polygonizer {
             }
             keep
         });
+        // The crossed cells kept next to the hole: growth restarts from their
+        // neighbours, and they may have lost vertices on the hole's faces.
+        let mut border = vec![];
         let mut around = vec![];
         for (&c, &mask) in &self.cells {
             if inside(c.cube, 2) && crossed(mask, shape) {
                 shape.neighbours(c, mask, &mut around);
+                border.push((c, mask));
             }
         }
         let mut frontier = self.claim(around);
-        frontier.extend(self.seed(field, seeds, Some(&near)));
+        let hole = Aabb::new(lo.as_vec3a() * cell, (hi + IVec3::ONE).as_vec3a() * cell);
+        frontier.extend(self.seed(field, seeds, Some(&hole)));
         let added = self.grow(field, frontier);
-        self.place_vertices(field);
+        // Every other crossed cell kept all its vertices.
+        border.extend(added.iter().map(|c| (*c, self.cells[c])));
+        self.place_vertices(field, &border);
         Repolygonized { removed, added }
     }
 
@@ -332,16 +339,18 @@ impl Polygonizer {
     /// earlier march crossed to a sign change is skipped, since it would find
     /// that same change; rows march in parallel.
     ///
-    /// With `dropped`, the box whose corners were just forgotten, only starts
-    /// whose march along +x can enter it march: every other march reads only
-    /// corners kept from before and finds the crossings it found then, whose
-    /// cells are visited already.
-    fn seed<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Seed], dropped: Option<&Aabb>) -> Vec<Cell> {
+    /// With `hole`, the box of the cells just dropped (holding every corner
+    /// dropped), only starts whose march along +x can come within a cell of it
+    /// march: every other march reads only corners kept from before and finds
+    /// the crossings it found then, whose cells (all within a cell of the
+    /// march) are kept and visited already.
+    fn seed<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Seed], hole: Option<&Aabb>) -> Vec<Cell> {
         let lattice = self.lattice;
-        // Padded against rounding in the corners' positions.
+        // A cell on either side, and half a cell against rounding in positions.
+        let reach = hole.map(|b| b.padded(1.5 * lattice.cell));
         let reaches = |q: LatticePoint| {
-            dropped.is_none_or(|b| {
-                let (b, p) = (b.padded(0.5 * lattice.cell), lattice.position(q));
+            reach.is_none_or(|b| {
+                let p = lattice.position(q);
                 p.x <= b.max.x && (b.min.y..=b.max.y).contains(&p.y) && (b.min.z..=b.max.z).contains(&p.z)
             })
         };
@@ -454,12 +463,16 @@ impl Polygonizer {
         (0..n).filter(|&i| self.corners[&v[i]] > t).fold(0u8, |m, i| m | 1 << i)
     }
 
-    /// Places a vertex, with its normal and colour, on every crossed edge of a
-    /// crossed cell that has none yet; in parallel.
-    fn place_vertices<F: Field + ?Sized>(&mut self, field: &F) {
+    /// Every crossed cell with its mask.
+    fn crossed_with_masks(&self) -> Vec<(Cell, u8)> {
         let shape = self.options.cells;
-        let crossed_cells: Vec<(Cell, u8)> =
-            self.cells.iter().filter(|&(_, &m)| crossed(m, shape)).map(|(&c, &m)| (c, m)).collect();
+        self.cells.iter().filter(|&(_, &m)| crossed(m, shape)).map(|(&c, &m)| (c, m)).collect()
+    }
+
+    /// Places a vertex, with its normal and colour, on every crossed edge of
+    /// `crossed_cells` that has none yet; in parallel.
+    fn place_vertices<F: Field + ?Sized>(&mut self, field: &F, crossed_cells: &[(Cell, u8)]) {
+        let shape = self.options.cells;
         let known = &self.vertices;
         let mut edges: Vec<[LatticePoint; 2]> = crossed_cells
             .par_iter()
