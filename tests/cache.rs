@@ -137,6 +137,40 @@ fn short_segments(points: &[Vec3A]) -> Vec<Region> {
     points.iter().map(|&p| Region::Segment(p, p + step)).collect()
 }
 
+/// Once the samples around a box are held, the cache bounds its value there by
+/// their range (tighter than the subtree's bound over their reach), without
+/// evaluating anything; both filters and both storages stay inside it.
+#[test]
+fn intervals_over_held_samples_are_tighter_and_still_hold() {
+    for (value, storage) in [("Trilinear", "F32"), ("Triquadratic", "F16")] {
+        let scene = cached_scene(32, value, "Triquadratic", storage);
+        let field = ModelField::new(&scene.model, EvalMode::Cached);
+        let c = field.bounds().size().max_element() / 32.0;
+        let boxes: Vec<Aabb> = random_points(&scene.model, 400, 21).into_iter().map(|p| Aabb::around(p, c)).collect();
+        let cold: Vec<_> = boxes.iter().map(|b| field.interval(b)).collect();
+        for p in random_points(&scene.model, 40_000, 22) {
+            field.value(p);
+        }
+        let evaluated = samples_evaluated(&scene.model);
+        let warm: Vec<_> = boxes.iter().map(|b| field.interval(b)).collect();
+        assert_eq!(samples_evaluated(&scene.model), evaluated, "{value} {storage}: ranges evaluated samples");
+        let mut rng = Rng(23);
+        let mut tighter = 0;
+        for ((b, cold), warm) in boxes.iter().zip(&cold).zip(&warm) {
+            assert!(
+                warm.lo >= cold.lo - 1e-6 && warm.hi <= cold.hi + 1e-6,
+                "{value} {storage}: {warm:?} wider than {cold:?}"
+            );
+            tighter += usize::from(warm.hi < cold.hi - 1e-3);
+            for _ in 0..32 {
+                let v = field.value(rng.point_in(b.min, b.max));
+                assert!(warm.lo <= v && v <= warm.hi, "{value} {storage}: {v} outside {warm:?} over {b:?}");
+            }
+        }
+        assert!(tighter > 40, "{value} {storage}: only {tighter} of 400 ranges got tighter");
+    }
+}
+
 #[test]
 fn invalidation_after_an_edit_matches_a_fresh_cache_and_spares_the_rest() {
     let mut scene = default_scene(32);

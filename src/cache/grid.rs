@@ -24,6 +24,8 @@ const BLOCK_SHIFT: i32 = 3;
 pub const PAD_CELLS: f32 = 2.0;
 /// Segments up to this many cells long take their slope bound from the samples.
 const MAX_SAMPLED_SEGMENT_CELLS: f32 = 8.0;
+/// Most samples a value range over a box reads before asking the subtree instead.
+const MAX_HELD_RANGE_SAMPLES: i64 = 512;
 /// Summary cells a slope query may visit before falling back to one bound over its box.
 const MAX_SUMMARY_CELLS: usize = 64;
 /// A bound on each gradient component is a bound on the norm divided by √3.
@@ -447,13 +449,93 @@ impl CacheGrid {
         b.padded(MAX_SUPPORT_CELLS * self.cell)
     }
 
-    /// Bounds of the reconstructed value over `b`, given `child_range`, the
-    /// subtree's range over a box: the samples the filter reads, widened by
-    /// their rounding in storage.
+    /// Bounds of the reconstructed value over `b`: the range of the samples
+    /// the filters may read there when all are held (both filters stay within
+    /// it), else `child_range`, the subtree's range over their reach, widened
+    /// by the samples' rounding in storage.
     pub fn interval(&self, b: &Aabb, child_range: &impl Fn(&Aabb) -> Interval) -> Interval {
+        if let Some(held) = self.held_range(b) {
+            return held;
+        }
         let r = child_range(&self.sample_reach(b));
         let e = self.spec.storage.rounding_error(r.lo.abs().max(r.hi.abs()));
         Interval::new(r.lo - e, r.hi + e)
+    }
+
+    /// The range of the samples at the lattice points in the filters' reach
+    /// over `b`, if every one is held (points outside the subtree's bounds are
+    /// zero); `None` as soon as one is not, or when the reach holds more than
+    /// [`MAX_HELD_RANGE_SAMPLES`]. Evaluates nothing.
+    fn held_range(&self, b: &Aabb) -> Option<Interval> {
+        let reach = self.sample_reach(b);
+        let (lo, hi) = ((reach.min * self.inv_cell).ceil().as_ivec3(), (reach.max * self.inv_cell).floor().as_ivec3());
+        let count = (hi - lo + IVec3::ONE).max(IVec3::ZERO).as_i64vec3().element_product();
+        if count == 0 || count > MAX_HELD_RANGE_SAMPLES {
+            return None;
+        }
+        let (mut min, mut max) = (f32::INFINITY, f32::NEG_INFINITY);
+        let (b0, b1) = (self.block_of(lo), self.block_of(hi));
+        let block_cells = self.block_cells();
+        for bz in b0.z..=b1.z {
+            for by in b0.y..=b1.y {
+                for bx in b0.x..=b1.x {
+                    let block = IVec3::new(bx, by, bz);
+                    let part = (lo.max(block * block_cells), hi.min((block + IVec3::ONE) * block_cells - IVec3::ONE));
+                    let (part_min, part_max) = self.held_part_range(block, part)?;
+                    (min, max) = (min.min(part_min), max.max(part_max));
+                }
+            }
+        }
+        Some(Interval::new(min, max))
+    }
+
+    /// [`Self::held_range`] over the lattice points `lo..=hi` of one block.
+    fn held_part_range(&self, block: IVec3, (lo, hi): (IVec3, IVec3)) -> Option<(f32, f32)> {
+        let (mut min, mut max) = (f32::INFINITY, f32::NEG_INFINITY);
+        let (mut at, mut halves, mut count) = ([0u16; 64], [0u8; 64], 0);
+        for z in lo.z..=hi.z {
+            for y in lo.y..=hi.y {
+                for x in lo.x..=hi.x {
+                    let i = IVec3::new(x, y, z);
+                    if !self.child_bounds.contains(i.as_vec3a() * self.cell) {
+                        // Never stored: the subtree is zero there.
+                        (min, max) = (min.min(0.0), max.max(0.0));
+                        continue;
+                    }
+                    let (w, h) = self.word_of(i);
+                    (at[count], halves[count]) = (w as u16, h as u8);
+                    count += 1;
+                    if count == at.len() {
+                        let (lo_v, hi_v) = self.held_words_range(block, &at[..count], &halves[..count])?;
+                        (min, max) = (min.min(lo_v), max.max(hi_v));
+                        count = 0;
+                    }
+                }
+            }
+        }
+        if count > 0 {
+            let (lo_v, hi_v) = self.held_words_range(block, &at[..count], &halves[..count])?;
+            (min, max) = (min.min(lo_v), max.max(hi_v));
+        }
+        Some((min, max))
+    }
+
+    /// The range of the samples at words `at` (halves `halves`) of `block`,
+    /// read in one consistent section; `None` if one is not held.
+    fn held_words_range(&self, block: IVec3, at: &[u16], halves: &[u8]) -> Option<(f32, f32)> {
+        let t = self.table_index(block)?;
+        // SAFETY: as in `sample`.
+        let slot = unsafe { self.table[t].load(Ordering::Acquire).as_ref() }?;
+        let mut words = [UNSET; 64];
+        if !slot.read_many(block_key(self.serial, block), at, &mut words[..at.len()]) {
+            return None;
+        }
+        let (mut min, mut max) = (f32::INFINITY, f32::NEG_INFINITY);
+        for (&word, &half) in words.iter().zip(halves) {
+            let v = self.spec.storage.decode(word, u32::from(half))?;
+            (min, max) = (min.min(v), max.max(v));
+        }
+        Some((min, max))
     }
 
     /// A bound on the reconstruction's slope over the lattice cell with minimum
