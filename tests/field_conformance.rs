@@ -123,6 +123,33 @@ fn indexed_and_naive_evaluation_agree() {
     }
 }
 
+/// The tracer takes value and gradient together after curvature steps: they
+/// must be the very values it would get apart, or steps and hits would move.
+#[test]
+fn value_and_gradient_together_equal_them_apart_to_the_bit() {
+    for scene in [medusa(), every_node(), nested()] {
+        let m = &scene.model;
+        let b = m.bounds();
+        let mut rng = Rng(17);
+        for mode in [EvalMode::Indexed, EvalMode::Naive, EvalMode::Cached] {
+            let field = ModelField::new(m, mode);
+            let mut inside_support = 0;
+            for _ in 0..5_000 {
+                let p = rng.point_in(b.min, b.max);
+                let (v, g) = field.value_and_gradient(p);
+                assert_eq!(v.to_bits(), field.value(p).to_bits(), "value at {p} ({mode:?})");
+                assert_eq!(
+                    g.to_array().map(f32::to_bits),
+                    field.gradient(p).to_array().map(f32::to_bits),
+                    "gradient at {p} ({mode:?})"
+                );
+                inside_support += usize::from(v > 0.0);
+            }
+            assert!(inside_support > 100, "too few samples inside the supports: {inside_support}");
+        }
+    }
+}
+
 #[test]
 fn wide_blends_are_indexed() {
     let c = medusa().model.counts();

@@ -122,6 +122,56 @@ impl Model {
         })
     }
 
+    /// [`Self::node_value`] and [`Self::node_gradient`] together, to the same
+    /// bits, in one pass where they share work: sums of points in an index,
+    /// and the blends and frames above them. Other nodes evaluate the two apart.
+    pub fn node_value_and_gradient(&self, id: NodeId, p: Vec3A, mode: EvalMode) -> (f32, Vec3A) {
+        let node = self.node(id);
+        if !node.bounds.contains(p) {
+            return (0.0, Vec3A::ZERO);
+        }
+        match &node.kind {
+            NodeKind::Blend { index: Some(ix), .. } if mode.indexed() => {
+                if let Some((v, g)) = ix.point_sum_and_gradient(p) {
+                    return (v as f32, g);
+                }
+            }
+            NodeKind::Blend { children, index } if index.is_none() || !mode.indexed() => {
+                let (v, g) = self.nested_blend_value_and_gradient(children, p, mode);
+                return (v as f32, g);
+            }
+            NodeKind::Transform { placement, child } => {
+                let (v, g) = self.node_value_and_gradient(*child, placement.local(p), mode);
+                return (v, placement.gradient_map * g);
+            }
+            NodeKind::Cache { .. } if mode == EvalMode::Cached => {}
+            NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => {
+                return self.node_value_and_gradient(*child, p, mode);
+            }
+            _ => {}
+        }
+        (self.node_value(id, p, mode), self.node_gradient(id, p, mode))
+    }
+
+    /// [`Self::nested_blend_sum`] with the children's gradients summed as
+    /// [`Self::node_gradient`] sums them.
+    fn nested_blend_value_and_gradient(&self, children: &[NodeId], p: Vec3A, mode: EvalMode) -> (f64, Vec3A) {
+        children.iter().fold((0.0f64, Vec3A::ZERO), |(sum, gradient), &c| {
+            let node = self.node(c);
+            let (v, g) = match &node.kind {
+                NodeKind::Blend { children, .. } if node.bounds.contains(p) => {
+                    self.nested_blend_value_and_gradient(children, p, mode)
+                }
+                NodeKind::Blend { .. } => (0.0, Vec3A::ZERO),
+                _ => {
+                    let (v, g) = self.node_value_and_gradient(c, p, mode);
+                    (f64::from(v), g)
+                }
+            };
+            (sum + v, gradient + g)
+        })
+    }
+
     #[inline]
     fn leaf_value(&self, leaf: &IndexedLeaf, p: Vec3A, mode: EvalMode) -> f32 {
         match &leaf.leaf {

@@ -115,6 +115,19 @@ impl PackedPoints {
         Vec3A::new(gx.element_sum(), gy.element_sum(), gz.element_sum())
     }
 
+    /// [`Self::sum`] and [`Self::gradient`] in one pass, each to the same bits.
+    #[inline]
+    fn sum_and_gradient(&self, items: &[u32], p: Vec3A) -> (f64, Vec3A) {
+        let mut acc = glam::DVec4::ZERO;
+        let (mut gx, mut gy, mut gz) = (Vec4::ZERO, Vec4::ZERO, Vec4::ZERO);
+        self.for_each_quad(items, p, |lanes| {
+            acc += (Kernel::wyvill4(lanes.d2, lanes.inv_r2) * lanes.weight).as_dvec4();
+            let k = Kernel::wyvill4_pull(lanes.d2, lanes.inv_r2) * lanes.weight;
+            (gx, gy, gz) = (gx + lanes.to_center[0] * k, gy + lanes.to_center[1] * k, gz + lanes.to_center[2] * k);
+        });
+        ((acc.x + acc.y) + (acc.z + acc.w), Vec3A::new(gx.element_sum(), gy.element_sum(), gz.element_sum()))
+    }
+
     /// Calls `f` with the listed points four at a time, laid out by lane.
     /// The tail repeats a listed point with its weight masked to zero.
     #[inline]
@@ -275,6 +288,14 @@ impl BlendIndex {
     #[must_use]
     pub fn point_sum(&self, p: Vec3A) -> Option<f64> {
         self.points.as_ref().map(|points| points.sum(self.candidates(p), p))
+    }
+
+    /// The blend's value and gradient at `p` when all its leaves are points:
+    /// [`Self::point_sum`] and [`Self::point_gradient`] in one pass.
+    #[inline]
+    #[must_use]
+    pub fn point_sum_and_gradient(&self, p: Vec3A) -> Option<(f64, Vec3A)> {
+        self.points.as_ref().map(|points| points.sum_and_gradient(self.candidates(p), p))
     }
 
     /// True when some leaf is a node rather than a primitive.

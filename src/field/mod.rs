@@ -63,6 +63,11 @@ pub trait Field: Sync {
     fn value(&self, p: Vec3A) -> f32;
     /// Gradient of the field at `p` (points inwards, towards higher values).
     fn gradient(&self, p: Vec3A) -> Vec3A;
+    /// [`Field::value`] and [`Field::gradient`] at `p` together, the same
+    /// values, where computing both at once is cheaper.
+    fn value_and_gradient(&self, p: Vec3A) -> (f32, Vec3A) {
+        (self.value(p), self.gradient(p))
+    }
     /// Surface colour at `p` (linear RGB).
     fn color(&self, p: Vec3A) -> Vec3;
     /// Conservative bounds of the value over a box.
@@ -123,6 +128,9 @@ impl Field for ModelField<'_> {
     }
     fn gradient(&self, p: Vec3A) -> Vec3A {
         self.model.node_gradient(self.model.root(), p, self.mode)
+    }
+    fn value_and_gradient(&self, p: Vec3A) -> (f32, Vec3A) {
+        self.model.node_value_and_gradient(self.model.root(), p, self.mode)
     }
     fn color(&self, p: Vec3A) -> Vec3 {
         self.model.node_color(self.model.root(), p, self.mode)

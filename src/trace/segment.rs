@@ -5,6 +5,8 @@
 //! A step of `|f - T| / λ` cannot cross the iso-surface, because on that
 //! segment `f` moves by at most `λ` per unit length: no crossing is skipped.
 
+use glam::Vec3A;
+
 use crate::field::{Field, Region};
 use crate::geom::Ray;
 
@@ -107,12 +109,14 @@ pub fn march<F: Field + ?Sized>(
     let mut segment = opts.first_segment * diag;
     let mut relax = true;
     let mut skipped = false;
+    // The gradient at `t`, when the value there came with it.
+    let mut gradient = None;
     while out.steps < opts.max_steps {
         if !skipped {
             match skip_empty(field, ray, (t, t_end), tol) {
                 Skip::ToEnd => return (Crossing::None, out),
                 Skip::To(t_skip, v_skip) => {
-                    (t, v, skipped) = (t_skip, v_skip, true);
+                    (t, v, skipped, gradient) = (t_skip, v_skip, true, None);
                     out.evals += 1;
                     continue;
                 }
@@ -125,7 +129,8 @@ pub fn march<F: Field + ?Sized>(
         // Near the surface a curvature step is longer than a Lipschitz one
         // in all but one step in two hundred on Medusa: take it alone
         // where the field's gradient is smooth enough to have one.
-        let curved = if -v < CURVATURE_MARGIN * iso { curvature_step(field, ray, t, -v, room) } else { None };
+        let curved =
+            if -v < CURVATURE_MARGIN * iso { curvature_step(field, ray, (t, gradient), -v, room) } else { None };
         let bound = curved.unwrap_or_else(|| {
             let halvings = if -v > HALVING_MARGIN * iso { MAX_BOUNDS_PER_STEP } else { 1 };
             bounded_step(field, ray, t, -v, room, halvings)
@@ -160,9 +165,18 @@ pub fn march<F: Field + ?Sized>(
             // The field is zero on and beyond the end: nothing is left to hit.
             return (Crossing::None, out);
         }
+        // After a curvature step the next is most likely one too: take the
+        // gradient it will need with the value, for less than both apart.
+        gradient = None;
         let v_next = ahead.unwrap_or_else(|| {
             out.evals += 1;
-            field.value(ray.at(t_next)) - iso
+            if curved.is_some() {
+                let (value, g) = field.value_and_gradient(ray.at(t_next));
+                gradient = Some(g);
+                value - iso
+            } else {
+                field.value(ray.at(t_next)) - iso
+            }
         });
         if v_next > 0.0 {
             let ((a, b), evals) = refine(field, ray, (t, v), (t_next, v_next), tol);
@@ -259,13 +273,20 @@ fn bounded_step<F: Field + ?Sized>(
 /// at `t` and `M` the bound, so no crossing comes before the root of
 /// `m = g s + M s² / 2`. Approaching a surface, `g` is the true slope where a
 /// Lipschitz bound takes the steepest anywhere near: the steps close in on
-/// the surface quadratically instead of by a fixed fraction.
-fn curvature_step<F: Field + ?Sized>(field: &F, ray: &Ray, t: f32, m: f32, room: f32) -> Option<BoundedStep> {
+/// the surface quadratically instead of by a fixed fraction. The gradient
+/// at `t` is taken from `gradient` when the march has it already.
+fn curvature_step<F: Field + ?Sized>(
+    field: &F,
+    ray: &Ray,
+    (t, gradient): (f32, Option<Vec3A>),
+    m: f32,
+    room: f32,
+) -> Option<BoundedStep> {
     let curvature = field.curvature(&Region::Segment(ray.at(t), ray.at(t + room)));
     if !curvature.is_finite() {
         return None;
     }
-    let g = field.gradient(ray.at(t)).dot(ray.dir);
+    let g = gradient.unwrap_or_else(|| field.gradient(ray.at(t))).dot(ray.dir);
     if !g.is_finite() {
         return None;
     }
