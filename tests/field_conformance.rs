@@ -280,32 +280,33 @@ proptest! {
     }
 }
 
+/// How many of 200 short random segments of `scene`, each `step` (scaled by
+/// random numbers on the axes marked `random`), have a finite, positive
+/// curvature bound that the samples along them respect.
+fn finite_curvature_count(scene: &Scene, seed: u64, step: Vec3A, random: [bool; 3]) -> usize {
+    let m = &scene.model;
+    let mut rng = Rng(seed);
+    let b = m.bounds();
+    (0..200)
+        .filter(|_| {
+            let a = rng.point_in(b.min, b.max);
+            let scale = random.map(|r| if r { rng.next_f32() } else { 1.0 });
+            let d = step * Vec3A::from_array(scale);
+            check_curvature(&ModelField::new(m, EvalMode::Indexed), a, a + d, seed).unwrap()
+        })
+        .count()
+}
+
 /// Where an index holds nodes, its curvature bound sums them one by one
 /// instead of giving up, as its per-cell bounds (which must hold for caches) do.
 #[test]
 fn an_index_of_nodes_has_finite_curvature_bounds() {
-    let m = &nested().model;
-    let mut rng = Rng(8);
-    let b = m.bounds();
-    let finite = (0..200)
-        .filter(|_| {
-            let (a, d) = (rng.point_in(b.min, b.max), Vec3A::new(rng.next_f32(), 0.5, rng.next_f32()) * 0.1);
-            check_curvature(&ModelField::new(m, EvalMode::Indexed), a, a + d, 4).unwrap()
-        })
-        .count();
+    let finite = finite_curvature_count(nested(), 8, Vec3A::new(0.1, 0.05, 0.1), [true, false, true]);
     assert!(finite > 20, "only {finite} of 200 short segments had a finite, non-zero bound");
 }
 
 #[test]
 fn medusa_has_finite_curvature_bounds_where_the_tracer_needs_them() {
-    let m = &medusa().model;
-    let mut rng = Rng(5);
-    let b = m.bounds();
-    let checked = (0..200)
-        .filter(|_| {
-            let (a, d) = (rng.point_in(b.min, b.max), Vec3A::new(rng.next_f32(), rng.next_f32(), 0.5) * 0.05);
-            check_curvature(&ModelField::new(m, EvalMode::Indexed), a, a + d, 9).unwrap()
-        })
-        .count();
+    let checked = finite_curvature_count(medusa(), 5, Vec3A::new(0.05, 0.05, 0.025), [true, true, false]);
     assert!(checked > 20, "only {checked} of 200 short segments had a finite, non-zero bound");
 }

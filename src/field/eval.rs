@@ -9,6 +9,7 @@ use glam::{Vec3, Vec3A};
 use super::index::{BlendIndex, IndexedLeaf, Leaf};
 use super::model::Model;
 use super::node::{NodeId, NodeKind};
+use super::primitive::Primitive;
 use super::region::Region;
 use super::{DEFAULT_COLOR, EvalMode};
 use crate::geom::{Aabb, Interval};
@@ -458,28 +459,26 @@ impl Model {
     }
 
     fn leaf_curvature(&self, leaf: &IndexedLeaf, region: &Region, mode: EvalMode) -> f32 {
-        match &leaf.leaf {
-            Leaf::Primitive(prim) => {
-                if region.meets(&leaf.bounds) {
-                    prim.curvature_over(region)
-                } else {
-                    0.0
-                }
-            }
-            Leaf::Node(id) => self.node_curvature(*id, region, mode),
-        }
+        self.leaf_bound(leaf, region, Primitive::curvature_over, |id| self.node_curvature(id, region, mode))
     }
 
     pub(super) fn leaf_lipschitz(&self, leaf: &IndexedLeaf, region: &Region, mode: EvalMode) -> f32 {
+        self.leaf_bound(leaf, region, Primitive::lipschitz_over, |id| self.node_lipschitz(id, region, mode))
+    }
+
+    /// A leaf's bound over a region: a primitive's own (zero where its box
+    /// misses the region), a node's from the tree.
+    fn leaf_bound(
+        &self,
+        leaf: &IndexedLeaf,
+        region: &Region,
+        primitive: fn(&Primitive, &Region) -> f32,
+        node: impl Fn(NodeId) -> f32,
+    ) -> f32 {
         match &leaf.leaf {
-            Leaf::Primitive(prim) => {
-                if region.meets(&leaf.bounds) {
-                    prim.lipschitz_over(region)
-                } else {
-                    0.0
-                }
-            }
-            Leaf::Node(id) => self.node_lipschitz(*id, region, mode),
+            Leaf::Primitive(prim) if region.meets(&leaf.bounds) => primitive(prim, region),
+            Leaf::Primitive(_) => 0.0,
+            Leaf::Node(id) => node(*id),
         }
     }
 }
