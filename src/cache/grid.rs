@@ -60,7 +60,9 @@ pub struct CacheGrid {
     /// only invalidation clears them.
     cell_slopes: Box<[OnceLock<Box<[AtomicU16]>>]>,
     lookups: ShardedCounter,
-    evaluated: AtomicU64,
+    /// Samples evaluated, counted per thread: one shared counter bounced
+    /// between the cores on every fill.
+    evaluated: ShardedCounter,
 }
 
 impl std::fmt::Debug for CacheGrid {
@@ -120,7 +122,7 @@ impl CacheGrid {
             slopes: Box::new([]),
             cell_slopes: Box::new([]),
             lookups: ShardedCounter::default(),
-            evaluated: AtomicU64::new(0),
+            evaluated: ShardedCounter::default(),
         };
         grid.rebuild(child_bounds, pool);
         grid
@@ -282,7 +284,7 @@ impl CacheGrid {
                 return v;
             }
             let v = storage.round_trip(eval(p));
-            self.evaluated.fetch_add(1, Ordering::Relaxed);
+            self.evaluated.add(1);
             let bits = storage.encode(v);
             slot.write(g, w, |old| storage.store(old, half, bits));
             return v;
@@ -737,7 +739,7 @@ impl CacheGrid {
         CacheStats {
             cell: self.cell,
             grid_points,
-            samples_evaluated: self.evaluated.load(Ordering::Relaxed),
+            samples_evaluated: self.evaluated.total(),
             samples_held,
             touched_fraction: samples_held as f64 / grid_points.max(1) as f64,
             blocks,
