@@ -455,8 +455,8 @@ impl CacheGrid {
     /// the filters may read there when all are held (both filters stay within
     /// it), else `child_range`, the subtree's range over their reach, widened
     /// by the samples' rounding in storage.
-    pub fn interval(&self, b: &Aabb, child_range: &impl Fn(&Aabb) -> Interval) -> Interval {
-        if let Some(held) = self.held_range(b) {
+    pub fn interval(&self, b: &Aabb, pool: &SamplePool, child_range: &impl Fn(&Aabb) -> Interval) -> Interval {
+        if let Some(held) = self.held_range(b, pool) {
             return held;
         }
         let r = child_range(&self.sample_reach(b));
@@ -467,8 +467,9 @@ impl CacheGrid {
     /// The range of the samples at the lattice points in the filters' reach
     /// over `b`, if every one is held (points outside the subtree's bounds are
     /// zero); `None` as soon as one is not, or when the reach holds more than
-    /// [`MAX_HELD_RANGE_SAMPLES`]. Evaluates nothing.
-    fn held_range(&self, b: &Aabb) -> Option<Interval> {
+    /// [`MAX_HELD_RANGE_SAMPLES`]. Evaluates nothing; reading a block counts
+    /// as a use of it, as a lookup's does.
+    fn held_range(&self, b: &Aabb, pool: &SamplePool) -> Option<Interval> {
         let reach = self.sample_reach(b);
         let (lo, hi) = ((reach.min * self.inv_cell).ceil().as_ivec3(), (reach.max * self.inv_cell).floor().as_ivec3());
         let count = (hi - lo + IVec3::ONE).max(IVec3::ZERO).as_i64vec3().element_product();
@@ -483,7 +484,7 @@ impl CacheGrid {
                 for bx in b0.x..=b1.x {
                     let block = IVec3::new(bx, by, bz);
                     let part = (lo.max(block * block_cells), hi.min((block + IVec3::ONE) * block_cells - IVec3::ONE));
-                    let (part_min, part_max) = self.held_part_range(block, part)?;
+                    let (part_min, part_max) = self.held_part_range(block, part, pool)?;
                     (min, max) = (min.min(part_min), max.max(part_max));
                 }
             }
@@ -492,7 +493,7 @@ impl CacheGrid {
     }
 
     /// [`Self::held_range`] over the lattice points `lo..=hi` of one block.
-    fn held_part_range(&self, block: IVec3, (lo, hi): (IVec3, IVec3)) -> Option<(f32, f32)> {
+    fn held_part_range(&self, block: IVec3, (lo, hi): (IVec3, IVec3), pool: &SamplePool) -> Option<(f32, f32)> {
         let (mut min, mut max) = (f32::INFINITY, f32::NEG_INFINITY);
         let (mut at, mut halves, mut count) = ([0u16; 64], [0u8; 64], 0);
         for z in lo.z..=hi.z {
@@ -508,7 +509,7 @@ impl CacheGrid {
                     (at[count], halves[count]) = (w as u16, h as u8);
                     count += 1;
                     if count == at.len() {
-                        let (lo_v, hi_v) = self.held_words_range(block, &at[..count], &halves[..count])?;
+                        let (lo_v, hi_v) = self.held_words_range(block, &at[..count], &halves[..count], pool)?;
                         (min, max) = (min.min(lo_v), max.max(hi_v));
                         count = 0;
                     }
@@ -516,7 +517,7 @@ impl CacheGrid {
             }
         }
         if count > 0 {
-            let (lo_v, hi_v) = self.held_words_range(block, &at[..count], &halves[..count])?;
+            let (lo_v, hi_v) = self.held_words_range(block, &at[..count], &halves[..count], pool)?;
             (min, max) = (min.min(lo_v), max.max(hi_v));
         }
         Some((min, max))
@@ -524,12 +525,9 @@ impl CacheGrid {
 
     /// The range of the samples at words `at` (halves `halves`) of `block`,
     /// read in one consistent section; `None` if one is not held.
-    fn held_words_range(&self, block: IVec3, at: &[u16], halves: &[u8]) -> Option<(f32, f32)> {
-        let t = self.table_index(block)?;
-        // SAFETY: as in `sample`.
-        let slot = unsafe { self.table[t].load(Ordering::Acquire).as_ref() }?;
+    fn held_words_range(&self, block: IVec3, at: &[u16], halves: &[u8], pool: &SamplePool) -> Option<(f32, f32)> {
         let mut words = [UNSET; 64];
-        if !slot.read_many(block_key(self.serial, block), at, &mut words[..at.len()]) {
+        if !self.read_block(block, at, &mut words[..at.len()], pool) {
             return None;
         }
         let (mut min, mut max) = (f32::INFINITY, f32::NEG_INFINITY);

@@ -327,7 +327,7 @@ impl Model {
                 self.node_interval(*child, &b.transformed(&placement.to_local), mode)
             }
             NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
-                self.cache(*grid).interval(b, &|r| self.node_interval(*child, r, mode))
+                self.cache(*grid).interval(b, self.pool(), &|r| self.node_interval(*child, r, mode))
             }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_interval(*child, b, mode),
         }

@@ -97,35 +97,27 @@ impl PackedPoints {
     #[inline]
     fn sum(&self, items: &[u32], p: Vec3A) -> f64 {
         let mut acc = glam::DVec4::ZERO;
-        self.for_each_quad(items, p, |lanes| {
-            acc += (Kernel::wyvill4(lanes.d2, lanes.inv_r2) * lanes.weight).as_dvec4();
-        });
-        (acc.x + acc.y) + (acc.z + acc.w)
+        self.for_each_quad(items, p, |lanes| acc += lanes.values());
+        sum_lanes(acc)
     }
 
     /// The sum of the listed points' gradients at `p`, four at a time.
     #[inline]
     fn gradient(&self, items: &[u32], p: Vec3A) -> Vec3A {
-        let (mut gx, mut gy, mut gz) = (Vec4::ZERO, Vec4::ZERO, Vec4::ZERO);
-        self.for_each_quad(items, p, |lanes| {
-            // Towards the centres: the gradient of g(|p - c|²) is 2 g' (p - c), g' <= 0.
-            let k = Kernel::wyvill4_pull(lanes.d2, lanes.inv_r2) * lanes.weight;
-            (gx, gy, gz) = (gx + lanes.to_center[0] * k, gy + lanes.to_center[1] * k, gz + lanes.to_center[2] * k);
-        });
-        Vec3A::new(gx.element_sum(), gy.element_sum(), gz.element_sum())
+        let mut acc = [Vec4::ZERO; 3];
+        self.for_each_quad(items, p, |lanes| add_axes(&mut acc, lanes.gradients()));
+        sum_axes(acc)
     }
 
     /// [`Self::sum`] and [`Self::gradient`] in one pass, each to the same bits.
     #[inline]
     fn sum_and_gradient(&self, items: &[u32], p: Vec3A) -> (f64, Vec3A) {
-        let mut acc = glam::DVec4::ZERO;
-        let (mut gx, mut gy, mut gz) = (Vec4::ZERO, Vec4::ZERO, Vec4::ZERO);
+        let (mut values, mut gradients) = (glam::DVec4::ZERO, [Vec4::ZERO; 3]);
         self.for_each_quad(items, p, |lanes| {
-            acc += (Kernel::wyvill4(lanes.d2, lanes.inv_r2) * lanes.weight).as_dvec4();
-            let k = Kernel::wyvill4_pull(lanes.d2, lanes.inv_r2) * lanes.weight;
-            (gx, gy, gz) = (gx + lanes.to_center[0] * k, gy + lanes.to_center[1] * k, gz + lanes.to_center[2] * k);
+            values += lanes.values();
+            add_axes(&mut gradients, lanes.gradients());
         });
-        ((acc.x + acc.y) + (acc.z + acc.w), Vec3A::new(gx.element_sum(), gy.element_sum(), gz.element_sum()))
+        (sum_lanes(values), sum_axes(gradients))
     }
 
     /// Calls `f` with the listed points four at a time, laid out by lane.
@@ -170,6 +162,42 @@ struct Quad {
     weight: Vec4,
     /// `centre - p`, per axis.
     to_center: [Vec4; 3],
+}
+
+impl Quad {
+    /// The four points' values, in double precision.
+    #[inline]
+    fn values(&self) -> glam::DVec4 {
+        (Kernel::wyvill4(self.d2, self.inv_r2) * self.weight).as_dvec4()
+    }
+
+    /// The four points' gradients, per axis.
+    #[inline]
+    fn gradients(&self) -> [Vec4; 3] {
+        // Towards the centres: the gradient of g(|p - c|²) is 2 g' (p - c), g' <= 0.
+        let k = Kernel::wyvill4_pull(self.d2, self.inv_r2) * self.weight;
+        self.to_center.map(|axis| axis * k)
+    }
+}
+
+/// Adds four lanes of gradients, per axis.
+#[inline]
+fn add_axes(acc: &mut [Vec4; 3], g: [Vec4; 3]) {
+    for (a, g) in acc.iter_mut().zip(g) {
+        *a += g;
+    }
+}
+
+/// The total of four lanes of values, summed in pairs.
+#[inline]
+fn sum_lanes(v: glam::DVec4) -> f64 {
+    (v.x + v.y) + (v.z + v.w)
+}
+
+/// The total of four lanes of gradients.
+#[inline]
+fn sum_axes([x, y, z]: [Vec4; 3]) -> Vec3A {
+    Vec3A::new(x.element_sum(), y.element_sum(), z.element_sum())
 }
 
 impl BlendIndex {
