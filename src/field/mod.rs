@@ -86,6 +86,11 @@ pub trait Field: Sync {
     fn bounds(&self) -> Aabb;
     /// The iso-value `T`.
     fn threshold(&self) -> f32;
+    /// True when reading a value may fill lazily built caches, so a value
+    /// nobody else asks for costs exact evaluations rather than a lookup.
+    fn fills_caches_on_read(&self) -> bool {
+        false
+    }
     /// False when [`Field::color`] is the same everywhere, so callers may skip asking.
     fn varies_in_color(&self) -> bool {
         true
@@ -137,6 +142,9 @@ impl Field for ModelField<'_> {
     }
     fn interval(&self, b: &Aabb) -> Interval {
         self.model.node_interval(self.model.root(), b, self.mode)
+    }
+    fn fills_caches_on_read(&self) -> bool {
+        self.mode == EvalMode::Cached && self.model.counts().caches > 0
     }
     fn lipschitz(&self, region: &Region) -> f32 {
         self.model.node_lipschitz(self.model.root(), region, self.mode)
