@@ -163,6 +163,7 @@ const OPERATORS: &str = r#"Scene(
         Named("group", Blend([Point(center: (-0.6, 0.0, 0.0), radius: 1.0), Named("b", Point(center: (0.6, 0.0, 0.0), radius: 1.0))])),
         Named("cut", Intersection([Point(center: (0.0, 1.2, 0.0), radius: 1.1), Point(center: (0.3, 1.2, 0.0), radius: 1.1)])),
         Named("cached", Cache(res: 24, child: Blend([Point(center: (0.0, -1.3, 0.0), radius: 0.9), Point(center: (0.5, -1.3, 0.2), radius: 0.8)]))),
+        Named("either", Union([Point(center: (1.3, 0.1, 0.0), radius: 0.9, weight: -1.0)])),
     ]),
 )"#;
 
@@ -179,6 +180,17 @@ fn adding_removing_and_changing_operators_update_incrementally() {
     let edits = [
         add("group", "g1", 0.0, 0.5),
         add("cached", "c1", -0.4, -1.0),
+        // The union's only child dents the group: with a second, the union is
+        // zero where the dent was, far from the new point.
+        add("either", "e1", 2.4, -0.8),
+        // Past the resize rule: the cache is laid anew on a coarser lattice.
+        Edit::AddPoint {
+            to: "cached".into(),
+            name: "c2".into(),
+            center: Vec3::new(3.0, -1.6, 0.0),
+            radius: 1.4,
+            weight: 1.0,
+        },
         add("cut", "i1", 0.1, 1.3),
         Edit::Remove { node: "b".into() },
         Edit::Operator { node: "group".into(), op: Operator::Union },
@@ -189,12 +201,20 @@ fn adding_removing_and_changing_operators_update_incrementally() {
         let mut scene = Scene::parse(OPERATORS, "operators").unwrap();
         let settings = RenderSettings::for_scene(&scene, Size(64, 48));
         let (mut frame, _, mut empty) = render_model(&scene.model, mode, &settings, &|_| {});
+        let (mut local, _) = polygonize(&scene.model, mode, 24, PolygonizeOptions::default());
         for edit in &edits {
             let change = scene.model.apply(edit).unwrap();
             let before = frame.clone();
             let rects = rerender_after(&scene.model, &change, mode, &settings, &mut frame, &mut empty);
-            let full = render(&ModelField::new(&scene.model, mode), &settings, &|_| {}).0;
+            let field = ModelField::new(&scene.model, mode);
+            let full = render(&field, &settings, &|_| {}).0;
             assert!(frame.same_image(&full), "{mode:?} {edit:?}");
+            let seeds = skeleton_seeds(&scene.model, scene.model.root());
+            local.repolygonize(&field, &scene.model.change_region(&change, mode == EvalMode::Cached), &seeds);
+            let mut fresh = Polygonizer::new(local.lattice(), PolygonizeOptions::default());
+            fresh.polygonize(&field, &seeds);
+            let same = local.mesh().triangle_set() == fresh.mesh().triangle_set();
+            assert!(same, "{mode:?} {edit:?}: the local mesh differs from a fresh one");
             assert!(!changed_pixels(&before, &full).is_empty(), "{mode:?} {edit:?} changes the image");
             for (x, y) in changed_pixels(&before, &full) {
                 assert!(rects.iter().any(|r| r.contains(x, y)), "{mode:?} {edit:?}: pixel {x},{y}");

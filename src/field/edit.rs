@@ -275,7 +275,38 @@ impl Model {
             return vec![self.change_region(change, cached)];
         }
         let mut boxes = change.supports.clone();
-        let mut at = change.scope;
+        self.carry_up(change.scope, &mut boxes, cached);
+        boxes.extend(self.rebuilt_regions(change, cached));
+        boxes
+    }
+
+    /// The world box (the root's frame) holding everything `change` may have
+    /// changed in the field evaluated in `cached` or exact mode: its old and new
+    /// bounds carried up through the transforms above, and in cached mode
+    /// widened, at each cache on the way, by the reach of its filters (and
+    /// holding the whole of every cache the change rebuilt).
+    #[must_use]
+    pub fn change_region(&self, change: &Change, cached: bool) -> Aabb {
+        let mut region = [change.old.union(&change.new)];
+        self.carry_up(change.node, &mut region, cached);
+        self.rebuilt_regions(change, cached).fold(region[0], |u, b| u.union(&b))
+    }
+
+    /// The world boxes of the caches `change` rebuilt, whose cached field
+    /// changed all over; none for exact evaluation, which passes caches by.
+    fn rebuilt_regions<'a>(&'a self, change: &'a Change, cached: bool) -> impl Iterator<Item = Aabb> + 'a {
+        change.rebuilt.iter().filter(move |_| cached).map(move |&(cache, b)| {
+            let mut region = [b];
+            self.carry_up(cache, &mut region, cached);
+            region[0]
+        })
+    }
+
+    /// Carries `boxes`, in the frame node `id`'s parent sees, up to the root's:
+    /// through the transforms above, and in cached mode widened at each cache
+    /// on the way by the reach of its filters.
+    fn carry_up(&self, id: NodeId, boxes: &mut [Aabb], cached: bool) {
+        let mut at = id;
         while let Some(parent) = self.node(at).parent {
             match &self.node(parent).kind {
                 NodeKind::Transform { placement, .. } => {
@@ -289,25 +320,6 @@ impl Model {
             }
             at = parent;
         }
-        boxes
-    }
-
-    /// The world box (the root's frame) holding everything `change` may have
-    /// changed in the field evaluated in `cached` or exact mode: its old and new
-    /// bounds carried up through the transforms above, and in cached mode
-    /// widened, at each cache on the way, by the reach of its filters.
-    #[must_use]
-    pub fn change_region(&self, change: &Change, cached: bool) -> Aabb {
-        let (mut at, mut region) = (change.node, change.old.union(&change.new));
-        while let Some(parent) = self.node(at).parent {
-            match &self.node(parent).kind {
-                NodeKind::Transform { placement, .. } => region = region.transformed(&placement.to_world),
-                NodeKind::Cache { grid, .. } if cached => region = self.cache(*grid).sample_reach(&region),
-                _ => {}
-            }
-            at = parent;
-        }
-        region
     }
 }
 

@@ -9,7 +9,7 @@ use super::index::{BlendIndex, IndexedLeaf, Leaf, MIN_INDEXED_LEAVES};
 use super::node::{Node, NodeId, NodeKind, Placement};
 use super::primitive::Primitive;
 use super::region::Region;
-use crate::cache::{CacheGrid, CacheSpec, CacheStats, SLOT_BYTES, SamplePool};
+use crate::cache::{CacheGrid, CacheSpec, CacheStats, Refit, SLOT_BYTES, SamplePool};
 use crate::geom::{Aabb, Interval};
 
 /// Why a model could not be built.
@@ -64,6 +64,11 @@ pub struct Change {
     pub supports: Vec<Aabb>,
     /// The node in whose frame `supports` lie.
     pub scope: NodeId,
+    /// Caches laid anew on a coarser or finer lattice because their
+    /// subtree's bounds changed past the resize rule, each with its old and
+    /// new bounds together (in its parent's frame): the cached field changed
+    /// all over them.
+    pub rebuilt: Vec<(NodeId, Aabb)>,
 }
 
 /// A BlobTree: nodes in an arena, children before parents' use, parents known,
@@ -77,6 +82,8 @@ pub struct Model {
     /// One lattice per `Cache` node, indexed by the node's `grid`.
     grids: Vec<Option<CacheGrid>>,
     pool: SamplePool,
+    /// Caches rebuilt since the last change was reported (see [`Change::rebuilt`]).
+    rebuilt: Vec<(NodeId, Aabb)>,
 }
 
 impl Clone for Model {
@@ -89,6 +96,7 @@ impl Clone for Model {
             names: self.names.clone(),
             grids: self.grids.iter().map(|_| None).collect(),
             pool: SamplePool::default(),
+            rebuilt: Vec::new(),
         };
         model.empty_caches(SamplePool::new(self.pool.budget_slots()));
         model
@@ -136,6 +144,7 @@ impl ModelBuilder {
             names: HashMap::new(),
             grids: Vec::new(),
             pool: SamplePool::default(),
+            rebuilt: Vec::new(),
         };
         model.link()?;
         model.refresh();
@@ -250,7 +259,12 @@ impl Model {
             NodeKind::Transform { placement, .. } => child_bounds[0].transformed(&placement.to_world),
             NodeKind::Cache { spec, grid, .. } => {
                 let (spec, grid) = (*spec, *grid);
-                self.fit_cache(grid, spec, child_bounds[0])
+                let old = self.nodes[id as usize].bounds;
+                let (b, refit) = self.fit_cache(grid, spec, child_bounds[0]);
+                if refit == Refit::Rebuilt {
+                    self.rebuilt.push((id, old.union(&b)));
+                }
+                b
             }
             _ => child_bounds.iter().fold(Aabb::EMPTY, |a, b| a.union(b)),
         };
@@ -259,14 +273,15 @@ impl Model {
         b
     }
 
-    /// Makes or refits cache `grid` for its subtree's new bounds; returns the cache's bounds.
-    fn fit_cache(&mut self, grid: usize, spec: CacheSpec, child_bounds: Aabb) -> Aabb {
+    /// Makes or refits cache `grid` for its subtree's new bounds; returns the
+    /// cache's bounds and what the refit did (a new cache keeps nothing).
+    fn fit_cache(&mut self, grid: usize, spec: CacheSpec, child_bounds: Aabb) -> (Aabb, Refit) {
         match &mut self.grids[grid] {
             Some(g) => {
-                g.fit(child_bounds, &self.pool);
-                g.bounds()
+                let refit = g.fit(child_bounds, &self.pool);
+                (g.bounds(), refit)
             }
-            slot @ None => slot.insert(CacheGrid::new(spec, child_bounds, &self.pool)).bounds(),
+            slot @ None => (slot.insert(CacheGrid::new(spec, child_bounds, &self.pool)).bounds(), Refit::Kept),
         }
     }
 
@@ -425,18 +440,32 @@ impl Model {
 
     /// After children of `op` were added or removed: refresh, and invalidate
     /// where the field changed — the child's own bounds, except under an
-    /// intersection, whose minimum changes wherever the operator reaches.
+    /// intersection, whose minimum changes wherever the operator reaches, and
+    /// a union, whose maximum goes from negative to the zero a child has
+    /// outside its support wherever the other children are negative (with
+    /// negative weights).
     fn children_changed(&mut self, op: NodeId, old_op: Aabb, old: Aabb, new: Aabb) -> Change {
         self.refresh_from(op);
         let new_op = self.nodes[op as usize].bounds;
-        let (old, new) = if matches!(self.nodes[op as usize].kind, NodeKind::Intersection(_)) {
+        let (old, new) = if matches!(self.nodes[op as usize].kind, NodeKind::Intersection(_) | NodeKind::Union(_)) {
             (old_op, new_op)
         } else {
             (old, new)
         };
         // Caches inside the operator's own frame: the op itself may be cached above.
         let samples_cleared = self.invalidate_from(op, old.union(&new));
-        Change { node: op, old, new, samples_cleared, supports: Vec::new(), scope: op }
+        self.change(op, (old, new), samples_cleared)
+    }
+
+    /// The change of node `id` from bounds `old` to `new`, after clearing
+    /// `samples_cleared` samples above it; caches above a cache rebuilt on the
+    /// way clear its whole bounds too.
+    fn change(&mut self, id: NodeId, (old, new): (Aabb, Aabb), mut samples_cleared: u64) -> Change {
+        let rebuilt = std::mem::take(&mut self.rebuilt);
+        for &(cache, b) in &rebuilt {
+            samples_cleared += self.invalidate_above(cache, b);
+        }
+        Change { node: id, old, new, samples_cleared, supports: Vec::new(), scope: id, rebuilt }
     }
 
     /// Clears the samples inside `region` (in `id`'s own frame) in `id` if it
@@ -454,7 +483,7 @@ impl Model {
         self.refresh_from(id);
         let new = self.node(id).bounds;
         let samples_cleared = self.invalidate_above(id, old.union(&new));
-        Change { node: id, old, new, samples_cleared, supports: Vec::new(), scope: id }
+        self.change(id, (old, new), samples_cleared)
     }
 
     /// Clears, in every cache above node `id`, the samples inside `changed` (a
