@@ -142,6 +142,13 @@ fn bad_scenes_give_positions_and_no_panic() {
         "at least one child",
     );
     assert_rejected("unknown-field", &GOOD.replace("radius: 1.0", "radius: 1.0, wieght: 2.0"), Some((5, 53)), "wieght");
+    assert_rejected("huge-radius", &GOOD.replace("radius: 1.0", "radius: 1e20"), Some((5, 48)), "magnitude");
+    assert_rejected(
+        "far-model",
+        &GOOD.replace("center: (0.0, 0.0, 0.0), radius: 1.0", "center: (9e5, 0.0, 0.0), radius: 0.1"),
+        None,
+        "farther than",
+    );
     assert_rejected(
         "zero-scale",
         &GOOD.replace(
@@ -592,6 +599,68 @@ fn edit_replays_a_script_incrementally_and_verifies_every_frame() {
     ]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("bad.ron:2:"), "{err}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn edit_scripts_are_checked_where_they_are_written_and_edits_that_overreach_are_refused() {
+    let dir = scratch("edit-bad");
+    let script = dir.join("s.ron");
+    let run = |text: &str| {
+        std::fs::write(&script, text).unwrap();
+        let out = blobtrace(&[
+            "edit",
+            "scenes/hair_point.ron",
+            "--script",
+            script.to_str().unwrap(),
+            "--size",
+            "16x12",
+            "--res",
+            "12",
+            "--out-dir",
+            dir.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(!out.status.success() && !err.contains("panicked"), "{text}: {err}");
+        err
+    };
+    // Unknown fields, numbers out of range: at their line and column, before any frame.
+    let err = run("EditScript(frames: [\n  (repeats: 2, edits: [])])");
+    assert!(err.contains("s.ron:2:") && err.contains("repeats"), "{err}");
+    let err = run("EditScript(frames: [(edits: [\n  Translate(node: \"probe\", by: (1e10, 0.0, 0.0))])])");
+    assert!(err.contains("s.ron:2:") && err.contains("magnitude"), "{err}");
+    let err = run("EditScript(frames: [(edits: [Radius(node: \"probe\", radius: 0.1, spin: 1.0)])])");
+    assert!(err.contains("spin"), "{err}");
+    // Within range, but growing the model past what the mesh lattice may hold.
+    let err = run("EditScript(frames: [(edits: [Radius(node: \"probe\", radius: 5e5)])])");
+    assert!(err.contains("frame 0") && err.contains("cells of the mesh lattice"), "{err}");
+    // The wrong kind of node is named by its name.
+    let err = run("EditScript(frames: [(edits: [Radius(node: \"hair\", radius: 0.5)])])");
+    assert!(err.contains("the node under \"hair\" is a"), "{err}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn outputs_must_be_named_for_their_format_and_are_checked_before_any_work() {
+    let dir = scratch("outputs");
+    let keep = dir.join("keep.png");
+    std::fs::write(&keep, b"old").unwrap();
+    let k = keep.to_str().unwrap();
+    let exr_dir = dir.join("a.exr");
+    std::fs::create_dir_all(&exr_dir).unwrap();
+    let cases: [(&[&str], &str); 5] = [
+        (&["render", "scenes/sphere.ron", "-o", "out.exr"], "must end in .png"),
+        (&["render", "scenes/sphere.ron", "-o", k, "--exr", k], "must end in .exr"),
+        (&["render", "scenes/sphere.ron", "-o", k, "--exr", exr_dir.to_str().unwrap()], "is a directory"),
+        (&["render", "scenes/sphere.ron", "-o", k, "--threads", "5000"], "--threads must be between"),
+        (&["bench", "mesh", "--res", "0"], "--res and --detail-res must be between"),
+    ];
+    for (args, words) in cases {
+        let out = blobtrace(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(words), "{args:?}: {err}");
+    }
+    assert_eq!(std::fs::read(&keep).unwrap(), b"old");
     std::fs::remove_dir_all(dir).unwrap();
 }
 

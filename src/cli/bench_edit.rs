@@ -72,6 +72,7 @@ pub struct EditBenchReport {
 
 /// Runs `blobtrace bench edit`.
 pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
+    super::check_output_file(&a.output, "png")?;
     let frames = load_script(&a.script)?;
     let polygonize = PolygonizeArgs { res: a.res, cells: CellsArg::Cubes, vertex: VertexArg::Root, refine: 0 };
     let mut runs = vec![];

@@ -126,6 +126,10 @@ const PAPER_RATIOS: [(u32, f64); 5] = [(32, 0.8), (64, 1.4), (128, 3.0), (256, 6
 
 /// Runs `blobtrace bench mesh`.
 pub fn run(a: &MeshBenchArgs) -> anyhow::Result<()> {
+    let max = super::mesh::MAX_RES;
+    if let Some(bad) = a.res.iter().chain([&a.detail_res]).find(|r| !(1..=max).contains(*r)) {
+        anyhow::bail!("--res and --detail-res must be between 1 and {max}, got {bad}");
+    }
     let mut scene = Scene::load(&a.scene)?;
     let mut table1 = vec![];
     let mut skipped_res = vec![];

@@ -105,7 +105,7 @@ fn compare(a: &DiffArgs) -> Result<DiffReport, (u8, String)> {
     };
     check_thresholds(&thresholds, a.scale).map_err(file_error)?;
     if let Some(out) = &a.output {
-        super::check_output_dir(out).map_err(|e| file_error(format!("{e:#}")))?;
+        super::check_output_file(out, "png").map_err(|e| file_error(format!("{e:#}")))?;
     }
     let metric = Metric::from(a.metric);
     let (first, second) = (load_image(&a.a).map_err(file_error)?, load_image(&a.b).map_err(file_error)?);

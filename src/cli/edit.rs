@@ -12,7 +12,7 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 
-use super::mesh::PolygonizeArgs;
+use super::mesh::{MAX_RES, PolygonizeArgs};
 use super::{EvalOptions, with_threads};
 use crate::bvh::{BvhUpdate, DynamicMesh, render_mesh, rerender_mesh};
 use crate::compare::{Metric, difference_at, differences, frame_image, line_plot};
@@ -136,10 +136,10 @@ pub fn run(a: &EditArgs) -> anyhow::Result<()> {
     let mode = a.field.apply(&mut scene.model)?;
     let frames = load_script(&a.script)?;
     check_names(&scene, &frames).map_err(|m| anyhow::anyhow!("{}: {m}", a.script.display()))?;
-    std::fs::create_dir_all(&a.out_dir).with_context(|| format!("creating {}", a.out_dir.display()))?;
     let size = a.size.unwrap_or(scene.size);
     let report = with_threads(a.threads, || -> anyhow::Result<EditReport> {
         a.polygonize.check(&scene)?;
+        std::fs::create_dir_all(&a.out_dir).with_context(|| format!("creating {}", a.out_dir.display()))?;
         let (rows, verified) = replay(&mut scene, mode, &frames, &a.polygonize, size, a.verify, |i, frame, rects| {
             if a.save_frames { save_frame(&a.out_dir, i, frame, rects) } else { Ok(()) }
         })?;
@@ -288,6 +288,7 @@ fn step(
     }
     let region = regions.iter().fold(Aabb::EMPTY, |u, r| u.union(r));
     row.apply_s = clock.elapsed().as_secs_f64();
+    check_edited_model(&scene.model, s.polygonizer.lattice())?;
     let (w, h) = (s.settings.width, s.settings.height);
     let field = ModelField::new(&scene.model, s.mode);
     let clock = Instant::now();
@@ -318,6 +319,19 @@ fn step(
     row.incremental_s = row.apply_s + row.field_s + row.polygonize_s + row.bvh_s + row.mesh_render_s + row.diff_s;
     row.triangles = s.dynamic.triangle_count();
     Ok((row, rects))
+}
+
+/// Refuses an edited model the frame's work cannot handle: one too far from
+/// the origin for single precision, or one grown past the largest mesh the
+/// lattice (fixed by `--res` over the first frame's bounds) may make.
+fn check_edited_model(model: &crate::field::Model, lattice: crate::mesh::Lattice) -> anyhow::Result<()> {
+    model.check_reach()?;
+    let cells = model.bounds().size().max_element() / lattice.cell;
+    anyhow::ensure!(
+        cells <= MAX_RES as f32,
+        "the edited model spans {cells:.0} cells of the mesh lattice, more than {MAX_RES}: the edits grow it too far for --res"
+    );
+    Ok(())
 }
 
 /// Recomputes the mesh − field depth difference inside `rects` (which hold the

@@ -57,7 +57,7 @@ pub struct PolygonizeArgs {
 }
 
 /// Highest resolution accepted: lattice coordinates and memory stay reasonable.
-const MAX_RES: u32 = 8192;
+pub(super) const MAX_RES: u32 = 8192;
 /// Bytes the polygonizer and its mesh hold per crossed cell (corners, cells,
 /// vertices, triangles and hash-map overhead), measured on the bundled scenes.
 const BYTES_PER_CROSSED_CELL: f64 = 400.0;

@@ -166,12 +166,20 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Exi
 }
 
 /// Runs `f` on a rayon pool of `threads` threads (all cores when `None`).
+/// Most worker threads `--threads` may ask for.
+const MAX_THREADS: usize = 1024;
+
 fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> anyhow::Result<T> {
     match threads {
         None => Ok(f()),
-        Some(0) => anyhow::bail!("--threads must be at least 1"),
+        Some(n) if !(1..=MAX_THREADS).contains(&n) => {
+            anyhow::bail!("--threads must be between 1 and {MAX_THREADS}, got {n}")
+        }
         Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build()?;
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|e| anyhow::anyhow!("starting {n} threads for --threads: {e}"))?;
             Ok(pool.install(f))
         }
     }
@@ -182,9 +190,24 @@ fn scene_stem(path: &std::path::Path) -> String {
     path.file_stem().map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned())
 }
 
-/// Checks before any work that an output file's directory exists.
+/// Checks before any work that an output file's directory exists and that
+/// the path is not a directory itself.
 fn check_output_dir(path: &std::path::Path) -> anyhow::Result<()> {
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).map_or_else(|| PathBuf::from("."), PathBuf::from);
     anyhow::ensure!(dir.is_dir(), "{}: the output directory {} does not exist", path.display(), dir.display());
+    anyhow::ensure!(!path.is_dir(), "{}: is a directory, not a file to write", path.display());
+    Ok(())
+}
+
+/// [`check_output_dir`], and that the file's name ends in `.extension` (the
+/// format written), so no file is given a name that misstates its contents.
+fn check_output_file(path: &std::path::Path, extension: &str) -> anyhow::Result<()> {
+    check_output_dir(path)?;
+    let named = path.extension().is_some_and(|e| e.eq_ignore_ascii_case(extension));
+    anyhow::ensure!(
+        named,
+        "{}: the output is written as {extension}, so its name must end in .{extension}",
+        path.display()
+    );
     Ok(())
 }

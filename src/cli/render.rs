@@ -9,7 +9,7 @@ use serde::Serialize;
 
 use super::mesh::{MeshReport, PolygonizeArgs, polygonize_scene};
 use super::progress::Progress;
-use super::{EvalOptions, check_output_dir, scene_stem, with_threads};
+use super::{EvalOptions, check_output_file, scene_stem, with_threads};
 use crate::bvh::{MeshBvh, MeshRenderStats, StaticMesh, render_mesh};
 use crate::cache::{CacheStats, SLOT_BYTES};
 use crate::field::{EvalMode, Model, NodeKind};
@@ -167,9 +167,9 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     let mut scene = Scene::load(&a.scene)?;
     let mode = a.field.apply(&mut scene.model)?;
     let output = a.output.clone().unwrap_or_else(|| PathBuf::from(format!("{}.png", scene_stem(&a.scene))));
-    check_output_dir(&output)?;
+    check_output_file(&output, "png")?;
     if let Some(exr) = &a.exr {
-        check_output_dir(exr)?;
+        check_output_file(exr, "exr")?;
     }
     let size = a.size.unwrap_or(scene.size);
     if a.mesh {

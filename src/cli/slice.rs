@@ -9,7 +9,7 @@ use anyhow::Context;
 use clap::{Args, ValueEnum};
 use glam::Vec3A;
 
-use super::{check_output_dir, scene_stem, with_threads};
+use super::{check_output_file, scene_stem, with_threads};
 use crate::cache::Filter;
 use crate::compare::{Rgb8Image, Scale, heat_map, panel};
 use crate::field::{EvalMode, Field, ModelField};
@@ -97,7 +97,7 @@ pub fn run(a: &SliceArgs) -> anyhow::Result<()> {
     let output = a.output.clone().unwrap_or_else(|| {
         PathBuf::from(format!("{}-{}.png", scene_stem(&a.scene), format!("{:?}", a.show).to_lowercase()))
     });
-    check_output_dir(&output)?;
+    check_output_file(&output, "png")?;
     let image = with_threads(a.threads, || draw(a, &text, &label, &scene, &plane))??;
     image.save_png(&output)?;
     eprintln!("{}: {}x{} slice at {}", output.display(), plane.width, plane.height, a.plane);

@@ -7,15 +7,20 @@ use glam::{Affine3A, Mat3A, Vec3, Vec3A};
 use super::model::{Change, Model, ModelError};
 use super::node::{NodeId, NodeKind, Placement};
 use crate::geom::Aabb;
+use crate::scene::values::{self, MAX_MAGNITUDE};
 
-/// An edit of a named node.
+/// An edit of a named node. Read from a script, its numbers are checked as
+/// they are parsed (so a bad one is reported at its line and column), the
+/// same way a scene's are; [`Model::apply`] checks them again.
 #[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Edit {
     /// Move the named subtree by `by`, in its parent's frame.
     Translate {
         /// The `Named` node.
         node: String,
         /// Displacement.
+        #[serde(deserialize_with = "values::finite_vec3")]
         by: Vec3,
     },
     /// Rotate the named subtree about the centre of its bounds, in degrees about X, then Y, then Z.
@@ -23,6 +28,7 @@ pub enum Edit {
         /// The `Named` node.
         node: String,
         /// Angles in degrees.
+        #[serde(deserialize_with = "values::finite_vec3")]
         degrees: Vec3,
     },
     /// Scale the named subtree about the centre of its bounds.
@@ -30,6 +36,7 @@ pub enum Edit {
         /// The `Named` node.
         node: String,
         /// Per-axis factors, non-zero.
+        #[serde(deserialize_with = "values::scale_factors")]
         by: Vec3,
     },
     /// Set the support radius of the named primitive.
@@ -37,6 +44,7 @@ pub enum Edit {
         /// The `Named` node holding a primitive.
         node: String,
         /// New radius, positive.
+        #[serde(deserialize_with = "values::positive")]
         radius: f32,
     },
     /// Set the weight of the named primitive.
@@ -44,6 +52,7 @@ pub enum Edit {
         /// The `Named` node holding a primitive.
         node: String,
         /// New weight, finite.
+        #[serde(deserialize_with = "values::finite")]
         weight: f32,
     },
     /// Add a point primitive, named `name`, to the operator under the node `to`.
@@ -53,11 +62,13 @@ pub enum Edit {
         /// The new node's name, unused so far.
         name: String,
         /// Centre.
+        #[serde(deserialize_with = "values::finite_vec3")]
         center: Vec3,
         /// Support radius, positive.
+        #[serde(deserialize_with = "values::positive")]
         radius: f32,
         /// Weight (default 1).
-        #[serde(default = "one")]
+        #[serde(default = "one", deserialize_with = "values::finite")]
         weight: f32,
     },
     /// Remove the named node from the operator holding it (which keeps at least one child).
@@ -110,27 +121,28 @@ impl Edit {
     /// Checks the numbers before anything changes.
     fn validate(&self) -> Result<(), ModelError> {
         let bad = |what: String| Err(ModelError::BadEdit(what));
+        // Finite, and within the magnitude scene files allow.
+        let fine = |v: Vec3| v.is_finite() && v.abs().max_element() <= MAX_MAGNITUDE;
         match self {
-            Edit::Translate { by: v, .. } | Edit::Rotate { degrees: v, .. } if !v.is_finite() => {
-                bad(format!("{} by {v}: not finite", self.node()))
+            Edit::Translate { by: v, .. } | Edit::Rotate { degrees: v, .. } if !fine(*v) => {
+                bad(format!("{} by {v}: not finite or beyond {MAX_MAGNITUDE:e}", self.node()))
             }
-            Edit::Scale { by, .. } if !by.is_finite() || by.abs().min_element() <= f32::EPSILON => {
-                bad(format!("{} scaled by {by}: factors must be finite and non-zero", self.node()))
+            Edit::Scale { by, .. } if !fine(*by) || by.abs().min_element() <= f32::EPSILON => bad(format!(
+                "{} scaled by {by}: factors must be finite, non-zero and at most {MAX_MAGNITUDE:e}",
+                self.node()
+            )),
+            Edit::Radius { radius, .. } if !(fine(Vec3::splat(*radius)) && *radius > 0.0) => {
+                bad(format!("{} radius {radius}: must be positive and at most {MAX_MAGNITUDE:e}", self.node()))
             }
-            Edit::Radius { radius, .. } if !(radius.is_finite() && *radius > 0.0) => {
-                bad(format!("{} radius {radius}: must be positive", self.node()))
-            }
-            Edit::Weight { weight, .. } if !weight.is_finite() => {
-                bad(format!("{} weight {weight}: not finite", self.node()))
+            Edit::Weight { weight, .. } if !fine(Vec3::splat(*weight)) => {
+                bad(format!("{} weight {weight}: not finite or beyond {MAX_MAGNITUDE:e}", self.node()))
             }
             Edit::AddPoint { center, radius, weight, name, .. }
-                if !(center.is_finite()
-                    && radius.is_finite()
-                    && *radius > 0.0
-                    && weight.is_finite()
-                    && !name.is_empty()) =>
+                if !(fine(*center) && fine(Vec3::new(*radius, *weight, 0.0)) && *radius > 0.0 && !name.is_empty()) =>
             {
-                bad(format!("adding {name:?}: needs a name, a finite centre and weight, and a positive radius"))
+                bad(format!(
+                    "adding {name:?}: needs a name, a finite centre and weight, and a positive radius (each at most {MAX_MAGNITUDE:e})"
+                ))
             }
             Edit::Operator { op: Operator::Ricci(n), .. } if !(n.is_finite() && *n >= 1.0) => {
                 bad(format!("{}: Ricci exponent {n} must be at least 1", self.node()))
@@ -171,7 +183,7 @@ impl Model {
     fn apply_found(&mut self, edit: &Edit, named: NodeId, child: NodeId) -> Result<Change, ModelError> {
         let operator = || {
             self.operator_under(named).ok_or_else(|| ModelError::WrongKind {
-                node: named,
+                node: format!("the node under {:?}", edit.node()),
                 expected: "Blend, Union, Intersection or Ricci",
                 found: self.node(child).kind.type_name(),
             })
@@ -225,7 +237,11 @@ impl Model {
                 let p = change(p);
                 self.set_primitive(id, p)
             }
-            other => Err(ModelError::WrongKind { node: id, expected: "Primitive", found: other.type_name() }),
+            other => Err(ModelError::WrongKind {
+                node: format!("the node under {:?}", self.name_above(id).unwrap_or_default()),
+                expected: "Primitive",
+                found: other.type_name(),
+            }),
         }
     }
 
@@ -236,7 +252,11 @@ impl Model {
         let placement = match &self.node(transform).kind {
             NodeKind::Transform { placement, .. } => *placement,
             other => {
-                return Err(ModelError::WrongKind { node: transform, expected: "Transform", found: other.type_name() });
+                return Err(ModelError::WrongKind {
+                    node: format!("the node under {:?}", self.name_above(named).unwrap_or_default()),
+                    expected: "Transform",
+                    found: other.type_name(),
+                });
             }
         };
         let m = motion(self.node(transform).bounds.center()) * placement.to_world;

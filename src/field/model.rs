@@ -33,17 +33,38 @@ pub enum ModelError {
     /// An edit's numbers are unusable (NaN, a zero scale, a non-positive radius).
     #[error("bad edit: {0}")]
     BadEdit(String),
+    /// The model lies too far from the origin for its size, or too far at all.
+    #[error(
+        "the model reaches {far:e} from the origin and is {size:e} across: farther than {} times its size (or {:e} in all), single precision cannot resolve its surface",
+        MAX_OFFSET_IN_SIZES,
+        MAX_REACH
+    )]
+    TooFar {
+        /// Largest coordinate magnitude of its bounds.
+        far: f32,
+        /// Longest side of its bounds.
+        size: f32,
+    },
     /// An edit addressed a node of another kind than it changes.
-    #[error("node {node} is a {found}, not a {expected}")]
+    #[error("{node} is a {found}, not a {expected}")]
     WrongKind {
-        /// The node addressed.
-        node: NodeId,
+        /// The node addressed, by the name the edit used where it has one.
+        node: String,
         /// The kind the edit changes.
         expected: &'static str,
         /// The node's kind.
         found: &'static str,
     },
 }
+
+/// How far from the origin, in multiples of its own size, a model may reach.
+/// Farther, single precision resolves less than a thousandth of the model
+/// near its surface, and the polygonizer's integer lattice could overflow.
+pub const MAX_OFFSET_IN_SIZES: f32 = 1e3;
+
+/// How far from the origin any model may reach: squared distances stay far
+/// inside single precision's range.
+pub const MAX_REACH: f32 = 1e12;
 
 /// What an edit changed: the edited node and its bounds before and after, in
 /// the frame its parent sees. Outside `old ∪ new` no node's field changed.
@@ -188,6 +209,18 @@ impl Model {
     #[must_use]
     pub fn bounds(&self) -> Aabb {
         self.node(self.root).bounds
+    }
+
+    /// Checks that the model lies near enough the origin for its size (see
+    /// [`MAX_OFFSET_IN_SIZES`] and [`MAX_REACH`]); an empty model passes.
+    pub fn check_reach(&self) -> Result<(), ModelError> {
+        let b = self.bounds();
+        if b.is_empty() {
+            return Ok(());
+        }
+        let (far, size) = (b.min.abs().max(b.max.abs()).max_element(), b.size().max_element());
+        let near = far.is_finite() && far <= MAX_REACH && far <= MAX_OFFSET_IN_SIZES * size;
+        if near { Ok(()) } else { Err(ModelError::TooFar { far, size }) }
     }
 
     /// Names, sorted.
@@ -413,8 +446,9 @@ impl Model {
         let old_op = self.nodes[parent as usize].bounds;
         let gone = self.nodes[named as usize].bounds;
         let found = self.nodes[parent as usize].kind.type_name();
+        let what = format!("the parent of {:?}", self.name_above(named).unwrap_or_default());
         let children = operator_children_mut(&mut self.nodes[parent as usize].kind).ok_or(ModelError::WrongKind {
-            node: parent,
+            node: what,
             expected: "Blend, Union, Intersection or Ricci",
             found,
         })?;
@@ -603,7 +637,7 @@ fn in_every_mode<T>(leaf: &IndexedLeaf, bound: impl Fn(EvalMode) -> T, widest: i
 }
 
 fn wrong_kind(node: NodeId, expected: &'static str, found: &NodeKind) -> ModelError {
-    ModelError::WrongKind { node, expected, found: found.type_name() }
+    ModelError::WrongKind { node: format!("node {node}"), expected, found: found.type_name() }
 }
 
 /// How many of each kind of node a model holds.

@@ -6,7 +6,7 @@
 mod build;
 mod desc;
 mod script;
-mod values;
+pub mod values;
 
 use std::path::Path;
 
@@ -88,6 +88,7 @@ impl Scene {
         let c = &desc.camera;
         let camera = Camera::look_at(c.eye.0, c.target.0, c.up.0, c.fov_y.0);
         let model = build::model(&desc.model, desc.threshold.0)?;
+        model.check_reach()?;
         Ok(Scene { camera, size: desc.size, model, background: desc.background.map_or(DEFAULT_BACKGROUND, |c| c.0) })
     }
 }

@@ -16,12 +16,14 @@ use crate::field::Edit;
 
 /// A script as written.
 #[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct EditScript {
     frames: Vec<ScriptFrame>,
 }
 
 /// One frame of a script, possibly repeated.
 #[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct ScriptFrame {
     /// How many consecutive frames apply these edits (default 1).
     #[serde(default = "one")]

@@ -22,8 +22,37 @@ pub struct V3(pub Vec3);
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Color(pub Vec3);
 
+/// Largest magnitude of any number in a scene or an edit script: beyond it,
+/// squared distances and sums of supports leave single precision's useful
+/// range (a radius of 1e20 squares to infinity).
+pub const MAX_MAGNITUDE: f32 = 1e6;
+
 fn check_finite<E: de::Error>(v: f32) -> Result<f32, E> {
-    if v.is_finite() { Ok(v) } else { Err(E::custom(format!("expected a finite number, got {v}"))) }
+    if v.is_finite() && v.abs() <= MAX_MAGNITUDE {
+        Ok(v)
+    } else {
+        Err(E::custom(format!("expected a finite number of magnitude at most {MAX_MAGNITUDE:e}, got {v:e}")))
+    }
+}
+
+/// Deserializes three finite numbers (see [`V3`]) as a vector.
+pub fn finite_vec3<'de, D: Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
+    V3::deserialize(d).map(|v| v.0)
+}
+
+/// Deserializes a finite number (see [`Finite`]).
+pub fn finite<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    Finite::deserialize(d).map(|v| v.0)
+}
+
+/// Deserializes a finite number `> 0` (see [`Positive`]).
+pub fn positive<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    Positive::deserialize(d).map(|v| v.0)
+}
+
+/// Deserializes three finite, non-zero scale factors (see [`Scale`]).
+pub fn scale_factors<'de, D: Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
+    Scale::deserialize(d).map(|v| v.0)
 }
 
 impl<'de> Deserialize<'de> for Finite {
