@@ -143,6 +143,12 @@ fn bad_scenes_give_positions_and_no_panic() {
     );
     assert_rejected("unknown-field", &GOOD.replace("radius: 1.0", "radius: 1.0, wieght: 2.0"), Some((5, 53)), "wieght");
     assert_rejected("huge-radius", &GOOD.replace("radius: 1.0", "radius: 1e20"), Some((5, 48)), "magnitude");
+    let point = "Point(center: (0.0, 0.0, 0.0), radius: 1.0)";
+    let ricci = format!("Ricci(n: 0.5, children: [{point}])");
+    assert_rejected("ricci-below-one", &GOOD.replace(point, &ricci), Some((5, 18)), "at least 1");
+    let flat = "Circle(center: (0.0, 0.0, 0.0), normal: (0.0, 0.0, 0.0), ring: 0.5, radius: 0.3)";
+    assert_rejected("circle-without-normal", &GOOD.replace(point, flat), Some((5, 63)), "no length");
+    assert_rejected("empty-name", &GOOD.replace(point, &format!("Named(\"\", {point})")), Some((5, 16)), "empty");
     assert_rejected(
         "far-model",
         &GOOD.replace("center: (0.0, 0.0, 0.0), radius: 1.0", "center: (9e5, 0.0, 0.0), radius: 0.1"),

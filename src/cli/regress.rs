@@ -15,7 +15,7 @@ use super::render::{render_polygonized, render_scene};
 use crate::compare::{DiffReport, Metric, Scale, Thresholds, Verdict, differences, heat_map, judge, load_image};
 use crate::field::EvalMode;
 use crate::frame::Frame;
-use crate::scene::{Scene, Size};
+use crate::scene::{Scene, Size, values};
 
 /// Options of `blobtrace regress`.
 #[derive(Debug, Args)]
@@ -36,6 +36,7 @@ pub struct RegressArgs {
 
 /// The manifest: which renders are guarded, and how strictly.
 #[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Manifest {
     /// The guarded renders.
     pub entries: Vec<Entry>,
@@ -43,24 +44,25 @@ pub struct Manifest {
 
 /// One guarded render.
 #[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Entry {
     /// Scene file name in the scenes directory.
     pub scene: String,
     /// Image size.
-    pub size: (u32, u32),
+    pub size: Size,
     /// Field trace (`Field`) or mesh ray cast (`Mesh(res)`).
     pub kind: Kind,
     /// Evaluate through the caches (default: exact, indexed).
     #[serde(default)]
     pub cached: bool,
     /// A pixel differing by more than this (largest linear RGB difference) fails…
-    #[serde(default = "default_fail")]
+    #[serde(default = "default_fail", deserialize_with = "values::non_negative")]
     pub fail: f32,
     /// …when more than this percentage of pixels do.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "values::percentage")]
     pub failpercent: f64,
     /// Any pixel above this fails.
-    #[serde(default = "default_hardfail")]
+    #[serde(default = "default_hardfail", deserialize_with = "values::non_negative")]
     pub hardfail: f32,
 }
 
@@ -132,7 +134,7 @@ fn render_entry(scenes: &Path, entry: &Entry) -> anyhow::Result<Frame> {
     let mut scene = Scene::load(scenes.join(&entry.scene))?;
     scene.model.set_cache_budget(None);
     let mode = if entry.cached { EvalMode::Cached } else { EvalMode::Indexed };
-    let size = Size(entry.size.0, entry.size.1);
+    let size = entry.size;
     Ok(match entry.kind {
         Kind::Field => render_scene(&scene, size, mode).0,
         Kind::Mesh(res) => {

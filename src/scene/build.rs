@@ -26,7 +26,7 @@ fn add(b: &mut ModelBuilder, desc: &NodeDesc) -> Result<NodeId, ModelError> {
             b.add(prim(Skeleton::Segment { a: a.0.into(), b: e.0.into() }, radius.0, weight.0, *kernel), color(c))
         }
         NodeDesc::Circle { center, normal, ring, radius, weight, kernel, color: c } => {
-            let normal = Vec3A::from(normal.0).try_normalize().unwrap_or(Vec3A::Y);
+            let normal = Vec3A::from(normal.0).normalize();
             let skeleton = Skeleton::Circle { center: center.0.into(), normal, ring: ring.0 };
             b.add(prim(skeleton, radius.0, weight.0, *kernel), color(c))
         }
@@ -63,7 +63,7 @@ fn add(b: &mut ModelBuilder, desc: &NodeDesc) -> Result<NodeId, ModelError> {
         }
         NodeDesc::Ricci { n, children } => {
             let children = add_all(b, &children.0)?;
-            b.add(NodeKind::Ricci { n: n.0.max(1.0), children }, None)
+            b.add(NodeKind::Ricci { n: n.0, children }, None)
         }
         NodeDesc::Transform { translate, rotate, scale, child, color: c } => {
             let placement = Placement::new(translate.0, rotate.0, scale.0).ok_or(ModelError::ZeroScale)?;
@@ -72,7 +72,7 @@ fn add(b: &mut ModelBuilder, desc: &NodeDesc) -> Result<NodeId, ModelError> {
         }
         NodeDesc::Named(name, child) => {
             let child = add(b, child)?;
-            b.add(NodeKind::Named { name: name.clone(), child }, None)
+            b.add(NodeKind::Named { name: name.0.clone(), child }, None)
         }
         NodeDesc::Cache { res, value, gradient, storage, child } => {
             let child = add(b, child)?;

@@ -3,7 +3,7 @@
 use serde::Deserialize;
 use serde::de::{self, Deserializer};
 
-use super::values::{Color, Finite, Positive, Scale, Size, V3};
+use super::values::{AtLeastOne, Color, Direction, Finite, Name, Positive, Scale, Size, V3};
 use crate::cache::{Filter, Storage};
 use crate::field::Kernel;
 
@@ -43,6 +43,10 @@ fn one3() -> Scale {
 
 fn y_axis() -> V3 {
     V3(glam::Vec3::Y)
+}
+
+fn y_direction() -> Direction {
+    Direction(glam::Vec3::Y)
 }
 
 /// `Camera(eye: …, target: …, up: …, fov_y: …)`: a look-at pinhole camera.
@@ -128,9 +132,9 @@ pub enum NodeDesc {
     Circle {
         /// Centre of the circle.
         center: V3,
-        /// Normal of the circle's plane.
-        #[serde(default = "y_axis")]
-        normal: V3,
+        /// Normal of the circle's plane (any non-zero length).
+        #[serde(default = "y_direction")]
+        normal: Direction,
         /// Radius of the circle itself.
         ring: Positive,
         /// Support radius around the circle.
@@ -175,7 +179,7 @@ pub enum NodeDesc {
     /// Ricci's blend with exponent `n`.
     Ricci {
         /// Exponent, at least 1.
-        n: Positive,
+        n: AtLeastOne,
         /// Children.
         children: Children,
     },
@@ -197,7 +201,7 @@ pub enum NodeDesc {
         color: Option<Color>,
     },
     /// A named subtree, for edits.
-    Named(String, Box<NodeDesc>),
+    Named(Name, Box<NodeDesc>),
     /// A cache of the child's field.
     Cache {
         /// Grid resolution along the longest side.

@@ -50,6 +50,22 @@ pub fn positive<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
     Positive::deserialize(d).map(|v| v.0)
 }
 
+/// Deserializes a finite number `≥ 0` (a tolerance).
+pub fn non_negative<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    let v = check_finite(f32::deserialize(d)?)?;
+    if v >= 0.0 { Ok(v) } else { Err(de::Error::custom(format!("expected a number of at least 0, got {v}"))) }
+}
+
+/// Deserializes a percentage in `[0, 100]`.
+pub fn percentage<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    if (0.0..=100.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(de::Error::custom(format!("expected a percentage between 0 and 100, got {v}")))
+    }
+}
+
 /// Deserializes three finite, non-zero scale factors (see [`Scale`]).
 pub fn scale_factors<'de, D: Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
     Scale::deserialize(d).map(|v| v.0)
@@ -85,6 +101,49 @@ impl<'de> Deserialize<'de> for Color {
             return Err(de::Error::custom(format!("colour components must lie in [0, 1], got {c}")));
         }
         Ok(Color(c))
+    }
+}
+
+/// A finite number `≥ 1` (a Ricci blend's exponent).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AtLeastOne(pub f32);
+
+impl<'de> Deserialize<'de> for AtLeastOne {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = check_finite(f32::deserialize(d)?)?;
+        if v >= 1.0 {
+            Ok(AtLeastOne(v))
+        } else {
+            Err(de::Error::custom(format!("expected a number of at least 1, got {v}")))
+        }
+    }
+}
+
+/// Three finite numbers, not all zero (a direction).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Direction(pub Vec3);
+
+impl<'de> Deserialize<'de> for Direction {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let V3(v) = V3::deserialize(d)?;
+        if v.try_normalize().is_none() {
+            return Err(de::Error::custom(format!("expected a direction, got {v}, which has no length")));
+        }
+        Ok(Direction(v))
+    }
+}
+
+/// A non-empty name.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Name(pub String);
+
+impl<'de> Deserialize<'de> for Name {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        if name.is_empty() {
+            return Err(de::Error::custom("expected a name, got the empty string"));
+        }
+        Ok(Name(name))
     }
 }
 
