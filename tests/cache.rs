@@ -260,6 +260,19 @@ fn the_resize_rule_fires_at_the_thresholds_and_not_between() {
     }
 }
 
+#[test]
+fn a_subtree_moved_far_within_its_cache_lays_the_cache_anew_instead_of_stretching_it() {
+    let pool = SamplePool::default();
+    let unit = Aabb::new(Vec3A::ZERO, Vec3A::ONE);
+    let mut grid = CacheGrid::new(CacheSpec::new(64), unit, &pool);
+    let moved = |by: f32| Aabb::new(unit.min + by, unit.max + by);
+    // Near: the table grows over both places and the samples stay.
+    assert_eq!(grid.fit(moved(0.5), &pool), Refit::Kept);
+    // Far (a million cells along each axis): a table over both would hold 10^18 blocks.
+    assert_eq!(grid.fit(moved(1.6e4), &pool), Refit::Rebuilt);
+    assert!(grid.stats(&pool).grid_points < 100 * 100 * 100, "{:?}", grid.stats(&pool));
+}
+
 fn render_cached(scene: &Scene, threads: usize, size: (u32, u32)) -> blobtrace::frame::Frame {
     let field = ModelField::new(&scene.model, EvalMode::Cached);
     let s = RenderSettings::for_scene(scene, Size(size.0, size.1));

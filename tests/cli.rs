@@ -148,6 +148,11 @@ fn bad_scenes_give_positions_and_no_panic() {
     assert_rejected("ricci-below-one", &GOOD.replace(point, &ricci), Some((5, 18)), "at least 1");
     let flat = "Circle(center: (0.0, 0.0, 0.0), normal: (0.0, 0.0, 0.0), ring: 0.5, radius: 0.3)";
     assert_rejected("circle-without-normal", &GOOD.replace(point, flat), Some((5, 63)), "no length");
+    let many = |node: &str, n: usize| GOOD.replace(point, &vec![node; n].join(", "));
+    let spline = "SplinePoints(control: [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)], count: 1000000, radius: 0.01)";
+    assert_rejected("too-many-primitives", &many(spline, 2), None, "2000000 primitives");
+    let cache = format!("Cache(res: 1024, child: {point})");
+    assert_rejected("too-many-caches", &many(&cache, 30), None, "block tables");
     assert_rejected("empty-name", &GOOD.replace(point, &format!("Named(\"\", {point})")), Some((5, 16)), "empty");
     assert_rejected(
         "far-model",
@@ -375,6 +380,46 @@ fn diff_follows_idiff_exit_codes_and_writes_a_heat_map() {
     assert!(v["masked_px"].as_u64().unwrap() > 0);
     let img = image::open(&heat).expect("a heat map was written").to_rgb8();
     assert!(img.width() >= 48 && img.height() > 36, "{:?}", img.dimensions());
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// The bytes of a PNG that declares a `width × height` grey image and holds
+/// no pixel data (an empty data chunk): enough for a reader that checks the
+/// size first.
+fn png_header_only(width: u32, height: u32) -> Vec<u8> {
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut crc = !0u32;
+        for &b in bytes {
+            crc ^= u32::from(b);
+            for _ in 0..8 {
+                crc = if crc & 1 == 1 { (crc >> 1) ^ 0xEDB8_8320 } else { crc >> 1 };
+            }
+        }
+        !crc
+    }
+    let mut ihdr = b"IHDR".to_vec();
+    ihdr.extend_from_slice(&width.to_be_bytes());
+    ihdr.extend_from_slice(&height.to_be_bytes());
+    ihdr.extend_from_slice(&[1, 0, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    for chunk in [&ihdr[..], b"IDAT", b"IEND"] {
+        png.extend_from_slice(&(chunk.len() as u32 - 4).to_be_bytes());
+        png.extend_from_slice(chunk);
+        png.extend_from_slice(&crc32(chunk).to_be_bytes());
+    }
+    png
+}
+
+#[test]
+fn diff_refuses_an_image_declaring_more_pixels_than_it_may_hold_before_decoding_it() {
+    let dir = scratch("diff-huge");
+    let huge = dir.join("huge.png");
+    std::fs::write(&huge, png_header_only(20_000, 20_000)).unwrap();
+    let small = dir.join("small.png");
+    image::RgbImage::new(4, 4).save(&small).unwrap();
+    let out = blobtrace(&["diff", small.to_str().unwrap(), huge.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("20000x20000 is out of range"), "{err}");
     std::fs::remove_dir_all(dir).unwrap();
 }
 

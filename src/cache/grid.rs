@@ -99,7 +99,9 @@ pub struct CacheStats {
 pub enum Refit {
     /// The cell size still fits: samples kept (the block table may have grown).
     Kept,
-    /// The cell size left `[c/2, 2c]`: every sample was dropped and the lattice rebuilt.
+    /// The cell size left `[c/2, 2c]`, or the subtree moved so far that a
+    /// table over its old and new places would be mostly empty: every sample
+    /// was dropped and the lattice rebuilt.
     Rebuilt,
 }
 
@@ -173,9 +175,29 @@ impl CacheGrid {
         }
         let (old_lo, old_hi) = (self.table_lo, self.table_lo + self.table_dims.as_ivec3() - IVec3::ONE);
         if lo.cmplt(old_lo).any() || hi.cmpgt(old_hi).any() {
-            self.resize_table(lo.min(old_lo), hi.max(old_hi));
+            let (wide_lo, wide_hi) = (lo.min(old_lo), hi.max(old_hi));
+            // A subtree moved far within the cache would stretch the table
+            // over the space between its old and new places: start afresh.
+            if block_count(wide_lo, wide_hi) > MAX_TABLE_STRETCH * block_count(lo, hi) {
+                self.rebuild(child_bounds, pool);
+                return Refit::Rebuilt;
+            }
+            self.resize_table(wide_lo, wide_hi);
         }
         Refit::Kept
+    }
+
+    /// An upper bound on the bytes of the block table (and the per-block
+    /// slope words and summaries beside it) a cache of resolution `res`
+    /// allocates up front, before it holds any sample.
+    #[must_use]
+    pub fn table_bytes_at(res: u32) -> u64 {
+        let per_block = std::mem::size_of::<AtomicPtr<Slot>>()
+            + std::mem::size_of::<OnceLock<Box<[AtomicU16]>>>()
+            + std::mem::size_of::<AtomicU32>();
+        // The padded bounds span `res` cells plus the pad on each side, in blocks, and one more for alignment.
+        let blocks = (u64::from(res) + 2 * (PAD_CELLS as u64 + 1)).div_ceil(1 << BLOCK_SHIFT) + 1;
+        blocks.pow(3) * per_block as u64
     }
 
     /// Drops every sample and lays a fresh lattice over `child_bounds`.
@@ -774,6 +796,15 @@ impl CacheGrid {
 fn half_up(x: f32) -> u16 {
     let h = half::f16::from_f32(x);
     if h.to_f32() >= x { h.to_bits() } else { h.to_bits() + 1 }
+}
+
+/// How many times the blocks the subtree's bounds need a table kept over
+/// both old and new bounds may hold; beyond, the cache is laid anew.
+const MAX_TABLE_STRETCH: u64 = 8;
+
+/// Blocks in the inclusive range `lo..=hi`.
+fn block_count(lo: IVec3, hi: IVec3) -> u64 {
+    (hi - lo + IVec3::ONE).max(IVec3::ZERO).as_u64vec3().element_product()
 }
 
 /// A counter split over cache lines by worker thread, so counting every lookup

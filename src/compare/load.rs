@@ -6,6 +6,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use crate::frame::{Frame, read_exr_channels, srgb8_to_linear};
+use crate::scene::Size;
 
 /// An image read for comparison, and which AOVs it carried.
 #[derive(Clone, Debug)]
@@ -29,7 +30,13 @@ pub fn load_image(path: &Path) -> Result<LoadedImage, String> {
 }
 
 fn load_png(path: &Path) -> Result<LoadedImage, String> {
-    let img = image::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let failed = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let open =
+        || image::ImageReader::open(path).and_then(image::ImageReader::with_guessed_format).map_err(|e| failed(&e));
+    // A small file can declare a huge image: refuse it before decoding.
+    let (w, h) = open()?.into_dimensions().map_err(|e| failed(&e))?;
+    Size::checked(w, h).map_err(|e| failed(&e))?;
+    let img = open()?.decode().map_err(|e| failed(&e))?;
     let has_alpha = img.color().has_alpha();
     let rgba = img.to_rgba8();
     let mut frame = Frame::new(rgba.width(), rgba.height(), Vec3::ZERO);

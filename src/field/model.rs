@@ -33,6 +33,9 @@ pub enum ModelError {
     /// An edit's numbers are unusable (NaN, a zero scale, a non-positive radius).
     #[error("bad edit: {0}")]
     BadEdit(String),
+    /// The model would not fit in memory.
+    #[error("the model is too large: {0}")]
+    TooLarge(String),
     /// The model lies too far from the origin for its size, or too far at all.
     #[error(
         "the model reaches {far:e} from the origin and is {size:e} across: farther than {} times its size (or {:e} in all), single precision cannot resolve its surface",

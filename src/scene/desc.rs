@@ -4,8 +4,8 @@ use serde::Deserialize;
 use serde::de::{self, Deserializer};
 
 use super::values::{AtLeastOne, Color, Direction, Finite, Name, Positive, Scale, Size, V3};
-use crate::cache::{Filter, Storage};
-use crate::field::Kernel;
+use crate::cache::{CacheGrid, Filter, Storage};
+use crate::field::{Kernel, ModelError};
 
 /// A whole scene file: `Scene(camera: …, size: …, threshold: …, model: …)`.
 #[derive(Debug, Deserialize)]
@@ -23,6 +23,33 @@ pub struct SceneDesc {
     pub background: Option<Color>,
     /// The BlobTree.
     pub model: NodeDesc,
+}
+
+/// Most primitives a scene may build: about 0.4 GB of nodes, indices and bounds.
+pub const MAX_PRIMITIVES: u64 = 1_000_000;
+
+/// Most bytes a scene's caches may allocate up front, before any sample.
+pub const MAX_CACHE_TABLE_BYTES: u64 = 2 << 30;
+
+impl SceneDesc {
+    /// Checks, before anything is built, that the model fits in memory: its
+    /// primitives and the block tables its caches lay down at once.
+    pub fn check_size(&self) -> Result<(), ModelError> {
+        let primitives = self.model.primitive_count();
+        if primitives > MAX_PRIMITIVES {
+            return Err(ModelError::TooLarge(format!("{primitives} primitives, more than {MAX_PRIMITIVES}")));
+        }
+        let tables = self.model.cache_table_bytes();
+        if tables > MAX_CACHE_TABLE_BYTES {
+            let gib = |b: u64| b as f64 / f64::from(1u32 << 30);
+            return Err(ModelError::TooLarge(format!(
+                "its caches would lay down {:.1} GiB of block tables at once, more than {:.0} GiB: lower their res",
+                gib(tables),
+                gib(MAX_CACHE_TABLE_BYTES)
+            )));
+        }
+        Ok(())
+    }
 }
 
 fn half() -> Positive {
@@ -221,6 +248,41 @@ pub enum NodeDesc {
 }
 
 impl NodeDesc {
+    /// The nodes right below this one.
+    fn children(&self) -> Vec<&NodeDesc> {
+        match self {
+            NodeDesc::Blend(c)
+            | NodeDesc::Union(c)
+            | NodeDesc::Intersection(c)
+            | NodeDesc::Ricci { children: c, .. } => c.0.iter().collect(),
+            NodeDesc::Difference(a, b) => vec![a, b],
+            NodeDesc::Transform { child, .. } | NodeDesc::Named(_, child) | NodeDesc::Cache { child, .. } => {
+                vec![child]
+            }
+            _ => vec![],
+        }
+    }
+
+    /// Primitives this subtree builds (a spline generator builds `count`).
+    #[must_use]
+    pub fn primitive_count(&self) -> u64 {
+        match self {
+            NodeDesc::SplinePoints { count, .. } => u64::from(count.0),
+            node if node.children().is_empty() => 1,
+            node => node.children().iter().map(|c| c.primitive_count()).sum(),
+        }
+    }
+
+    /// Bytes the caches of this subtree allocate up front (see [`CacheGrid::table_bytes_at`]).
+    #[must_use]
+    pub fn cache_table_bytes(&self) -> u64 {
+        let own = match self {
+            NodeDesc::Cache { res, .. } => CacheGrid::table_bytes_at(res.0),
+            _ => 0,
+        };
+        own + self.children().iter().map(|c| c.cache_table_bytes()).sum::<u64>()
+    }
+
     /// Calls `f` on the resolution and the value and gradient filters of every
     /// `Cache` in this subtree, so experiments can vary them.
     pub fn for_each_cache(&mut self, f: &mut impl FnMut(&mut Resolution, &mut Filter, &mut Filter)) {

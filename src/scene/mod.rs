@@ -85,6 +85,7 @@ impl Scene {
 
     /// Builds a scene from its parsed description.
     pub fn from_desc(desc: &SceneDesc) -> Result<Scene, ModelError> {
+        desc.check_size()?;
         let c = &desc.camera;
         let camera = Camera::look_at(c.eye.0, c.target.0, c.up.0, c.fov_y.0);
         let model = build::model(&desc.model, desc.threshold.0)?;

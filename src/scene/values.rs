@@ -154,6 +154,10 @@ pub struct Size(pub u32, pub u32);
 /// Largest image side blobtrace accepts.
 pub const MAX_SIDE: u32 = 16384;
 
+/// Most pixels an image may have: a frame of every AOV takes 32 bytes a
+/// pixel, so this caps one at 2 GiB.
+pub const MAX_PIXELS: u64 = 1 << 26;
+
 impl Size {
     /// Parses `WxH` (as on the command line).
     pub fn parse(s: &str) -> Result<Self, String> {
@@ -163,11 +167,13 @@ impl Size {
         Self::checked(side(w)?, side(h)?)
     }
 
-    fn checked(w: u32, h: u32) -> Result<Self, String> {
-        if (1..=MAX_SIDE).contains(&w) && (1..=MAX_SIDE).contains(&h) {
+    /// The size `w × h` if each side lies in `1..=MAX_SIDE` and it has at
+    /// most [`MAX_PIXELS`] pixels.
+    pub fn checked(w: u32, h: u32) -> Result<Self, String> {
+        if (1..=MAX_SIDE).contains(&w) && (1..=MAX_SIDE).contains(&h) && u64::from(w) * u64::from(h) <= MAX_PIXELS {
             Ok(Size(w, h))
         } else {
-            Err(format!("image size {w}x{h} is out of range (each side 1..={MAX_SIDE})"))
+            Err(format!("image size {w}x{h} is out of range (each side 1..={MAX_SIDE}, at most {MAX_PIXELS} pixels)"))
         }
     }
 }
