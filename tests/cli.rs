@@ -148,6 +148,8 @@ fn bad_scenes_give_positions_and_no_panic() {
     assert_rejected("ricci-below-one", &GOOD.replace(point, &ricci), Some((5, 18)), "at least 1");
     let flat = "Circle(center: (0.0, 0.0, 0.0), normal: (0.0, 0.0, 0.0), ring: 0.5, radius: 0.3)";
     assert_rejected("circle-without-normal", &GOOD.replace(point, flat), Some((5, 63)), "no length");
+    let nested = (0..300).fold(point.to_string(), |inner, _| format!("Blend([{inner}])"));
+    assert_rejected("too-deep", &GOOD.replace(point, &nested), None, "nests deeper than");
     let many = |node: &str, n: usize| GOOD.replace(point, &vec![node; n].join(", "));
     let spline = "SplinePoints(control: [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)], count: 1000000, radius: 0.01)";
     assert_rejected("too-many-primitives", &many(spline, 2), None, "2000000 primitives");

@@ -131,9 +131,13 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
     let mut scene = Scene::load(&a.scene)?;
     let mode = a.field.apply(&mut scene.model)?;
     let size = a.size.unwrap_or(scene.size);
-    std::fs::create_dir_all(&a.out_dir).with_context(|| format!("creating {}", a.out_dir.display()))?;
     let (ray, mesh, error_render, errors, report) = with_threads(a.threads, || -> anyhow::Result<_> {
         a.polygonize.check(&scene)?;
+        std::fs::create_dir_all(&a.out_dir).with_context(|| format!("creating {}", a.out_dir.display()))?;
+        // A set half old and half new is worse than none: every name must be writable first.
+        for name in OUTPUTS {
+            super::check_output_dir(&a.out_dir.join(name))?;
+        }
         let (ray, ray_report) = render_scene(&scene, size, mode);
         let (mesh_model, mut mesh_report) = polygonize_scene(&scene, mode, &a.polygonize);
         let mut by_error = mesh_model.clone();
@@ -233,6 +237,21 @@ fn measure(
 }
 
 /// Writes the renders, EXRs and heat maps; returns the heat maps with their panel titles.
+/// Every file `compare` writes into its output directory.
+const OUTPUTS: [&str; 11] = [
+    "ray.png",
+    "mesh.png",
+    "ray.exr",
+    "mesh.exr",
+    "silhouette.png",
+    "depth_error.png",
+    "normal_error.png",
+    "color_error.png",
+    "panel.png",
+    "mesh_error.png",
+    "stats.json",
+];
+
 fn write_outputs(
     dir: &Path,
     ray: &Frame,

@@ -96,13 +96,30 @@ impl Scene {
 
 /// Parses RON text into a [`SceneDesc`], with positions in errors.
 pub fn parse_desc(text: &str, label: &str) -> Result<SceneDesc, SceneError> {
+    ron_options().from_str::<SceneDesc>(without_bom(text)).map_err(|e| syntax_error(label, &e))
+}
+
+/// Nesting levels of RON a scene or script may use: a model nests a few per
+/// operator, so this allows trees about a hundred operators deep.
+const RECURSION_LIMIT: usize = 512;
+
+/// How scene and script files are read.
+fn ron_options() -> ron::Options {
     ron::Options::default()
         .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
-        .from_str::<SceneDesc>(text)
-        .map_err(|e| SceneError::Syntax {
-            path: label.to_string(),
-            line: e.span.start.line,
-            column: e.span.start.col,
-            message: e.code.to_string(),
-        })
+        .with_recursion_limit(RECURSION_LIMIT)
+}
+
+/// `text` without the byte-order mark some editors put first.
+fn without_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
+}
+
+/// A RON error of the file `label`, at its position.
+fn syntax_error(label: &str, e: &ron::error::SpannedError) -> SceneError {
+    let message = match e.code {
+        ron::Error::ExceededRecursionLimit => format!("the file nests deeper than {RECURSION_LIMIT} levels"),
+        ref code => code.to_string(),
+    };
+    SceneError::Syntax { path: label.to_string(), line: e.span.start.line, column: e.span.start.col, message }
 }

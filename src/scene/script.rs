@@ -48,12 +48,8 @@ pub fn load_script(path: &Path) -> Result<Vec<Vec<Edit>>, SceneError> {
 
 /// Parses script text; `label` names the source in errors.
 pub fn parse_script(text: &str, label: &str) -> Result<Vec<Vec<Edit>>, SceneError> {
-    let script: EditScript = ron::from_str(text).map_err(|e| SceneError::Syntax {
-        path: label.to_string(),
-        line: e.span.start.line,
-        column: e.span.start.col,
-        message: e.code.to_string(),
-    })?;
+    let script: EditScript =
+        super::ron_options().from_str(super::without_bom(text)).map_err(|e| super::syntax_error(label, &e))?;
     let total: usize = script.frames.iter().map(|f| f.repeat as usize).sum();
     if total == 0 || total > MAX_FRAMES {
         return Err(SceneError::Syntax {
@@ -79,6 +75,9 @@ mod tests {
         .unwrap();
         assert_eq!(frames.len(), 4);
         assert_eq!(frames[3], vec![Edit::Radius { node: "b".into(), radius: 0.5 }]);
+        // A byte-order mark some editors write first is no syntax error.
+        let marked = parse_script("\u{feff}EditScript(frames: [(edits: [Remove(node: \"a\")])])", "s").unwrap();
+        assert_eq!(marked, vec![vec![Edit::Remove { node: "a".into() }]]);
         let err = parse_script("EditScript(frames: [\n  (edits: [Spin(node: \"a\")])])", "s").unwrap_err().to_string();
         assert!(err.starts_with("s:2:"), "{err}");
         assert!(parse_script("EditScript(frames: [])", "s").is_err());
