@@ -165,8 +165,16 @@ impl<'a, F: Field + ?Sized, C: Fn(usize) -> bool> BlockMarker<'a, F, C> {
         }
     }
 
-    /// Descends into the halves of `lo..hi` along every axis longer than a cell.
+    /// Descends into the halves of `lo..hi` along every axis longer than a
+    /// cell; without point values, straight into its cells, since a range
+    /// query over half a block seldom spares the queries over its cells.
     fn split(&mut self, lo: UVec3, hi: UVec3) {
+        if !self.probe {
+            for i in cells_between(lo, hi) {
+                self.descend(i, i + UVec3::ONE);
+            }
+            return;
+        }
         let mid = lo + (hi - lo + UVec3::ONE) / 2;
         for k in 0..8 {
             let pick = |bit: u32, axis: usize| if k & bit == 0 { (lo[axis], mid[axis]) } else { (mid[axis], hi[axis]) };

@@ -88,10 +88,10 @@ pub struct Change {
     pub supports: Vec<Aabb>,
     /// The node in whose frame `supports` lie.
     pub scope: NodeId,
-    /// Caches laid anew on a coarser or finer lattice because their
-    /// subtree's bounds changed past the resize rule, each with its old and
-    /// new bounds together (in its parent's frame): the cached field changed
-    /// all over them.
+    /// Caches laid anew on a fresh lattice because their subtree's bounds
+    /// changed too much (see [`Refit::Rebuilt`]), each with its old and new
+    /// bounds together (in its parent's frame): the cached field changed all
+    /// over them.
     pub rebuilt: Vec<(NodeId, Aabb)>,
 }
 
