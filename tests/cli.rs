@@ -588,6 +588,16 @@ fn regression_passes_on_the_bundled_references_and_fails_on_a_perturbed_model() 
     let again =
         blobtrace(&["regress", "--refs", refs.to_str().unwrap(), "--report", dir.join("again").to_str().unwrap()]);
     assert!(again.status.success());
+    // A misspelt tolerance or an unusable one is refused where it is written.
+    for (entry, words) in
+        [("failpercnt: 5.0", "failpercnt"), ("fail: NaN", "finite"), ("failpercent: 150.0", "percentage")]
+    {
+        let text = format!("Manifest(entries: [Entry(scene: \"sphere.ron\", size: (8, 8), kind: Field, {entry})])");
+        std::fs::write(refs.join("manifest.ron"), text).unwrap();
+        let out = blobtrace(&["regress", "--refs", refs.to_str().unwrap(), "--bless"]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains("manifest.ron:1:") && err.contains(words), "{entry}: {err}");
+    }
     std::fs::remove_dir_all(dir).unwrap();
 }
 
