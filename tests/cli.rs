@@ -692,6 +692,8 @@ fn edit_scripts_are_checked_where_they_are_written_and_edits_that_overreach_are_
     assert!(err.contains("s.ron:2:") && err.contains("repeats"), "{err}");
     let err = run("EditScript(frames: [(edits: [\n  Translate(node: \"probe\", by: (1e10, 0.0, 0.0))])])");
     assert!(err.contains("s.ron:2:") && err.contains("magnitude"), "{err}");
+    let err = run("EditScript(frames: [(edits: [\n  Operator(node: \"hair\", op: Ricci(0.5))])])");
+    assert!(err.contains("s.ron:2:") && err.contains("at least 1"), "{err}");
     let err = run("EditScript(frames: [(edits: [Radius(node: \"probe\", radius: 0.1, spin: 1.0)])])");
     assert!(err.contains("spin"), "{err}");
     // Within range, but growing the model past what the mesh lattice may hold.

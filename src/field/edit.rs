@@ -95,7 +95,7 @@ pub enum Operator {
     /// Minimum.
     Intersection,
     /// Ricci's blend with exponent `n ≥ 1`.
-    Ricci(f32),
+    Ricci(#[serde(deserialize_with = "values::at_least_one")] f32),
 }
 
 fn one() -> f32 {

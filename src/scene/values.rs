@@ -50,6 +50,11 @@ pub fn positive<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
     Positive::deserialize(d).map(|v| v.0)
 }
 
+/// Deserializes a finite number `≥ 1` (see [`AtLeastOne`]).
+pub fn at_least_one<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+    AtLeastOne::deserialize(d).map(|v| v.0)
+}
+
 /// Deserializes a finite number `≥ 0` (a tolerance).
 pub fn non_negative<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
     let v = check_finite(f32::deserialize(d)?)?;
