@@ -726,6 +726,22 @@ fn outputs_must_be_named_for_their_format_and_are_checked_before_any_work() {
         assert!(!out.status.success() && err.contains(words), "{args:?}: {err}");
     }
     assert_eq!(std::fs::read(&keep).unwrap(), b"old");
+    // One of compare's names taken by a directory: nothing at all is written.
+    let set = dir.join("set");
+    std::fs::create_dir_all(set.join("panel.png")).unwrap();
+    let out = blobtrace(&[
+        "compare",
+        "scenes/sphere.ron",
+        "--size",
+        "16x12",
+        "--res",
+        "8",
+        "--out-dir",
+        set.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("panel.png: is a directory"), "{err}");
+    assert!(!set.join("ray.png").exists(), "compare wrote part of its set");
     std::fs::remove_dir_all(dir).unwrap();
 }
 
