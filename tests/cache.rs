@@ -273,6 +273,28 @@ fn a_subtree_moved_far_within_its_cache_lays_the_cache_anew_instead_of_stretchin
     assert!(grid.stats(&pool).grid_points < 100 * 100 * 100, "{:?}", grid.stats(&pool));
 }
 
+#[test]
+fn a_cache_over_an_empty_subtree_takes_edits_inside_it() {
+    // An intersection of two points apart is empty: its cache holds no table.
+    let mut scene = Scene::parse(
+        r#"Scene(
+    camera: Camera(eye: (0.0, 0.0, 6.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
+    size: (16, 12),
+    model: Blend([
+        Point(center: (0.0, 0.0, 0.0), radius: 1.0),
+        Cache(res: 16, child: Intersection([Point(center: (-3.0, 0.0, 0.0), radius: 0.5), Named("far", Point(center: (0.5, 0.5, 0.5), radius: 0.5))])),
+    ]),
+)"#,
+        "empty-cache",
+    )
+    .unwrap();
+    let change =
+        scene.model.apply(&blobtrace::field::Edit::Translate { node: "far".into(), by: Vec3::new(0.1, 0.0, 0.0) });
+    assert_eq!(change.unwrap().samples_cleared, 0);
+    let frame = render_cached(&scene, 1, (16, 12));
+    assert!(frame.alpha.iter().any(|&a| a > 0.0), "the point outside the cache still shows");
+}
+
 fn render_cached(scene: &Scene, threads: usize, size: (u32, u32)) -> blobtrace::frame::Frame {
     let field = ModelField::new(&scene.model, EvalMode::Cached);
     let s = RenderSettings::for_scene(scene, Size(size.0, size.1));

@@ -209,6 +209,11 @@ impl CacheGrid {
         self.table = Box::new([]);
         self.cell_slopes = Box::new([]);
         self.table_dims = UVec3::ZERO;
+        // A subtree with empty bounds reads no sample, but invalidation still
+        // walks the slope summaries: one cell, with its slope, keeps them whole.
+        self.lattice = UniformGrid::new(Vec3A::ZERO, self.cell, UVec3::ONE);
+        self.summary = UniformGrid::new(Vec3A::ZERO, 8.0 * self.cell, UVec3::ONE);
+        self.slopes = Box::new([AtomicU32::new(UNSET_SLOPE)]);
         if !child_bounds.is_empty() {
             let (lo, hi) = self.block_range(&child_bounds);
             self.resize_table(lo, hi);
