@@ -232,3 +232,25 @@ fn adding_removing_and_changing_operators_update_incrementally() {
         }
     }
 }
+
+#[test]
+fn a_model_that_starts_empty_updates_like_any_other() {
+    // The intersection's bounds are empty until the edit grows the point
+    // into the circle's: no ray may meet the empty model's (inverted) bounds,
+    // and the empty space marked over them must not stall a march afterwards.
+    let text = r#"Scene(camera: Camera(eye: (0.0, 1.0, 6.0), target: (0.0, 0.0, 0.0), fov_y: 45.0), size: (32, 24),
+        model: Cache(res: 23, child: Intersection([Named("n", Point(center: (-0.447, -0.924, -0.641), radius: 0.988, weight: 0.824)),
+            Circle(center: (0.259, 1.076, -0.805), normal: (0.185, 0.894, -0.479), ring: 0.645, radius: 0.352, weight: 1.331)])))"#;
+    for mode in [EvalMode::Indexed, EvalMode::Cached] {
+        let mut scene = Scene::parse(text, "empty").unwrap();
+        let settings = RenderSettings::for_scene(&scene, Size(32, 24));
+        let (mut frame, stats, mut empty) = render_model(&scene.model, mode, &settings, &|_| {});
+        assert_eq!(stats.hits, 0, "{mode:?}: the empty model shows");
+        assert!(scene.model.bounds().is_empty());
+        let change = scene.model.apply(&Edit::Radius { node: "n".into(), radius: 3.0 }).unwrap();
+        assert!(!scene.model.bounds().is_empty(), "{mode:?}: the model's bounds stay empty");
+        rerender_after(&scene.model, &change, mode, &settings, &mut frame, &mut empty);
+        let full = render_model(&scene.model, mode, &settings, &|_| {}).0;
+        assert!(frame.same_image(&full), "{mode:?}");
+    }
+}

@@ -31,7 +31,9 @@ pub struct EmptySpace {
 impl EmptySpace {
     /// Marks the cells of a grid over `field`'s bounds.
     pub fn build<F: Field + ?Sized>(field: &F) -> Self {
-        let bounds = field.bounds();
+        // A field that is zero everywhere still gets a grid, over a unit box,
+        // for edits to mark once the field reaches it.
+        let bounds = Some(field.bounds()).filter(|b| !b.is_empty()).unwrap_or(Aabb::around(Vec3A::ZERO, 0.5));
         let extent = bounds.size().max(Vec3A::splat(1e-6));
         let cell = extent.max_element() / CELLS_ALONG_LONGEST_SIDE;
         let grid = UniformGrid::new(bounds.min, cell, (extent / cell).ceil().as_uvec3());

@@ -141,6 +141,10 @@ impl Aabb {
     /// clipped to `[t_min, t_max]`; `None` when the ray misses.
     #[must_use]
     pub fn clip_ray(&self, origin: Vec3A, inv_dir: Vec3A, t_min: f32, t_max: f32) -> Option<(f32, f32)> {
+        // The slabs of an inverted box would swap into a real one.
+        if self.is_empty() {
+            return None;
+        }
         let t_a = (self.min - origin) * inv_dir;
         let t_b = (self.max - origin) * inv_dir;
         // NaN from 0 * inf (ray in the slab plane) is dropped by min/max.

@@ -152,7 +152,9 @@ impl UniformGrid {
             } else {
                 2
             };
-            if !f(self.linear(cell.as_uvec3()), t_max[axis].min(t1)) || t_max[axis] > t1 {
+            // An axis the segment does not move along is chosen only when the
+            // crossings are NaN (a degenerate grid): stop rather than spin.
+            if !f(self.linear(cell.as_uvec3()), t_max[axis].min(t1)) || t_max[axis] > t1 || step[axis] == 0 {
                 return;
             }
             cell[axis] += step[axis];
