@@ -236,7 +236,6 @@ fn measure(
     (errors, report)
 }
 
-/// Writes the renders, EXRs and heat maps; returns the heat maps with their panel titles.
 /// Every file `compare` writes into its output directory.
 const OUTPUTS: [&str; 11] = [
     "ray.png",
@@ -252,6 +251,7 @@ const OUTPUTS: [&str; 11] = [
     "stats.json",
 ];
 
+/// Writes the renders, EXRs and heat maps; returns the heat maps with their panel titles.
 fn write_outputs(
     dir: &Path,
     ray: &Frame,

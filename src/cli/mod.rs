@@ -165,10 +165,10 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Exi
     }
 }
 
-/// Runs `f` on a rayon pool of `threads` threads (all cores when `None`).
 /// Most worker threads `--threads` may ask for.
 const MAX_THREADS: usize = 1024;
 
+/// Runs `f` on a rayon pool of `threads` threads (all cores when `None`).
 fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> anyhow::Result<T> {
     match threads {
         None => Ok(f()),

@@ -122,23 +122,24 @@ impl Edit {
     fn validate(&self) -> Result<(), ModelError> {
         let bad = |what: String| Err(ModelError::BadEdit(what));
         // Finite, and within the magnitude scene files allow.
-        let fine = |v: Vec3| v.is_finite() && v.abs().max_element() <= MAX_MAGNITUDE;
+        let fine = |v: f32| v.is_finite() && v.abs() <= MAX_MAGNITUDE;
+        let fine3 = |v: Vec3| v.to_array().into_iter().all(fine);
         match self {
-            Edit::Translate { by: v, .. } | Edit::Rotate { degrees: v, .. } if !fine(*v) => {
+            Edit::Translate { by: v, .. } | Edit::Rotate { degrees: v, .. } if !fine3(*v) => {
                 bad(format!("{} by {v}: not finite or beyond {MAX_MAGNITUDE:e}", self.node()))
             }
-            Edit::Scale { by, .. } if !fine(*by) || by.abs().min_element() <= f32::EPSILON => bad(format!(
+            Edit::Scale { by, .. } if !fine3(*by) || by.abs().min_element() <= f32::EPSILON => bad(format!(
                 "{} scaled by {by}: factors must be finite, non-zero and at most {MAX_MAGNITUDE:e}",
                 self.node()
             )),
-            Edit::Radius { radius, .. } if !(fine(Vec3::splat(*radius)) && *radius > 0.0) => {
+            Edit::Radius { radius, .. } if !(fine(*radius) && *radius > 0.0) => {
                 bad(format!("{} radius {radius}: must be positive and at most {MAX_MAGNITUDE:e}", self.node()))
             }
-            Edit::Weight { weight, .. } if !fine(Vec3::splat(*weight)) => {
+            Edit::Weight { weight, .. } if !fine(*weight) => {
                 bad(format!("{} weight {weight}: not finite or beyond {MAX_MAGNITUDE:e}", self.node()))
             }
             Edit::AddPoint { center, radius, weight, name, .. }
-                if !(fine(*center) && fine(Vec3::new(*radius, *weight, 0.0)) && *radius > 0.0 && !name.is_empty()) =>
+                if !(fine3(*center) && fine(*radius) && fine(*weight) && *radius > 0.0 && !name.is_empty()) =>
             {
                 bad(format!(
                     "adding {name:?}: needs a name, a finite centre and weight, and a positive radius (each at most {MAX_MAGNITUDE:e})"
@@ -315,7 +316,8 @@ impl Model {
     /// The world boxes of the caches `change` rebuilt, whose cached field
     /// changed all over; none for exact evaluation, which passes caches by.
     fn rebuilt_regions<'a>(&'a self, change: &'a Change, cached: bool) -> impl Iterator<Item = Aabb> + 'a {
-        change.rebuilt.iter().filter(move |_| cached).map(move |&(cache, b)| {
+        let rebuilt = if cached { &change.rebuilt[..] } else { &[] };
+        rebuilt.iter().map(move |&(cache, b)| {
             let mut region = [b];
             self.carry_up(cache, &mut region, cached);
             region[0]
