@@ -4,7 +4,7 @@
 
 mod common;
 
-use blobtrace::field::{EvalMode, Field, Model, ModelField, NodeId, Region};
+use blobtrace::field::{EvalMode, Field, Model, ModelField, NodeId, NodeKind, Region};
 use blobtrace::geom::Aabb;
 use blobtrace::scene::Scene;
 use common::{EVERY_NODE, Rng, bundled};
@@ -21,6 +21,29 @@ fn medusa() -> &'static Scene {
     static SCENE: OnceLock<Scene> = OnceLock::new();
     SCENE.get_or_init(|| bundled("medusa.ron"))
 }
+
+/// Negatively weighted children under every operator: an intersection and a
+/// union reach as far as their negative children do, a difference and a
+/// Ricci blend clamp them away.
+fn signed() -> &'static Scene {
+    static SCENE: OnceLock<Scene> = OnceLock::new();
+    SCENE.get_or_init(|| Scene::parse(SIGNED, "signed").expect("signed scene parses"))
+}
+
+const SIGNED: &str = r#"Scene(
+    camera: Camera(eye: (0.0, 1.0, 6.0), target: (0.0, 0.0, 0.0), fov_y: 45.0),
+    size: (32, 24),
+    model: Blend([
+        Intersection([
+            Cache(res: 24, child: Point(center: (-0.1, -0.46, 0.98), radius: 1.03, weight: 0.76)),
+            Circle(center: (-0.33, -0.97, -0.28), normal: (-0.97, -0.55, 0.15), ring: 0.56, radius: 0.73, weight: -0.82),
+        ]),
+        Union([Point(center: (1.2, 0.5, 0.0), radius: 0.8, weight: -0.6), Segment(a: (1.0, 0.2, 0.0), b: (1.8, 0.9, 0.3), radius: 0.5, weight: -0.9)]),
+        Difference(Point(center: (-1.2, 0.8, 0.0), radius: 1.0), Point(center: (-1.0, 1.2, 0.3), radius: 0.6, weight: -1.0)),
+        Ricci(n: 2.0, children: [Point(center: (0.0, 1.5, 0.0), radius: 0.7, weight: -0.5), Point(center: (0.3, 1.5, 0.0), radius: 0.7)]),
+        Point(center: (0.5, -1.1, -0.3), radius: 1.04, weight: 1.04),
+    ]),
+)"#;
 
 /// Nine rotated rows of ten points: an indexed blend whose leaves are
 /// transforms of indexed blends, so bounds over it nest one index in another.
@@ -100,6 +123,38 @@ fn gradients_match_central_differences_for_every_node_type() {
         "Cache",
     ] {
         assert!(checked_types.contains(t), "no {t} node was checked");
+    }
+}
+
+/// Every operator's value is its definition over its children's values, at
+/// any point of the model: the box a node rejects points outside of must hold
+/// all of its support, a negative one included.
+#[test]
+fn operators_equal_their_definitions_everywhere() {
+    for scene in [every_node(), signed()] {
+        let m = &scene.model;
+        let (b, t) = (m.bounds(), m.threshold());
+        let mut rng = Rng(23);
+        let mut negative = 0;
+        for _ in 0..20_000 {
+            let p = rng.point_in(b.min, b.max);
+            for id in 0..m.nodes().len() as NodeId {
+                let value = |c: NodeId| m.node_value(c, p, EvalMode::Naive);
+                let expected = match &m.node(id).kind {
+                    NodeKind::Blend { children, .. } => children.iter().map(|&c| value(c)).sum(),
+                    NodeKind::Union(cs) => cs.iter().map(|&c| value(c)).fold(f32::MIN, f32::max),
+                    NodeKind::Intersection(cs) => cs.iter().map(|&c| value(c)).fold(f32::MAX, f32::min),
+                    NodeKind::Difference(a, c) => value(*a).min(2.0 * t - value(*c)).max(0.0),
+                    _ => continue,
+                };
+                let got = value(id);
+                negative += usize::from(got < 0.0);
+                assert!((got - expected).abs() <= 1e-5, "node {id} at {p}: {got}, by definition {expected}");
+            }
+        }
+        if std::ptr::eq(scene, signed()) {
+            assert!(negative > 1000, "too few samples where an operator is negative: {negative}");
+        }
     }
 }
 
@@ -261,7 +316,7 @@ proptest! {
 
     #[test]
     fn intervals_contain_sampled_values(t in prop::array::uniform6(0.0f32..1.0), thin in 0.01f32..0.6, seed in 0u64..1000) {
-        for scene in [every_node(), medusa(), nested()] {
+        for scene in [every_node(), medusa(), nested(), signed()] {
             let (a, c) = region_from(&scene.model.bounds(), t, thin);
             for mode in [EvalMode::Indexed, EvalMode::Naive, EvalMode::Cached] {
                 check_interval(&ModelField::new(&scene.model, mode), a, c, seed)?;
@@ -271,7 +326,7 @@ proptest! {
 
     #[test]
     fn lipschitz_bounds_dominate_sampled_slopes(t in prop::array::uniform6(0.0f32..1.0), thin in 0.01f32..0.6, seed in 0u64..1000) {
-        for scene in [every_node(), medusa(), nested()] {
+        for scene in [every_node(), medusa(), nested(), signed()] {
             let (a, c) = region_from(&scene.model.bounds(), t, thin);
             for mode in [EvalMode::Indexed, EvalMode::Naive, EvalMode::Cached] {
                 check_lipschitz(&ModelField::new(&scene.model, mode), a, c, seed)?;

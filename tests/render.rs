@@ -209,6 +209,35 @@ fn a_feature_thinner_than_the_tolerance_is_found_from_any_start_when_it_holds_a_
     }
 }
 
+/// After an edit grows the model, the tolerance (a fraction of the bounds'
+/// diagonal) outgrows the hit lattice, which stays fixed. A ray grazing one
+/// point (under a union, so without curvature steps) walks that finer
+/// lattice; it must then speed up again, not crawl one
+/// lattice step at a time to a point far behind (and run out of steps).
+#[test]
+fn a_march_speeds_up_again_after_walking_a_lattice_finer_than_the_tolerance() {
+    let scene = Scene::parse(
+        "Scene(camera: Camera(eye: (0.0, 0.0, 10.0), target: (0.0, 0.0, 0.0), fov_y: 40.0), size: (8, 8),
+               model: Union([Point(center: (0.0, 0.0, 0.0), radius: 1.0), Point(center: (6.0, 0.4, 0.0), radius: 1.0)]))",
+        "graze",
+    )
+    .unwrap();
+    let field = ModelField::new(&scene.model, EvalMode::Indexed);
+    let mut opts = settings(&scene, 8, 8).trace;
+    let tol = opts.tolerance * scene.model.bounds().diagonal();
+    opts.quantum = Some(0.25 * tol);
+    // Along +x at the height where the first point's field peaks a hair below T.
+    let graze = (1.0 - (0.5f32 - 2e-6).powf(1.0 / 3.0)).sqrt();
+    let ray = Ray::new(Vec3A::new(-2.0, graze, 0.0), Vec3A::X);
+    let result = trace_ray(&field, &ray, &opts);
+    let iso_radius2 = 1.0 - 0.5f32.powf(1.0 / 3.0);
+    let expected = 8.0 - (iso_radius2 - (graze - 0.4) * (graze - 0.4)).sqrt();
+    let hit = result.hit.expect("the second point is hit");
+    assert!((hit - expected).abs() < 1e-3, "hit at {hit}, the second point's surface at {expected}");
+    // About a thousand lattice steps past the graze; a crawl would take 10⁵.
+    assert!(result.steps < 2000, "{} steps", result.steps);
+}
+
 #[test]
 fn skipping_empty_space_changes_no_pixel() {
     for (name, mode) in [

@@ -152,7 +152,7 @@ impl ModelBuilder {
         if empty {
             return Err(ModelError::NoChildren(kind.type_name()));
         }
-        self.nodes.push(Node { kind, parent: None, bounds: Aabb::EMPTY, color });
+        self.nodes.push(Node { kind, parent: None, bounds: Aabb::EMPTY, may_be_negative: false, color });
         Ok((self.nodes.len() - 1) as NodeId)
     }
 
@@ -283,14 +283,26 @@ impl Model {
         self.bounds_from_children(id)
     }
 
-    /// Node `id`'s bounds from its children's current bounds (refitting a cache).
+    /// Node `id`'s bounds (and sign) from its children's current ones
+    /// (refitting a cache).
     fn bounds_from_children(&mut self, id: NodeId) -> Aabb {
-        let child_bounds: Vec<Aabb> =
-            self.nodes[id as usize].kind.children().iter().map(|&c| self.nodes[c as usize].bounds).collect();
+        let children: Vec<(Aabb, bool)> = self.nodes[id as usize]
+            .kind
+            .children()
+            .iter()
+            .map(|&c| (self.nodes[c as usize].bounds, self.nodes[c as usize].may_be_negative))
+            .collect();
+        let child_bounds: Vec<Aabb> = children.iter().map(|c| c.0).collect();
+        self.nodes[id as usize].may_be_negative = may_be_negative(&self.nodes[id as usize].kind, &children);
         let kind = &self.nodes[id as usize].kind;
         let b = match kind {
             NodeKind::Primitive(p) => p.bounds(),
-            NodeKind::Intersection(_) => child_bounds.iter().fold(child_bounds[0], |a, b| a.intersection(b)),
+            NodeKind::Intersection(_) => {
+                // Positive only where every child is, negative wherever any
+                // child is: inside the common part and any negative child's box.
+                let common = child_bounds.iter().fold(child_bounds[0], |a, b| a.intersection(b));
+                children.iter().filter(|c| c.1).fold(common, |a, c| a.union(&c.0))
+            }
             NodeKind::Difference(..) => child_bounds[0],
             NodeKind::Transform { placement, .. } => child_bounds[0].transformed(&placement.to_world),
             NodeKind::Cache { spec, grid, .. } => {
@@ -395,11 +407,12 @@ impl Model {
         }
         let id = self.nodes.len() as NodeId;
         let identity = Placement::new(Vec3::ZERO, Vec3::ZERO, Vec3::ONE).expect("the identity is invertible");
-        let bounds = self.nodes[child as usize].bounds;
+        let Node { bounds, may_be_negative, .. } = self.nodes[child as usize];
         self.nodes.push(Node {
             kind: NodeKind::Transform { placement: identity, child },
             parent: Some(named),
             bounds,
+            may_be_negative,
             color: None,
         });
         self.nodes[child as usize].parent = Some(id);
@@ -431,10 +444,11 @@ impl Model {
         let old_op = self.nodes[op as usize].bounds;
         let leaf = self.nodes.len() as NodeId;
         let named = leaf + 1;
-        let b = primitive.bounds();
-        self.nodes.push(Node { kind: NodeKind::Primitive(primitive), parent: Some(named), bounds: b, color: None });
+        let (b, may_be_negative) = (primitive.bounds(), primitive.weight < 0.0);
+        let kind = NodeKind::Primitive(primitive);
+        self.nodes.push(Node { kind, parent: Some(named), bounds: b, may_be_negative, color: None });
         let kind = NodeKind::Named { name: name.to_string(), child: leaf };
-        self.nodes.push(Node { kind, parent: Some(op), bounds: b, color: None });
+        self.nodes.push(Node { kind, parent: Some(op), bounds: b, may_be_negative, color: None });
         self.names.insert(name.to_string(), named);
         if let Some(children) = operator_children_mut(&mut self.nodes[op as usize].kind) {
             children.push(named);
@@ -654,6 +668,23 @@ pub struct ModelCounts {
     pub caches: usize,
     /// Blends carrying a spatial index.
     pub indexed_blends: usize,
+}
+
+/// Whether a node of `kind` over `children` (bounds, may be negative) may be
+/// negative somewhere.
+fn may_be_negative(kind: &NodeKind, children: &[(Aabb, bool)]) -> bool {
+    let mut negative = children.iter().map(|c| c.1);
+    match kind {
+        NodeKind::Primitive(p) => p.weight < 0.0,
+        // The maximum is negative only where every child is (a child is zero
+        // outside its support).
+        NodeKind::Union(_) => negative.all(|n| n),
+        // Both clamp at zero.
+        NodeKind::Difference(..) | NodeKind::Ricci { .. } => false,
+        // A sum or minimum is negative wherever one child is; the pass-throughs
+        // are their child (a cache's filters stay within its samples' range).
+        _ => negative.any(|n| n),
+    }
 }
 
 /// True for the n-ary operators (Blend, Union, Intersection, Ricci).

@@ -19,6 +19,10 @@ pub struct Node {
     pub parent: Option<NodeId>,
     /// A box holding the node's support: outside it the node's field is zero.
     pub bounds: Aabb,
+    /// Whether the node's field may be negative somewhere (a negatively
+    /// weighted primitive below that no clamp removes). An intersection
+    /// reaches as far as such a child: its minimum is negative there.
+    pub may_be_negative: bool,
     /// Surface colour (linear RGB) for this subtree, overriding its descendants'.
     pub color: Option<Vec3>,
 }

@@ -137,12 +137,15 @@ pub fn march<F: Field + ?Sized>(
         });
         out.evals += bound.bounds;
         let mut ahead = None;
-        let t_next = if bound.step < tol {
+        let t_next = if bound.step < tol && bound.step < bound.room {
             // Near the surface the bound's steps shrink towards the crossing:
             // walk the ray's lattice instead, which keeps grazing rays moving
             // and finds the first lattice point inside whatever stretch a
             // march starts from (a feature between two lattice points is
-            // below the precision asked for).
+            // below the precision asked for). A step cut short by its segment
+            // alone is taken whole, so that the segment grows again after a
+            // walk on a lattice finer than the tolerance (the lattice is fixed
+            // by the first frame's bounds; edits may grow the tolerance past it).
             next_lattice_point(t, opts.quantum.unwrap_or(tol))
         } else if relax && curved.is_none() && bound.step < bound.room {
             // Try a longer step and keep it if the slope bound still shows,
