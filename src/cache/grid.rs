@@ -313,7 +313,7 @@ impl CacheGrid {
             let v = storage.round_trip(eval(p));
             self.evaluated.add(1);
             let bits = storage.encode(v);
-            slot.write(g, w, |old| storage.store(old, half, bits));
+            pool.store(slot, g, w, |old| storage.store(old, half, bits));
             return v;
         }
         // The block kept changing hands under a tight budget: evaluate without storing.

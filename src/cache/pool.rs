@@ -192,6 +192,21 @@ impl SamplePool {
         self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
+    /// Stores `update(old)` into word `w` of `slot`, read under generation `g`
+    /// (see [`Slot::write`]). Without a budget no slot changes hands while
+    /// caches are read (only edits, with exclusive access, free slots), so the
+    /// store skips the writer count: two threads filling one block would
+    /// otherwise trade the cache line of its generation with every sample,
+    /// and every reader of the block would miss on it.
+    #[inline]
+    pub fn store(&self, slot: &Slot, g: u32, w: usize, update: impl Fn(u32) -> Option<u32>) {
+        if self.budget_slots.is_some() {
+            slot.write(g, w, update);
+        } else {
+            let _ = slot.words[w].fetch_update(Ordering::Release, Ordering::Relaxed, update);
+        }
+    }
+
     /// Marks `slot` as used now, so eviction passes it over (only under a budget).
     #[inline]
     pub fn touch(&self, slot: &Slot) {
