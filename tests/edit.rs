@@ -254,3 +254,26 @@ fn a_model_that_starts_empty_updates_like_any_other() {
         assert!(frame.same_image(&full), "{mode:?}");
     }
 }
+
+#[test]
+fn an_intersection_with_a_negative_child_updates_like_any_other() {
+    // The circle's negative weight makes the intersection negative wherever
+    // the circle reaches, past the point's support. Were the intersection cut
+    // to the common box, its field would jump there, the tracer would hit or
+    // miss a sliver depending on where its march started, and the full render
+    // would miss (17, 19), which the incremental one shows.
+    let text = r#"Scene(camera: Camera(eye: (0.0, 1.0, 6.0), target: (0.0, 0.0, 0.0), fov_y: 45.0), size: (32, 24),
+        model: Blend([Intersection([Cache(res: 24, child: Point(center: (-0.105, -0.461, 0.979), radius: 1.025, weight: 0.756)),
+            Circle(center: (-0.330, -0.967, -0.283), normal: (-0.965, -0.553, 0.150), ring: 0.557, radius: 0.725, weight: -0.819)]),
+            Named("n3", Point(center: (0.506, -1.130, -0.319), radius: 1.038, weight: 1.036))]))"#;
+    for mode in [EvalMode::Indexed, EvalMode::Cached] {
+        let mut scene = Scene::parse(text, "negative").unwrap();
+        let settings = RenderSettings::for_scene(&scene, Size(32, 24));
+        let (mut frame, _, mut empty) = render_model(&scene.model, mode, &settings, &|_| {});
+        let change =
+            scene.model.apply(&Edit::Translate { node: "n3".into(), by: Vec3::new(-0.281, -0.799, 0.722) }).unwrap();
+        rerender_after(&scene.model, &change, mode, &settings, &mut frame, &mut empty);
+        let full = render_model(&scene.model, mode, &settings, &|_| {}).0;
+        assert!(frame.same_image(&full), "{mode:?}");
+    }
+}
