@@ -1,5 +1,6 @@
 //! Empty-space skipping: a coarse grid over a field's bounds marking the
-//! cells where the field's interval bound stays below the threshold, so the
+//! cells where the field's interval bound stays below the threshold (by the
+//! margin of [`super::outside_margin`], against rounding), so the
 //! surface cannot be there. A ray crosses a run of such cells in one jump
 //! instead of a segment-tracing step per doubling of its segment.
 //!
@@ -118,7 +119,8 @@ struct BlockMarker<'a, F: ?Sized, C> {
     field: &'a F,
     grid: &'a UniformGrid,
     chosen: &'a C,
-    iso: f32,
+    /// Ranges below this leave a cell empty: the threshold less [`super::outside_margin`].
+    level: f32,
     /// Whether to ask point values before ranges below a block.
     probe: bool,
     /// Lattice point (0, 0, 0) of the block's corner values.
@@ -136,7 +138,8 @@ const PROBES: usize = 2 * BLOCK as usize + 1;
 impl<'a, F: Field + ?Sized, C: Fn(usize) -> bool> BlockMarker<'a, F, C> {
     fn new(field: &'a F, grid: &'a UniformGrid, chosen: &'a C, first: UVec3, probe: bool) -> Self {
         let iso = field.threshold();
-        Self { field, grid, chosen, iso, probe, first, reached: [None; PROBES * PROBES * PROBES], marks: vec![] }
+        let level = iso - super::outside_margin(iso);
+        Self { field, grid, chosen, level, probe, first, reached: [None; PROBES * PROBES * PROBES], marks: vec![] }
     }
 
     /// Marks the chosen cells in `lo..hi`.
@@ -158,7 +161,7 @@ impl<'a, F: Field + ?Sized, C: Fn(usize) -> bool> BlockMarker<'a, F, C> {
             return;
         }
         let range = self.field.interval(&self.cells_box(lo, hi));
-        if range.hi < self.iso {
+        if range.hi < self.level {
             self.marks.extend(cells.into_iter().map(|c| (c, true)));
         } else if single {
             self.marks.push((cells[0], false));
@@ -187,13 +190,13 @@ impl<'a, F: Field + ?Sized, C: Fn(usize) -> bool> BlockMarker<'a, F, C> {
         }
     }
 
-    /// True when the field reaches the threshold at a corner or centre of a cell in `lo..hi`.
+    /// True when the field reaches the marking level at a corner or centre of a cell in `lo..hi`.
     fn reaches_threshold(&mut self, lo: UVec3, hi: UVec3) -> bool {
         let (a, b) = (2 * (lo - self.first), 2 * (hi - self.first));
         (a.z..=b.z).any(|z| (a.y..=b.y).any(|y| (a.x..=b.x).any(|x| self.reached_at(UVec3::new(x, y, z)))))
     }
 
-    /// Whether the field reaches the threshold at doubled-lattice point `i`
+    /// Whether the field reaches the marking level at doubled-lattice point `i`
     /// of the block; odd–even mixes (face and edge midpoints) are skipped.
     fn reached_at(&mut self, i: UVec3) -> bool {
         let odd = i % 2;
@@ -203,7 +206,7 @@ impl<'a, F: Field + ?Sized, C: Fn(usize) -> bool> BlockMarker<'a, F, C> {
         let k = (i.z as usize * PROBES + i.y as usize) * PROBES + i.x as usize;
         *self.reached[k].get_or_insert_with(|| {
             let p = self.grid.origin + (self.first.as_vec3a() + i.as_vec3a() * 0.5) * self.grid.cell;
-            self.field.value(p) >= self.iso
+            self.field.value(p) >= self.level
         })
     }
 

@@ -104,6 +104,22 @@ pub trait Field: Sync {
     }
 }
 
+/// How far below the threshold `T` a value must be computed for the space
+/// around it to count as outside: twice the largest rounding error of an
+/// evaluation, taken as 2⁻¹⁹·T (sixteen units in the last place of `T`; the
+/// hundreds of terms of a dense sum stay well within it).
+///
+/// A step certified by a slope bound from a computed value, or a cell marked
+/// empty from a computed range, holds for the true field. Kept this far from
+/// `T`, they hold for the computed field too: no point whose computed value
+/// exceeds `T` is ever stepped over, so where a ray first meets such a
+/// lattice point does not depend on where its march started (a ray touching
+/// the surface to within rounding would otherwise hit it or not by chance).
+#[must_use]
+pub fn outside_margin(threshold: f32) -> f32 {
+    2.0 * threshold.abs() / (1 << 19) as f32
+}
+
 /// Evaluation of a [`Model`]: exact (indexed or naive) or through its caches.
 #[derive(Clone, Copy)]
 pub struct ModelField<'a> {

@@ -7,7 +7,7 @@
 
 use glam::Vec3A;
 
-use crate::field::{Field, Region};
+use crate::field::{Field, Region, outside_margin};
 use crate::geom::Ray;
 
 /// Knobs of the tracer, each with its trade-off.
@@ -100,6 +100,7 @@ pub fn march<F: Field + ?Sized>(
     let diag = field.bounds().diagonal();
     let tol = (opts.tolerance * diag).max(f32::EPSILON * t_end.abs());
     let iso = field.threshold();
+    let outside = outside_margin(iso);
     let mut t = t_start;
     let mut v = field.value(ray.at(t)) - iso;
     out.evals = 1;
@@ -129,11 +130,14 @@ pub fn march<F: Field + ?Sized>(
         // Near the surface a curvature step is longer than a Lipschitz one
         // in all but one step in two hundred on Medusa: take it alone
         // where the field's gradient is smooth enough to have one.
+        // Steps are certified for the field as computed: `-v` less the
+        // evaluation's rounding (see `outside_margin`).
+        let margin = (-v - outside).max(0.0);
         let curved =
-            if -v < CURVATURE_MARGIN * iso { curvature_step(field, ray, (t, gradient), -v, room) } else { None };
+            if -v < CURVATURE_MARGIN * iso { curvature_step(field, ray, (t, gradient), margin, room) } else { None };
         let bound = curved.unwrap_or_else(|| {
             let halvings = if -v > HALVING_MARGIN * iso { MAX_BOUNDS_PER_STEP } else { 1 };
-            bounded_step(field, ray, t, -v, room, halvings)
+            bounded_step(field, ray, t, margin, room, halvings)
         });
         out.evals += bound.bounds;
         let mut ahead = None;
@@ -154,7 +158,7 @@ pub fn march<F: Field + ?Sized>(
             let s = (OVER_RELAXATION * bound.step).min(bound.room);
             let v_far = field.value(ray.at(t + s)) - iso;
             out.evals += 1;
-            if v_far <= 0.0 && -v - v_far >= bound.slope * s {
+            if v_far <= 0.0 && margin + (-v_far - outside) >= bound.slope * s {
                 ahead = Some(v_far);
                 t + s
             } else {
@@ -181,12 +185,19 @@ pub fn march<F: Field + ?Sized>(
                 field.value(ray.at(t_next)) - iso
             }
         });
-        if v_next > 0.0 {
+        let (t_next, v_next) = if v_next > 0.0 {
             let ((a, b), evals) = refine(field, ray, (t, v), (t_next, v_next), tol);
-            let (root, snap_evals) = snap(field, ray, a, b, opts.quantum.unwrap_or(tol));
+            let (snapped, snap_evals) = snap(field, ray, a, b, opts.quantum.unwrap_or(tol));
             out.evals += evals + snap_evals;
-            return (Crossing::At(root), out);
-        }
+            match snapped {
+                Snapped::Hit(root) => return (Crossing::At(root), out),
+                // The surface was touched between lattice points only: march on.
+                Snapped::Past(t_past, v_past) if t_past < t_end => (t_past, v_past),
+                Snapped::Past(..) => return (Crossing::None, out),
+            }
+        } else {
+            (t_next, v_next)
+        };
         segment = opts.growth * (t_next - t);
         t = t_next;
         v = v_next;
@@ -366,35 +377,108 @@ fn refine<F: Field + ?Sized>(field: &F, ray: &Ray, a: (f32, f32), b: (f32, f32),
 /// Most lattice steps `snap` walks outwards to re-establish its bracket.
 const MAX_SNAP_WALK: u32 = 64;
 
+/// Where a crossing snapped to on the ray's lattice.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Snapped {
+    /// The first lattice point inside.
+    Hit(f32),
+    /// No lattice point near the crossing is inside: the field touched the
+    /// surface between two of them (or rounding said so), a feature below the
+    /// precision asked for. The last lattice point found outside, and the
+    /// field's value there less `T`, to march on from.
+    Past(f32, f32),
+}
+
 /// The first lattice point `k · q` inside the surface after the crossing in
 /// the narrow bracket `[a, b]`: bisection on the integers `k`, so the answer
 /// depends only on the field at lattice points near the crossing. Returns it
-/// and the evaluations spent.
-fn snap<F: Field + ?Sized>(field: &F, ray: &Ray, a: f32, b: f32, q: f32) -> (f32, u32) {
+/// (or where to march on from, when none is inside) and the evaluations spent.
+fn snap<F: Field + ?Sized>(field: &F, ray: &Ray, a: f32, b: f32, q: f32) -> (Snapped, u32) {
     let iso = field.threshold();
     let mut evals = 0;
-    let mut inside = |k: i64| {
+    let mut margin = |k: i64| {
         evals += 1;
-        field.value(ray.at(k as f32 * q)) > iso
+        field.value(ray.at(k as f32 * q)) - iso
     };
     let (mut lo, mut hi) = ((a / q).floor() as i64, (b / q).ceil() as i64);
     // Rounding outwards may have stepped across the crossing: walk back out.
     let mut walk = 0;
-    while walk < MAX_SNAP_WALK && inside(lo) {
+    while walk < MAX_SNAP_WALK && margin(lo) > 0.0 {
         lo -= 1;
         walk += 1;
     }
-    while walk < 2 * MAX_SNAP_WALK && !inside(hi) {
+    let mut at_hi = margin(hi);
+    while at_hi <= 0.0 {
+        if walk == 2 * MAX_SNAP_WALK {
+            return (Snapped::Past(hi as f32 * q, at_hi), evals);
+        }
         hi += 1;
         walk += 1;
+        at_hi = margin(hi);
     }
     while hi - lo > 1 {
         let mid = lo + (hi - lo) / 2;
-        if inside(mid) {
+        if margin(mid) > 0.0 {
             hi = mid;
         } else {
             lo = mid;
         }
     }
-    (hi as f32 * q, evals)
+    (Snapped::Hit(hi as f32 * q), evals)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::{Aabb, Interval};
+    use glam::Vec3;
+
+    /// Along +x, a bump peaking `height` above `T = 0.5` at `peak`, and a wall
+    /// inside from `wall` on.
+    struct Bump {
+        peak: f32,
+        height: f32,
+        wall: f32,
+    }
+
+    impl Field for Bump {
+        fn value(&self, p: Vec3A) -> f32 {
+            if p.x >= self.wall { 1.0 } else { 0.5 + self.height - (p.x - self.peak).powi(2) }
+        }
+        fn gradient(&self, p: Vec3A) -> Vec3A {
+            Vec3A::X * -2.0 * (p.x - self.peak)
+        }
+        fn color(&self, _: Vec3A) -> Vec3 {
+            Vec3::ONE
+        }
+        fn interval(&self, _: &Aabb) -> Interval {
+            Interval::new(0.0, 1.0)
+        }
+        fn lipschitz(&self, _: &Region) -> f32 {
+            f32::INFINITY
+        }
+        fn bounds(&self) -> Aabb {
+            Aabb::new(Vec3A::splat(-10.0), Vec3A::splat(10.0))
+        }
+        fn threshold(&self) -> f32 {
+            0.5
+        }
+    }
+
+    #[test]
+    fn a_touch_between_lattice_points_is_marched_past_and_a_wide_crossing_is_snapped() {
+        let q = 1e-3;
+        let ray = Ray::new(Vec3A::ZERO, Vec3A::X);
+        // Inside over ±0.3 q around a point halfway between lattice points 1000 and 1001.
+        let bump = Bump { peak: 1000.5 * q, height: (0.3 * q) * (0.3 * q), wall: 1.2 };
+        let (a, b) = (1000.3 * q, 1000.7 * q);
+        assert!(bump.value(ray.at(0.5 * (a + b))) > 0.5);
+        let (snapped, evals) = snap(&bump, &ray, a, b, q);
+        let Snapped::Past(t, v) = snapped else { panic!("{snapped:?}: no lattice point is inside") };
+        assert!(t > b && v <= 0.0 && bump.value(ray.at(t)) <= 0.5, "march on from {t} ({v})");
+        assert!(evals <= 2 * MAX_SNAP_WALK + 2, "{evals}");
+        // The wall's first lattice point inside, from a bracket around its face.
+        let (snapped, _) = snap(&bump, &ray, 1.2 - 0.4 * q, 1.2 + 0.2 * q, q);
+        assert_eq!(snapped, Snapped::Hit(1200.0 * q));
+    }
 }
