@@ -127,12 +127,12 @@ pub fn march<F: Field + ?Sized>(
         skipped = false;
         out.steps += 1;
         let room = (t + segment).min(t_end) - t;
-        // Near the surface a curvature step is longer than a Lipschitz one
-        // in all but one step in two hundred on Medusa: take it alone
-        // where the field's gradient is smooth enough to have one.
         // Steps are certified for the field as computed: `-v` less the
         // evaluation's rounding (see `outside_margin`).
         let margin = (-v - outside).max(0.0);
+        // Near the surface a curvature step is longer than a Lipschitz one
+        // in all but one step in two hundred on Medusa: take it alone
+        // where the field's gradient is smooth enough to have one.
         let curved =
             if -v < CURVATURE_MARGIN * iso { curvature_step(field, ray, (t, gradient), margin, room) } else { None };
         let bound = curved.unwrap_or_else(|| {
