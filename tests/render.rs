@@ -234,7 +234,7 @@ fn a_march_speeds_up_again_after_walking_a_lattice_finer_than_the_tolerance() {
     let expected = 8.0 - (iso_radius2 - (graze - 0.4) * (graze - 0.4)).sqrt();
     let hit = result.hit.expect("the second point is hit");
     assert!((hit - expected).abs() < 1e-3, "hit at {hit}, the second point's surface at {expected}");
-    // About a thousand lattice steps past the graze; a crawl would take 10⁵.
+    // Under a thousand lattice steps past the graze; a crawl would take 10⁵.
     assert!(result.steps < 2000, "{} steps", result.steps);
 }
 

@@ -150,7 +150,7 @@ pub fn march<F: Field + ?Sized>(
             // alone is taken whole, so that the segment grows again after a
             // walk on a lattice finer than the tolerance (the lattice is fixed
             // by the first frame's bounds; edits may grow the tolerance past it).
-            next_lattice_point(t, opts.quantum.unwrap_or(tol))
+            lattice_step(t, bound.step, opts.quantum.unwrap_or(tol))
         } else if relax && curved.is_none() && bound.step < bound.room {
             // Try a longer step and keep it if the slope bound still shows,
             // from both of its ends, that it crosses nothing (Keinert et al.
@@ -231,9 +231,22 @@ fn skip_empty<F: Field + ?Sized>(field: &F, ray: &Ray, (t, t_end): (f32, f32), m
     if v > 0.0 { Skip::No } else { Skip::To(to, v) }
 }
 
-/// The first point `k · q` after `t`.
+/// The farthest lattice point `k · q` within a certified `step` from `t`, or,
+/// when there is none, the first after `t`. The points passed over are inside
+/// the step, so none is inside the surface; with a lattice finer than the
+/// tolerance (after edits grew the model) the walk passes several at a time.
+fn lattice_step(t: f32, step: f32, q: f32) -> f32 {
+    let farthest = ((t + step) / q).floor() * q;
+    if farthest > t && farthest <= t + step { farthest } else { next_lattice_point(t, q) }
+}
+
+/// The first point `k · q` after `t`. The quotient `t / q` may round up past
+/// a lattice point an ulp above `t`; counting back first keeps that point.
 fn next_lattice_point(t: f32, q: f32) -> f32 {
-    let mut k = (t / q).floor() + 1.0;
+    let mut k = (t / q).floor();
+    while k * q > t {
+        k -= 1.0;
+    }
     while k * q <= t {
         k += 1.0;
     }
@@ -463,6 +476,24 @@ mod tests {
         fn threshold(&self) -> f32 {
             0.5
         }
+    }
+
+    #[test]
+    fn lattice_walks_skip_no_lattice_point_they_do_not_certify() {
+        let q = 8.608_999e-5;
+        let mut just_below = 0;
+        for k in 1..200_000 {
+            let point = k as f32 * q;
+            let below = f32::from_bits(point.to_bits() - 1);
+            // From an ulp below a lattice point, that point is the next one.
+            assert_eq!(next_lattice_point(below, q), point, "k = {k}");
+            just_below += usize::from((below / q).floor() as i64 == k);
+            // A step certifying several lattice points passes to the last of them.
+            let t = below - 2.5 * q;
+            let to = lattice_step(t, 3.0 * q, q);
+            assert!(to > t && to <= t + 3.0 * q && (to / q).round() * q == to, "k = {k}: {t} -> {to}");
+        }
+        assert!(just_below > 1000, "the quotient rounded up only {just_below} times");
     }
 
     #[test]
