@@ -46,6 +46,30 @@ fn sphere_vertices_lie_on_the_iso_sphere_and_the_mesh_is_closed_with_outward_nor
     }
 }
 
+/// A ball with a ball-shaped cavity, both skeletons at the centre (found by
+/// fuzzing): a march from the centre meets the cavity's wall first. It must
+/// go on to the outer surface, or the mesh is the cavity alone.
+#[test]
+fn a_hollow_ball_gives_both_its_surfaces() {
+    let scene = Scene::parse(
+        "Scene(camera: Camera(eye: (0.0, 0.0, 6.0), target: (0.0, 0.0, 0.0), fov_y: 40.0), size: (8, 8),
+               model: Difference(Point(center: (0.0, 0.0, 0.0), radius: 2.0), Point(center: (0.0, 0.0, 0.0), radius: 1.0)))",
+        "hollow",
+    )
+    .unwrap();
+    let (outer, cavity) = (iso_radius(2.0), iso_radius(1.0));
+    for cells in SHAPES {
+        let (_, mesh) =
+            polygonize(&scene.model, EvalMode::Indexed, 24, PolygonizeOptions { cells, ..Default::default() });
+        let near = |r: f32| mesh.positions.iter().filter(|v| (v.length() - r).abs() < 1e-3).count();
+        assert_eq!(near(outer) + near(cavity), mesh.positions.len(), "{cells:?}: a vertex on neither sphere");
+        assert!(near(outer) > 100 && near(cavity) > 20, "{cells:?}: {} outer, {} cavity", near(outer), near(cavity));
+        let topo = mesh.topology();
+        assert!(topo.is_closed_manifold(), "{cells:?}: {topo:?}");
+        assert_eq!(topo.euler_characteristic, 4, "{cells:?}: two spheres");
+    }
+}
+
 #[test]
 fn linear_placement_spends_no_evaluation_on_vertices() {
     let scene = sphere();

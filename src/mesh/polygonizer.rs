@@ -606,32 +606,43 @@ impl RowMarch<'_> {
     /// Marches the starts (with their reach, in half cells) of one row, in x
     /// order; returns the corners where a march met a sign change (the change
     /// is on the edge to the next corner in +x) and the corners it evaluated.
+    ///
+    /// A march records every sign change within its reach, not only the
+    /// first: a negatively weighted primitive or a carving operator can put
+    /// a second surface behind the first (the outside of a hollow ball whose
+    /// skeletons all lie in the cavity). A march starting inside goes on at
+    /// least to where it leaves the surface, however far. Starts lying on a
+    /// stretch already marched go on from its end, so each corner of the row
+    /// is read once.
     fn row<F: Field + ?Sized>(&self, field: &F, starts: &[(LatticePoint, i32)]) -> RowMarched {
         let mut fresh: FxHashMap<i32, f32> = FxHashMap::default();
-        let mut value = |q: LatticePoint| {
-            if let Some(&v) = self.known.get(&q) {
-                return v;
-            }
-            *fresh.entry(q.x).or_insert_with(|| field.value(self.lattice.position(q)))
+        let mut inside_at = |q: LatticePoint| {
+            let v = match self.known.get(&q) {
+                Some(&v) => v,
+                None => *fresh.entry(q.x).or_insert_with(|| field.value(self.lattice.position(q))),
+            };
+            v > self.threshold
         };
         let mut crossings = vec![];
-        let mut crossed_up_to = i32::MIN;
+        let mut marched_to = i32::MIN;
         for &(start, reach) in starts {
-            if start.x <= crossed_up_to {
-                continue;
-            }
-            let inside = value(start) > self.threshold;
-            let limit = if inside { self.end_x } else { (start.x + reach).min(self.end_x) };
-            let mut q = start;
-            while q.x < limit {
+            let start_inside = inside_at(start);
+            let mut q = if start.x < marched_to { IVec3::new(marched_to, start.y, start.z) } else { start };
+            let mut inside = inside_at(q);
+            // Inside at its own start and still where it goes on from: on to
+            // the first exit at least.
+            let mut must_exit = start_inside && inside;
+            let limit = (start.x + reach).min(self.end_x);
+            while (q.x < limit || must_exit) && q.x < self.end_x {
                 let next = q + IVec3::X * 2;
-                if (value(next) > self.threshold) != inside {
+                let next_inside = inside_at(next);
+                if next_inside != inside {
                     crossings.push(q);
-                    crossed_up_to = q.x;
-                    break;
+                    must_exit = false;
                 }
-                q = next;
+                (q, inside) = (next, next_inside);
             }
+            marched_to = marched_to.max(q.x);
         }
         let row = starts[0].0;
         let mut evaluated: Vec<(LatticePoint, f32)> =
