@@ -592,7 +592,7 @@ struct RowMarched {
     evaluated: Evaluated,
 }
 
-/// Marching seeds along lattice rows (+x) to their first sign change.
+/// Marching seeds along lattice rows (+x) to where they cross the surface.
 struct RowMarch<'a> {
     lattice: Lattice,
     threshold: f32,
@@ -607,13 +607,13 @@ impl RowMarch<'_> {
     /// order; returns the corners where a march met a sign change (the change
     /// is on the edge to the next corner in +x) and the corners it evaluated.
     ///
-    /// A march records every sign change within its reach, not only the
-    /// first: a negatively weighted primitive or a carving operator can put
-    /// a second surface behind the first (the outside of a hollow ball whose
-    /// skeletons all lie in the cavity). A march starting inside goes on at
-    /// least to where it leaves the surface, however far. Starts lying on a
-    /// stretch already marched go on from its end, so each corner of the row
-    /// is read once.
+    /// A march starting inside stops where it leaves the surface. One
+    /// starting outside goes no farther than its reach unless it enters the
+    /// surface, and then on to where it leaves it: a negatively weighted
+    /// primitive or a carving operator can hide the outside of a hollow
+    /// behind the wall of its cavity, where every skeleton lies. A start on a
+    /// stretch an earlier march crossed to its last change would find the
+    /// same changes, and is skipped.
     fn row<F: Field + ?Sized>(&self, field: &F, starts: &[(LatticePoint, i32)]) -> RowMarched {
         let mut fresh: FxHashMap<i32, f32> = FxHashMap::default();
         let mut inside_at = |q: LatticePoint| {
@@ -624,25 +624,26 @@ impl RowMarch<'_> {
             v > self.threshold
         };
         let mut crossings = vec![];
-        let mut marched_to = i32::MIN;
+        let mut crossed_up_to = i32::MIN;
         for &(start, reach) in starts {
-            let start_inside = inside_at(start);
-            let mut q = if start.x < marched_to { IVec3::new(marched_to, start.y, start.z) } else { start };
-            let mut inside = inside_at(q);
-            // Inside at its own start and still where it goes on from: on to
-            // the first exit at least.
-            let mut must_exit = start_inside && inside;
+            if start.x <= crossed_up_to {
+                continue;
+            }
+            let mut inside = inside_at(start);
             let limit = (start.x + reach).min(self.end_x);
-            while (q.x < limit || must_exit) && q.x < self.end_x {
+            let mut q = start;
+            while q.x < self.end_x && (inside || q.x < limit) {
                 let next = q + IVec3::X * 2;
                 let next_inside = inside_at(next);
                 if next_inside != inside {
                     crossings.push(q);
-                    must_exit = false;
+                    crossed_up_to = q.x;
+                    if inside {
+                        break;
+                    }
                 }
                 (q, inside) = (next, next_inside);
             }
-            marched_to = marched_to.max(q.x);
         }
         let row = starts[0].0;
         let mut evaluated: Vec<(LatticePoint, f32)> =

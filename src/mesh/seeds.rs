@@ -1,6 +1,8 @@
 //! Where continuation starts: points on every primitive's skeleton, in world
-//! space. The polygonizer marches from each to the first sign change, so every
-//! connected component that holds a skeleton is found, not just the first.
+//! space. The polygonizer marches from each along +x to where it leaves the
+//! surface, so every connected component that holds a skeleton is found, not
+//! just the first, and the outside of a hollow whose skeletons lie in its
+//! cavity too.
 
 use glam::{Affine3A, Vec3A};
 
