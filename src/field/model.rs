@@ -292,7 +292,6 @@ impl Model {
             .iter()
             .map(|&c| (self.nodes[c as usize].bounds, self.nodes[c as usize].may_be_negative))
             .collect();
-        let child_bounds: Vec<Aabb> = children.iter().map(|c| c.0).collect();
         self.nodes[id as usize].may_be_negative = may_be_negative(&self.nodes[id as usize].kind, &children);
         let kind = &self.nodes[id as usize].kind;
         let b = match kind {
@@ -300,21 +299,21 @@ impl Model {
             NodeKind::Intersection(_) => {
                 // Positive only where every child is, negative wherever any
                 // child is: inside the common part and any negative child's box.
-                let common = child_bounds.iter().fold(child_bounds[0], |a, b| a.intersection(b));
+                let common = children.iter().fold(children[0].0, |a, c| a.intersection(&c.0));
                 children.iter().filter(|c| c.1).fold(common, |a, c| a.union(&c.0))
             }
-            NodeKind::Difference(..) => child_bounds[0],
-            NodeKind::Transform { placement, .. } => child_bounds[0].transformed(&placement.to_world),
+            NodeKind::Difference(..) => children[0].0,
+            NodeKind::Transform { placement, .. } => children[0].0.transformed(&placement.to_world),
             NodeKind::Cache { spec, grid, .. } => {
                 let (spec, grid) = (*spec, *grid);
                 let old = self.nodes[id as usize].bounds;
-                let (b, refit) = self.fit_cache(grid, spec, child_bounds[0]);
+                let (b, refit) = self.fit_cache(grid, spec, children[0].0);
                 if refit == Refit::Rebuilt {
                     self.rebuilt.push((id, old.union(&b)));
                 }
                 b
             }
-            _ => child_bounds.iter().fold(Aabb::EMPTY, |a, b| a.union(b)),
+            _ => children.iter().fold(Aabb::EMPTY, |a, c| a.union(&c.0)),
         };
         // An empty intersection still needs a valid (degenerate) box for later queries.
         self.nodes[id as usize].bounds = b;
