@@ -3,11 +3,11 @@
 
 mod common;
 
-use blobtrace::field::{EvalMode, ModelField, NodeKind, Placement};
-use blobtrace::mesh::{CellShape, PolygonizeOptions, Polygonizer, VertexPlacement, skeleton_seeds};
+use blobtrace::field::{EvalMode, Field, ModelField, NodeKind, Placement};
+use blobtrace::mesh::{Cell, CellShape, Lattice, PolygonizeOptions, Polygonizer, VertexPlacement, skeleton_seeds};
 use blobtrace::scene::{Scene, load_script};
 use common::{EVERY_NODE, bundled, polygonize};
-use glam::Vec3;
+use glam::{IVec3, Vec3};
 
 const SHAPES: [CellShape; 2] = [CellShape::Cubes, CellShape::Bcc];
 
@@ -67,6 +67,95 @@ fn a_hollow_ball_gives_both_its_surfaces() {
         let topo = mesh.topology();
         assert!(topo.is_closed_manifold(), "{cells:?}: {topo:?}");
         assert_eq!(topo.euler_characteristic, 4, "{cells:?}: two spheres");
+    }
+}
+
+/// Two components no skeleton lies in and no march along +x from a skeleton
+/// meets: a bowl left below a point by a negatively weighted point that
+/// swallows its centre, and the lens between two points along y too weak to
+/// reach the surface alone.
+const OFF_SKELETON: [(&str, &str); 2] = [
+    (
+        "bowl",
+        "Blend([Point(center: (0.0, 0.0, 0.0), radius: 1.5), Point(center: (0.0, 0.45, 0.0), radius: 1.2, weight: -1.5)])",
+    ),
+    (
+        "lens",
+        "Blend([Point(center: (0.0, -0.4, 0.0), radius: 1.0, weight: 0.46), Named(\"top\", Transform(child: Point(center: (0.0, 0.4, 0.0), radius: 1.0, weight: 0.46)))])",
+    ),
+];
+
+fn scene_of(model: &str) -> Scene {
+    let text = format!(
+        "Scene(camera: Camera(eye: (0.0, 0.0, 6.0), target: (0.0, 0.0, 0.0), fov_y: 40.0), size: (8, 8), model: {model})"
+    );
+    Scene::parse(&text, "off-skeleton").unwrap()
+}
+
+/// Every cube of the lattice over the model's bounds whose corners differ in sign.
+fn crossed_cubes_by_brute_force(model: &blobtrace::field::Model, lattice: Lattice) -> Vec<Cell> {
+    let field = ModelField::new(model, EvalMode::Indexed);
+    let (lo, hi) = lattice.cubes_overlapping(&model.bounds());
+    let mut cells = vec![];
+    for z in lo.z - 1..=hi.z + 1 {
+        for y in lo.y - 1..=hi.y + 1 {
+            for x in lo.x - 1..=hi.x + 1 {
+                let cube = IVec3::new(x, y, z);
+                let inside = (0..8)
+                    .filter(|i| {
+                        let corner = (cube + IVec3::new(i & 1, (i >> 1) & 1, i >> 2)) * 2;
+                        field.value(lattice.position(corner)) > 0.5
+                    })
+                    .count();
+                if inside != 0 && inside != 8 {
+                    cells.push(Cell { cube, sub: 0 });
+                }
+            }
+        }
+    }
+    cells.sort_unstable_by_key(Cell::order_key);
+    cells
+}
+
+#[test]
+fn components_off_every_skeleton_and_off_every_march_along_x_are_found() {
+    for (name, model) in OFF_SKELETON {
+        let scene = scene_of(model);
+        for res in [16, 33] {
+            let (p, mesh) = polygonize(&scene.model, EvalMode::Indexed, res, PolygonizeOptions::default());
+            let expected = crossed_cubes_by_brute_force(&scene.model, p.lattice());
+            assert!(expected.len() > 8, "{name} at {res}: the test needs a surface");
+            assert_eq!(p.crossed_cell_list(), expected, "{name} at {res}");
+            assert!(mesh.topology().is_closed_manifold(), "{name} at {res}");
+        }
+        for cells in SHAPES {
+            let (_, mesh) =
+                polygonize(&scene.model, EvalMode::Indexed, 24, PolygonizeOptions { cells, ..Default::default() });
+            assert!(!mesh.triangles.is_empty() && mesh.topology().is_closed_manifold(), "{name} {cells:?}");
+        }
+    }
+}
+
+#[test]
+fn a_lens_made_and_unmade_by_a_move_is_re_polygonized_as_from_scratch() {
+    let mut scene = scene_of(OFF_SKELETON[1].1);
+    let top = scene.model.find("top").unwrap();
+    let NodeKind::Named { child, .. } = scene.model.node(top).kind else { panic!("top is named") };
+    for cells in SHAPES {
+        let options = PolygonizeOptions { cells, ..Default::default() };
+        let (mut local, made) = polygonize(&scene.model, EvalMode::Indexed, 30, options);
+        assert!(!made.triangles.is_empty(), "{cells:?}");
+        // Apart, the two points make no surface; back together, the lens again.
+        for (offset, has_surface) in [(Vec3::new(0.0, 0.9, 0.0), false), (Vec3::ZERO, true)] {
+            let change =
+                scene.model.set_placement(child, Placement::new(offset, Vec3::ZERO, Vec3::ONE).unwrap()).unwrap();
+            let field = ModelField::new(&scene.model, EvalMode::Indexed);
+            let seeds = skeleton_seeds(&scene.model, scene.model.root());
+            local.repolygonize(&field, &change.old.union(&change.new), &seeds);
+            let (_, fresh) = polygonize(&scene.model, EvalMode::Indexed, 30, options);
+            assert_eq!(fresh.triangles.is_empty(), !has_surface, "{cells:?} {offset}");
+            assert_eq!(local.mesh().triangle_set(), fresh.triangle_set(), "{cells:?} {offset}");
+        }
     }
 }
 

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, sort_key};
-use super::seeds::Seed;
+use super::seeds::{Evaluated, Marched, OTHER_STEPS, ROW_STEP, Seed, SeedMarch, ray_meets};
 use super::vertex::{VertexPlacement, place_on_edge};
 use super::{Mesh, bcc, cubes};
 use crate::field::{DEFAULT_COLOR, Field};
@@ -337,48 +337,54 @@ impl Polygonizer {
     /// surface march no farther than their primitive's support reaches. Starts
     /// in one lattice row march in order, and a start lying on a stretch an
     /// earlier march crossed to a sign change is skipped, since it would find
-    /// that same change; rows march in parallel.
+    /// that same change; rows march in parallel. A start outside the surface
+    /// with nothing ahead along +x then marches along the five other axis
+    /// directions (see [`super::seeds`]).
     ///
     /// With `hole`, the box of the cells just dropped (holding every corner
-    /// dropped), only starts whose march along +x can come within a cell of it
-    /// march: every other march reads only corners kept from before and finds
-    /// the crossings it found then, whose cells (all within a cell of the
-    /// march) are kept and visited already.
+    /// dropped), only marches that can come within a cell of it run: every
+    /// other march reads only corners kept from before and finds the
+    /// crossings it found then, whose cells (all within a cell of the march)
+    /// are kept and visited already.
     fn seed<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Seed], hole: Option<&Aabb>) -> Vec<Cell> {
         let lattice = self.lattice;
         // A cell on either side, and half a cell against rounding in positions.
-        let reach = hole.map(|b| b.padded(1.5 * lattice.cell));
-        let reaches = |q: LatticePoint| {
-            reach.is_none_or(|b| {
-                let p = lattice.position(q);
-                p.x <= b.max.x && (b.min.y..=b.max.y).contains(&p.y) && (b.min.z..=b.max.z).contains(&p.z)
-            })
-        };
+        let near_hole = hole.map(|b| b.padded(1.5 * lattice.cell));
+        let reaches = |q: LatticePoint, step: IVec3| near_hole.is_none_or(|b| ray_meets(&b, lattice.position(q), step));
         let mut starts: Vec<(LatticePoint, i32)> = seeds
             .iter()
-            .map(|s| (lattice.nearest_corner(s.point), 2 * (s.reach / lattice.cell).ceil() as i32 + 2))
-            .filter(|&(q, _)| reaches(q))
+            .map(|s| (lattice.nearest_corner(s.point), (s.reach / lattice.cell).ceil() as i32 + 1))
             .collect();
         // One start per corner, with the longest reach; rows of equal (z, y) by x.
         starts.sort_unstable_by_key(|&(q, reach)| (q.z, q.y, q.x, std::cmp::Reverse(reach)));
         starts.dedup_by_key(|(q, _)| *q);
-        let rows: Vec<&[(LatticePoint, i32)]> = starts.chunk_by(|a, b| (a.0.y, a.0.z) == (b.0.y, b.0.z)).collect();
-        let march = RowMarch {
-            lattice,
-            threshold: field.threshold(),
-            end_x: lattice.nearest_corner(field.bounds().max).x + 2,
-            known: &self.corners,
-        };
-        let marched: Vec<RowMarched> = rows.par_iter().map(|row| march.row(field, row)).collect();
+        let along_x: Vec<(LatticePoint, i32)> = starts.iter().copied().filter(|&(q, _)| reaches(q, ROW_STEP)).collect();
+        let rows: Vec<&[(LatticePoint, i32)]> = along_x.chunk_by(|a, b| (a.0.y, a.0.z) == (b.0.y, b.0.z)).collect();
+        let marched: Vec<Marched> =
+            rows.par_iter().map(|row| SeedMarch::new(field, lattice, &self.corners).row(row)).collect();
         let mut cells = vec![];
-        for RowMarched { crossings, evaluated } in marched {
+        self.take_marched(marched, &mut cells);
+        // The second round sees the corners the first evaluated.
+        let marched: Vec<Marched> = starts
+            .par_iter()
+            .filter(|&&(q, _)| OTHER_STEPS.iter().any(|&step| reaches(q, step)))
+            .map(|&(q, reach)| {
+                SeedMarch::new(field, lattice, &self.corners).other_directions(q, reach, |step| reaches(q, step))
+            })
+            .collect();
+        self.take_marched(marched, &mut cells);
+        self.claim(cells)
+    }
+
+    /// Keeps the corners `marched` evaluated and lists the cells around its crossings.
+    fn take_marched(&mut self, marched: Vec<Marched>, cells: &mut Vec<Cell>) {
+        for Marched { crossings, evaluated } in marched {
             self.stats.corner_evals += evaluated.len() as u64;
             self.corners.extend(evaluated);
             for q in crossings {
-                self.options.cells.cells_touching(q, &mut cells);
+                self.options.cells.cells_touching(q, cells);
             }
         }
-        self.claim(cells)
     }
 
     /// Marks the cells not visited yet as visited and returns them, in order.
@@ -578,78 +584,6 @@ impl Polygonizer {
             mesh.set_normals_from_faces();
         }
         mesh
-    }
-}
-
-/// Lattice points evaluated on a walk, with their values.
-type Evaluated = Vec<(LatticePoint, f32)>;
-
-/// What the seeds of one lattice row found.
-struct RowMarched {
-    /// Corners whose +x edge has a sign change.
-    crossings: Vec<LatticePoint>,
-    /// Corners evaluated on the way.
-    evaluated: Evaluated,
-}
-
-/// Marching seeds along lattice rows (+x) to where they cross the surface.
-struct RowMarch<'a> {
-    lattice: Lattice,
-    threshold: f32,
-    /// No surface lies beyond this x (half-cell units).
-    end_x: i32,
-    /// Corner values known before seeding.
-    known: &'a FxHashMap<LatticePoint, f32>,
-}
-
-impl RowMarch<'_> {
-    /// Marches the starts (with their reach, in half cells) of one row, in x
-    /// order; returns the corners where a march met a sign change (the change
-    /// is on the edge to the next corner in +x) and the corners it evaluated.
-    ///
-    /// A march starting inside stops where it leaves the surface. One
-    /// starting outside goes no farther than its reach unless it enters the
-    /// surface, and then on to where it leaves it: a negatively weighted
-    /// primitive or a carving operator can hide the outside of a hollow
-    /// behind the wall of its cavity, where every skeleton lies. A start on a
-    /// stretch an earlier march crossed to its last change would find the
-    /// same changes, and is skipped.
-    fn row<F: Field + ?Sized>(&self, field: &F, starts: &[(LatticePoint, i32)]) -> RowMarched {
-        let mut fresh: FxHashMap<i32, f32> = FxHashMap::default();
-        let mut inside_at = |q: LatticePoint| {
-            let v = match self.known.get(&q) {
-                Some(&v) => v,
-                None => *fresh.entry(q.x).or_insert_with(|| field.value(self.lattice.position(q))),
-            };
-            v > self.threshold
-        };
-        let mut crossings = vec![];
-        let mut crossed_up_to = i32::MIN;
-        for &(start, reach) in starts {
-            if start.x <= crossed_up_to {
-                continue;
-            }
-            let mut inside = inside_at(start);
-            let limit = (start.x + reach).min(self.end_x);
-            let mut q = start;
-            while q.x < self.end_x && (inside || q.x < limit) {
-                let next = q + IVec3::X * 2;
-                let next_inside = inside_at(next);
-                if next_inside != inside {
-                    crossings.push(q);
-                    crossed_up_to = q.x;
-                    if inside {
-                        break;
-                    }
-                }
-                (q, inside) = (next, next_inside);
-            }
-        }
-        let row = starts[0].0;
-        let mut evaluated: Vec<(LatticePoint, f32)> =
-            fresh.into_iter().map(|(x, v)| (IVec3::new(x, row.y, row.z), v)).collect();
-        evaluated.sort_unstable_by_key(|(q, _)| q.x);
-        RowMarched { crossings, evaluated }
     }
 }
 

@@ -1,12 +1,25 @@
 //! Where continuation starts: points on every primitive's skeleton, in world
-//! space. The polygonizer marches from each along +x to where it leaves the
-//! surface, so every connected component that holds a skeleton is found, not
-//! just the first, and the outside of a hollow whose skeletons lie in its
-//! cavity too.
+//! space, and the marches from them along lattice lines to the surface.
+//!
+//! The polygonizer marches from each along +x to where it leaves the surface,
+//! so every connected component that holds a skeleton is found, not just the
+//! first, and the outside of a hollow whose skeletons lie in its cavity too.
+//! A start outside the surface with nothing ahead along +x also marches the
+//! other five axis directions, for components that hold no skeleton: a
+//! crescent of a support left standing beside a negatively weighted
+//! neighbour, or a blend of primitives too weak to reach the surface alone.
+//!
+//! Marches jump over the lattice points a slope bound shows to be on their
+//! own side, and a march from outside whose whole reach the field's range
+//! shows outside takes no step at all: what a march finds (the sign changes
+//! between consecutive lattice points) is the same, for fewer evaluations.
 
-use glam::{Affine3A, Vec3A};
+use glam::{Affine3A, IVec3, Vec3A};
+use rustc_hash::FxHashMap;
 
-use crate::field::{Model, NodeId, NodeKind, Skeleton};
+use super::lattice::{Lattice, LatticePoint, sort_key};
+use crate::field::{Field, Model, NodeId, NodeKind, Region, Skeleton, outside_margin};
+use crate::geom::Aabb;
 
 /// A point on a skeleton and how far its primitive's support reaches from it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -60,4 +73,203 @@ fn skeleton_samples(s: &Skeleton) -> impl Iterator<Item = Vec3A> {
         }
     };
     points.into_iter()
+}
+
+/// Lattice points evaluated on a walk, with their values.
+pub(super) type Evaluated = Vec<(LatticePoint, f32)>;
+
+/// One step along +x, in half cells: the direction every start marches.
+pub(super) const ROW_STEP: IVec3 = IVec3::new(2, 0, 0);
+
+/// The other axis directions a start outside the surface marches along.
+pub(super) const OTHER_STEPS: [IVec3; 5] =
+    [IVec3::new(-2, 0, 0), IVec3::new(0, 2, 0), IVec3::new(0, -2, 0), IVec3::new(0, 0, 2), IVec3::new(0, 0, -2)];
+
+/// The fraction of a slope-certified jump taken, against rounding in the bound.
+const JUMP_SAFETY: f32 = 0.999;
+
+/// What some marches found.
+pub(super) struct Marched {
+    /// Corners followed by a sign change one step along their march.
+    pub crossings: Vec<LatticePoint>,
+    /// Corners evaluated on the way, in lattice order (so the maps they go
+    /// into fill the same way whatever order the marches ran in).
+    pub evaluated: Evaluated,
+}
+
+/// Where a march stops once it has entered the surface.
+#[derive(Clone, Copy, PartialEq)]
+enum Until {
+    /// Where it leaves the surface again.
+    Exit,
+    /// Right there.
+    Entry,
+}
+
+/// Marches from seed starts (with their reach, in lattice steps) along
+/// lattice lines, reading corner values known before seeding or evaluating them.
+pub(super) struct SeedMarch<'a, F: ?Sized> {
+    field: &'a F,
+    lattice: Lattice,
+    threshold: f32,
+    known: &'a FxHashMap<LatticePoint, f32>,
+    fresh: FxHashMap<LatticePoint, f32>,
+    crossings: Vec<LatticePoint>,
+}
+
+impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
+    pub fn new(field: &'a F, lattice: Lattice, known: &'a FxHashMap<LatticePoint, f32>) -> Self {
+        let threshold = field.threshold();
+        Self { field, lattice, threshold, known, fresh: FxHashMap::default(), crossings: vec![] }
+    }
+
+    /// Marches the starts of one lattice row, in x order, along +x.
+    ///
+    /// A march starting inside stops where it leaves the surface. One
+    /// starting outside goes no farther than its reach unless it enters the
+    /// surface, and then on to where it leaves it: a negatively weighted
+    /// primitive or a carving operator can hide the outside of a hollow
+    /// behind the wall of its cavity, where every skeleton lies. A start on a
+    /// stretch an earlier march crossed to its last change would find the
+    /// same changes, and is skipped.
+    pub fn row(mut self, starts: &[(LatticePoint, i32)]) -> Marched {
+        let mut crossed_up_to = i32::MIN;
+        for &(start, reach) in starts {
+            if start.x > crossed_up_to
+                && let Some(last) = self.line(start, ROW_STEP, reach, Until::Exit)
+            {
+                crossed_up_to = last.x;
+            }
+        }
+        self.finish()
+    }
+
+    /// Marches from `start` along each of [`OTHER_STEPS`] for which `wanted`
+    /// holds, as [`Self::row`] marches along +x, if `start` is outside the
+    /// surface and its own march along +x meets no surface within its reach.
+    /// (That march alone, not the row's, which skips starts: whether the
+    /// others run depends on the field along it only, as a local update needs.)
+    pub fn other_directions(mut self, start: LatticePoint, reach: i32, wanted: impl Fn(IVec3) -> bool) -> Marched {
+        if self.value(start) <= self.threshold {
+            let ahead = self.line(start, ROW_STEP, reach, Until::Entry);
+            self.crossings.clear();
+            if ahead.is_none() {
+                for step in OTHER_STEPS.into_iter().filter(|&step| wanted(step)) {
+                    self.line(start, step, reach, Until::Exit);
+                }
+            }
+        }
+        self.finish()
+    }
+
+    fn finish(self) -> Marched {
+        let mut evaluated: Evaluated = self.fresh.into_iter().collect();
+        evaluated.sort_unstable_by_key(|&(q, _)| sort_key(q));
+        Marched { crossings: self.crossings, evaluated }
+    }
+
+    /// The value at corner `q`: known before seeding, or evaluated now and kept.
+    fn value(&mut self, q: LatticePoint) -> f32 {
+        match self.known.get(&q) {
+            Some(&v) => v,
+            None => *self.fresh.entry(q).or_insert_with(|| self.field.value(self.lattice.position(q))),
+        }
+    }
+
+    /// Walks from `start` by `step`: at most `reach` steps while outside, and
+    /// once inside as `until` says, never past the field's bounds. Records the
+    /// corner before each sign change in `crossings` and returns the last.
+    fn line(&mut self, start: LatticePoint, step: IVec3, reach: i32, until: Until) -> Option<LatticePoint> {
+        let max_steps = self.steps_to_leave_bounds(start, step);
+        let (mut q, mut v, mut taken) = (start, self.value(start), 0);
+        if v <= self.threshold && self.stays_outside(start, step, reach.min(max_steps)) {
+            return None;
+        }
+        let mut last = None;
+        // Until this many steps are taken, no jumps are tried: the bound
+        // allowed none lately (where it is loose, trying every step would
+        // cost a bound per evaluation saved), or rounding contradicted it.
+        let (mut plain_until, mut backoff) = (0, 1);
+        loop {
+            let inside = v > self.threshold;
+            let limit = if inside { max_steps } else { reach.min(max_steps) };
+            if taken >= limit {
+                return last;
+            }
+            let jump = if taken >= plain_until { self.certified_steps(q, v, step, limit - taken) } else { 0 };
+            if jump <= 1 && taken >= plain_until {
+                (plain_until, backoff) = (taken + backoff, 2 * backoff);
+            }
+            if jump > 1 {
+                if !inside && taken + jump >= limit {
+                    // The rest of the reach is outside.
+                    return last;
+                }
+                let landing = q + step * jump;
+                let v_landing = self.value(landing);
+                if (v_landing > self.threshold) == inside {
+                    (q, v, taken) = (landing, v_landing, taken + jump);
+                } else {
+                    plain_until = taken + jump;
+                }
+                continue;
+            }
+            let next = q + step;
+            let v_next = self.value(next);
+            if (v_next > self.threshold) != inside {
+                self.crossings.push(q);
+                last = Some(q);
+                if inside || until == Until::Entry {
+                    return last;
+                }
+            }
+            (q, v, taken) = (next, v_next, taken + 1);
+        }
+    }
+
+    /// How many of the next `limit` corners along `step` from `q` (value `v`)
+    /// a slope bound over them shows to be on `q`'s side of the surface.
+    fn certified_steps(&self, q: LatticePoint, v: f32, step: IVec3, limit: i32) -> i32 {
+        let (a, b) = (self.lattice.position(q), self.lattice.position(q + step * limit));
+        // Past the evaluation's rounding, as segment tracing certifies its steps.
+        let margin = (v - self.threshold).abs() - outside_margin(self.threshold);
+        if margin <= 0.0 {
+            return 0;
+        }
+        let slope = self.field.lipschitz(&Region::Segment(a, b));
+        // An infinite or undefined bound (a crease) certifies nothing: `k` is 0 or NaN.
+        let k = (JUMP_SAFETY * margin / (slope * self.lattice.cell)).floor();
+        if k >= limit as f32 { limit } else { k.max(0.0) as i32 }
+    }
+
+    /// True when the field's range over the corners from `start` to `reach`
+    /// steps along `step` shows them all outside: where most starts outside
+    /// the surface end, without an evaluation.
+    fn stays_outside(&self, start: LatticePoint, step: IVec3, reach: i32) -> bool {
+        let (a, b) = (self.lattice.position(start), self.lattice.position(start + step * reach));
+        let range = self.field.interval(&Aabb::new(a.min(b), a.max(b)));
+        range.hi < self.threshold - outside_margin(self.threshold)
+    }
+
+    /// Steps along `step` from `start` until past the field's bounds, where it is zero.
+    fn steps_to_leave_bounds(&self, start: LatticePoint, step: IVec3) -> i32 {
+        let bounds = self.field.bounds();
+        if bounds.is_empty() {
+            // The field is zero everywhere.
+            return 0;
+        }
+        let (lo, hi) = (self.lattice.nearest_corner(bounds.min), self.lattice.nearest_corner(bounds.max));
+        let axis = step.abs().max_position();
+        let beyond = if step[axis] > 0 { hi[axis] + 2 - start[axis] } else { start[axis] - (lo[axis] - 2) };
+        (beyond / 2).max(0)
+    }
+}
+
+/// True when the ray from `p` along the axis direction `step` meets box `b`.
+pub(super) fn ray_meets(b: &Aabb, p: Vec3A, step: IVec3) -> bool {
+    (0..3).all(|k| match step[k].signum() {
+        1 => p[k] <= b.max[k],
+        -1 => p[k] >= b.min[k],
+        _ => (b.min[k]..=b.max[k]).contains(&p[k]),
+    })
 }
