@@ -30,8 +30,13 @@ impl Default for VertexPlacement {
     }
 }
 
-/// Most evaluations one root may take; the bracket then holds it to 2⁻ᴺ anyway.
+/// Most evaluations one root may take.
 const MAX_ROOT_EVALS: u32 = 24;
+/// Evaluations of false position before bisection takes over. Illinois
+/// converges in two or three on smooth edges, but next to a kink it can creep
+/// in from one end a sliver at a time; bisecting for the rest of the
+/// evaluations holds the root to `2^-(MAX - this)` of whatever bracket is left.
+const ILLINOIS_EVALS: u32 = 8;
 
 /// The point on `a → b` where the field crosses the threshold, given the
 /// corner values, and the evaluations spent.
@@ -57,43 +62,121 @@ pub fn place_on_edge<F: Field + ?Sized>(
     let mut evals = 0;
     // Which end was kept last: Illinois halves its value when it is kept twice.
     let mut kept = 0i8;
+    // The ends' values as evaluated (Illinois scales `glo` and `ghi`).
+    let (mut vlo, mut vhi) = (glo, ghi);
     while evals < MAX_ROOT_EVALS && hi - lo > tolerance {
         let g = field.value(a.lerp(b, t)) - t0;
         evals += 1;
         if g == 0.0 {
             break;
         }
-        // Estimated distance to the root from the local slope, in edge units.
+        // Estimated distance to the root from the bracket's slope, in edge units.
         let slope = (ghi - glo) / (hi - lo);
-        let converged = (g / slope).abs() < 0.5 * tolerance;
+        let converged = (g / slope).abs() < 0.5 * tolerance && !bends((t - lo, g - vlo), (hi - t, vhi - g));
         if (g > 0.0) == (glo > 0.0) {
-            (lo, glo) = (t, g);
+            (lo, glo, vlo) = (t, g, g);
             if kept == 1 {
                 ghi *= 0.5;
             }
             kept = 1;
         } else {
-            (hi, ghi) = (t, g);
+            (hi, ghi, vhi) = (t, g, g);
             if kept == -1 {
                 glo *= 0.5;
             }
             kept = -1;
         }
-        let next = secant(lo, glo, hi, ghi);
-        if converged {
-            t = next;
+        let illinois = evals < ILLINOIS_EVALS;
+        t = if illinois { secant(lo, glo, hi, ghi) } else { 0.5 * (lo + hi) };
+        if converged && illinois {
             break;
         }
-        t = next;
     }
     (a.lerp(b, t), evals)
+}
+
+/// Slopes to the two ends of a bracket that differ by more than this factor
+/// say the edge bends between them (a shelf before a wall, a union's kink).
+const KINK: f32 = 4.0;
+
+/// True when the slopes from a point to the ends of its bracket, each given
+/// as (run, rise), differ by more than [`KINK`]: past such a bend the
+/// bracket's slope says nothing of how far the root is, and a value near `T`
+/// on the shelf is no sign of a root near it.
+fn bends((run_lo, rise_lo): (f32, f32), (run_hi, rise_hi): (f32, f32)) -> bool {
+    // Rising or falling alike: the field may be inside at either end.
+    let sign = (rise_lo + rise_hi).signum();
+    let (slope_lo, slope_hi) = (sign * rise_lo / run_lo, sign * rise_hi / run_hi);
+    let (gentle, steep) = (slope_lo.min(slope_hi), slope_lo.max(slope_hi));
+    // False where a slope is undefined (a point on an end): that bends too.
+    let agree = steep <= KINK * gentle;
+    !agree
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::field::{EvalMode, ModelField};
+    use crate::field::{EvalMode, ModelField, Region};
+    use crate::geom::{Aabb, Interval};
     use crate::scene::Scene;
+    use glam::Vec3;
+
+    /// Along x from 0 to 1: a shelf rising gently from `T - 0.01` to
+    /// `T - 0.005` at `wall`, then a steep rise to `T + height` at 1 (a
+    /// union's kink, say, next to a dense blend).
+    struct ShelfAndWall {
+        wall: f32,
+        height: f32,
+    }
+
+    impl ShelfAndWall {
+        /// Where the field crosses `T`.
+        fn root(&self) -> f32 {
+            self.wall + (1.0 - self.wall) * 0.005 / (0.005 + self.height)
+        }
+    }
+
+    impl Field for ShelfAndWall {
+        fn value(&self, p: Vec3A) -> f32 {
+            let shelf = p.x.clamp(0.0, self.wall) / self.wall;
+            let rise = ((p.x - self.wall) / (1.0 - self.wall)).max(0.0);
+            0.49 + 0.005 * shelf + (0.005 + self.height) * rise
+        }
+        fn gradient(&self, _: Vec3A) -> Vec3A {
+            Vec3A::X
+        }
+        fn color(&self, _: Vec3A) -> Vec3 {
+            Vec3::ONE
+        }
+        fn interval(&self, _: &Aabb) -> Interval {
+            Interval::new(0.0, 1.0 + self.height)
+        }
+        fn lipschitz(&self, _: &Region) -> f32 {
+            f32::INFINITY
+        }
+        fn bounds(&self) -> Aabb {
+            Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(2.0))
+        }
+        fn threshold(&self) -> f32 {
+            0.5
+        }
+    }
+
+    #[test]
+    fn a_root_past_a_long_shelf_is_placed_to_the_tolerance() {
+        for (wall, height) in [(0.9, 10.0), (0.99, 100.0), (0.5, 1000.0), (0.999, 3.0)] {
+            let field = ShelfAndWall { wall, height };
+            let (a, b) = (Vec3A::ZERO, Vec3A::X);
+            let (p, evals) =
+                place_on_edge(&field, (a, field.value(a)), (b, field.value(b)), VertexPlacement::default());
+            assert!(
+                (p.x - field.root()).abs() <= 1e-4,
+                "wall {wall}, height {height}: {} vs {} after {evals}",
+                p.x,
+                field.root()
+            );
+        }
+    }
 
     #[test]
     fn finds_the_sphere_radius_in_few_evaluations() {
