@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, sort_key};
-use super::seeds::{Evaluated, Marched, OTHER_STEPS, ROW_STEP, Seed, SeedMarch, ray_meets};
+use super::seeds::{Evaluated, Marched, ROW_STEP, Seed, SeedMarch, ray_meets};
 use super::vertex::{VertexPlacement, place_on_edge};
 use super::{Mesh, bcc, cubes};
 use crate::field::{DEFAULT_COLOR, Field};
@@ -107,7 +107,8 @@ pub struct PolygonizeStats {
     pub corner_evals: u64,
     /// Field values spent placing vertices on edges.
     pub root_evals: u64,
-    /// Gradients for vertex normals.
+    /// Gradients for vertex normals, and for the uphill walks of seeds
+    /// starting outside the surface.
     pub gradient_evals: u64,
     /// Colour queries for vertex colours (none when the model has one colour).
     pub color_evals: u64,
@@ -338,8 +339,8 @@ impl Polygonizer {
     /// in one lattice row march in order, and a start lying on a stretch an
     /// earlier march crossed to a sign change is skipped, since it would find
     /// that same change; rows march in parallel. A start outside the surface
-    /// with nothing ahead along +x then marches along the five other axis
-    /// directions (see [`super::seeds`]).
+    /// then walks uphill to the first sign change within its reach (see
+    /// [`super::seeds`]).
     ///
     /// With `hole`, the box of the cells just dropped (holding every corner
     /// dropped), only marches that can come within a cell of it run: every
@@ -364,13 +365,17 @@ impl Polygonizer {
             rows.par_iter().map(|row| SeedMarch::new(field, lattice, &self.corners).row(row)).collect();
         let mut cells = vec![];
         self.take_marched(marched, &mut cells);
-        // The second round sees the corners the first evaluated.
+        // The second round sees the corners the first evaluated. An uphill
+        // walk goes no farther than its reach (plus a cell, the staircase's
+        // offset from its ray).
+        let walks_near_hole = |q: LatticePoint, reach: i32| {
+            near_hole
+                .is_none_or(|b| b.distance_squared(lattice.position(q)) <= ((reach + 1) as f32 * lattice.cell).powi(2))
+        };
         let marched: Vec<Marched> = starts
             .par_iter()
-            .filter(|&&(q, _)| OTHER_STEPS.iter().any(|&step| reaches(q, step)))
-            .map(|&(q, reach)| {
-                SeedMarch::new(field, lattice, &self.corners).other_directions(q, reach, |step| reaches(q, step))
-            })
+            .filter(|&&(q, reach)| walks_near_hole(q, reach))
+            .map(|&(q, reach)| SeedMarch::new(field, lattice, &self.corners).uphill(q, reach))
             .collect();
         self.take_marched(marched, &mut cells);
         self.claim(cells)
@@ -378,8 +383,9 @@ impl Polygonizer {
 
     /// Keeps the corners `marched` evaluated and lists the cells around its crossings.
     fn take_marched(&mut self, marched: Vec<Marched>, cells: &mut Vec<Cell>) {
-        for Marched { crossings, evaluated } in marched {
+        for Marched { crossings, evaluated, gradients } in marched {
             self.stats.corner_evals += evaluated.len() as u64;
+            self.stats.gradient_evals += gradients;
             self.corners.extend(evaluated);
             for q in crossings {
                 self.options.cells.cells_touching(q, cells);

@@ -4,15 +4,17 @@
 //! The polygonizer marches from each along +x to where it leaves the surface,
 //! so every connected component that holds a skeleton is found, not just the
 //! first, and the outside of a hollow whose skeletons lie in its cavity too.
-//! A start outside the surface with nothing ahead along +x also marches the
-//! other five axis directions, for components that hold no skeleton: a
-//! crescent of a support left standing beside a negatively weighted
-//! neighbour, or a blend of primitives too weak to reach the surface alone.
+//! A start outside the surface also walks uphill, along the field's gradient,
+//! to the first sign change within its reach: that finds components that hold
+//! no skeleton, which a negatively weighted neighbour, a carving or an
+//! intersection leaves beside a swallowed skeleton (a crescent, a lens), or
+//! that primitives too weak to reach the surface alone make where they blend.
 //!
-//! Marches jump over the lattice points a slope bound shows to be on their
-//! own side, and a march from outside whose whole reach the field's range
-//! shows outside takes no step at all: what a march finds (the sign changes
-//! between consecutive lattice points) is the same, for fewer evaluations.
+//! Marches along +x jump over the lattice points a slope bound shows to be on
+//! their own side, and a march from outside whose whole reach the field's
+//! range shows outside takes no step at all: what a march finds (the sign
+//! changes between consecutive lattice points) is the same, for fewer
+//! evaluations.
 
 use glam::{Affine3A, IVec3, Vec3A};
 use rustc_hash::FxHashMap;
@@ -81,9 +83,20 @@ pub(super) type Evaluated = Vec<(LatticePoint, f32)>;
 /// One step along +x, in half cells: the direction every start marches.
 pub(super) const ROW_STEP: IVec3 = IVec3::new(2, 0, 0);
 
-/// The other axis directions a start outside the surface marches along.
-pub(super) const OTHER_STEPS: [IVec3; 5] =
+/// The other axis directions a start outside the surface may march along.
+const OTHER_STEPS: [IVec3; 5] =
     [IVec3::new(-2, 0, 0), IVec3::new(0, 2, 0), IVec3::new(0, -2, 0), IVec3::new(0, 0, 2), IVec3::new(0, 0, -2)];
+
+/// Where a march stops once it has entered the surface.
+#[derive(Clone, Copy, PartialEq)]
+enum Until {
+    /// Where it leaves the surface again (a march along +x: past a hollow's
+    /// cavity wall to its outside).
+    Exit,
+    /// Right there (the walks from starts outside, which go no farther
+    /// than their reach, so a local update can tell which come near it).
+    Entry,
+}
 
 /// The fraction of a slope-certified jump taken, against rounding in the bound.
 const JUMP_SAFETY: f32 = 0.999;
@@ -95,15 +108,8 @@ pub(super) struct Marched {
     /// Corners evaluated on the way, in lattice order (so the maps they go
     /// into fill the same way whatever order the marches ran in).
     pub evaluated: Evaluated,
-}
-
-/// Where a march stops once it has entered the surface.
-#[derive(Clone, Copy, PartialEq)]
-enum Until {
-    /// Where it leaves the surface again.
-    Exit,
-    /// Right there.
-    Entry,
+    /// Gradients evaluated (one per uphill walk).
+    pub gradients: u64,
 }
 
 /// Marches from seed starts (with their reach, in lattice steps) along
@@ -115,12 +121,13 @@ pub(super) struct SeedMarch<'a, F: ?Sized> {
     known: &'a FxHashMap<LatticePoint, f32>,
     fresh: FxHashMap<LatticePoint, f32>,
     crossings: Vec<LatticePoint>,
+    gradients: u64,
 }
 
 impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
     pub fn new(field: &'a F, lattice: Lattice, known: &'a FxHashMap<LatticePoint, f32>) -> Self {
         let threshold = field.threshold();
-        Self { field, lattice, threshold, known, fresh: FxHashMap::default(), crossings: vec![] }
+        Self { field, lattice, threshold, known, fresh: FxHashMap::default(), crossings: vec![], gradients: 0 }
     }
 
     /// Marches the starts of one lattice row, in x order, along +x.
@@ -144,28 +151,67 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
         self.finish()
     }
 
-    /// Marches from `start` along each of [`OTHER_STEPS`] for which `wanted`
-    /// holds, as [`Self::row`] marches along +x, if `start` is outside the
-    /// surface and its own march along +x meets no surface within its reach.
-    /// (That march alone, not the row's, which skips starts: whether the
-    /// others run depends on the field along it only, as a local update needs.)
-    pub fn other_directions(mut self, start: LatticePoint, reach: i32, wanted: impl Fn(IVec3) -> bool) -> Marched {
-        if self.value(start) <= self.threshold {
-            let ahead = self.line(start, ROW_STEP, reach, Until::Entry);
-            self.crossings.clear();
-            if ahead.is_none() {
-                for step in OTHER_STEPS.into_iter().filter(|&step| wanted(step)) {
-                    self.line(start, step, reach, Until::Exit);
-                }
+    /// Walks uphill from `start`, if it is outside the surface: along the
+    /// staircase of lattice edges nearest the ray up the field's gradient
+    /// there, at most `reach` cells along the ray, to the first sign change;
+    /// failing that, along those of the other five axis directions that lead
+    /// uphill (all five where the gradient vanishes). The gradient points at
+    /// a lens or a crescent off the axes; a surface thinner than a cell may
+    /// slip between the staircase's corners and meet an axis's.
+    pub fn uphill(mut self, start: LatticePoint, reach: i32) -> Marched {
+        if self.value(start) > self.threshold {
+            return self.finish();
+        }
+        let at = self.lattice.position(start);
+        let dir = self.field.gradient(at).normalize_or_zero();
+        self.gradients += 1;
+        if dir != Vec3A::ZERO {
+            let far = at + dir * (reach as f32 * self.lattice.cell);
+            // The staircase keeps within half a cell of the ray on every axis.
+            let path = Aabb::new(at.min(far), at.max(far)).padded(0.5 * self.lattice.cell);
+            if !self.stays_outside(&path) {
+                self.staircase(start, dir, reach);
+            }
+        }
+        if self.crossings.is_empty() {
+            let uphill = |step: &IVec3| dir == Vec3A::ZERO || step.as_vec3a().dot(dir) > 0.0;
+            for step in OTHER_STEPS.into_iter().filter(uphill) {
+                self.line(start, step, reach, Until::Entry);
             }
         }
         self.finish()
     }
 
+    /// [`Self::uphill`]'s walk: each step crosses to the lattice corner the ray
+    /// comes nearest next (Amanatides–Woo on the cells around corners), so
+    /// consecutive corners share a lattice edge and a sign change between them
+    /// is one the cells around the first hold.
+    fn staircase(&mut self, start: LatticePoint, dir: Vec3A, reach: i32) {
+        let step = dir.signum().as_ivec3() * 2;
+        let per_cell = dir.abs().recip();
+        // Ray length, in cells, at which the nearest corner next changes on each axis.
+        let mut next_change = 0.5 * per_cell;
+        // From outside, the first sign change is an entry.
+        let mut q = start;
+        loop {
+            let axis = next_change.min_position();
+            if next_change[axis] > reach as f32 {
+                return;
+            }
+            let next = q + IVec3::AXES[axis] * step[axis];
+            if self.value(next) > self.threshold {
+                self.crossings.push(q);
+                return;
+            }
+            q = next;
+            next_change[axis] += per_cell[axis];
+        }
+    }
+
     fn finish(self) -> Marched {
         let mut evaluated: Evaluated = self.fresh.into_iter().collect();
         evaluated.sort_unstable_by_key(|&(q, _)| sort_key(q));
-        Marched { crossings: self.crossings, evaluated }
+        Marched { crossings: self.crossings, evaluated, gradients: self.gradients }
     }
 
     /// The value at corner `q`: known before seeding, or evaluated now and kept.
@@ -177,12 +223,14 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
     }
 
     /// Walks from `start` by `step`: at most `reach` steps while outside, and
-    /// once inside as `until` says, never past the field's bounds. Records the
-    /// corner before each sign change in `crossings` and returns the last.
+    /// once inside as `until` says, never past the field's bounds. Records
+    /// the corner before each sign change in `crossings` and returns the last.
     fn line(&mut self, start: LatticePoint, step: IVec3, reach: i32, until: Until) -> Option<LatticePoint> {
         let max_steps = self.steps_to_leave_bounds(start, step);
         let (mut q, mut v, mut taken) = (start, self.value(start), 0);
-        if v <= self.threshold && self.stays_outside(start, step, reach.min(max_steps)) {
+        let end = self.lattice.position(start + step * reach.min(max_steps));
+        let at = self.lattice.position(start);
+        if v <= self.threshold && self.stays_outside(&Aabb::new(at.min(end), at.max(end))) {
             return None;
         }
         let mut last = None;
@@ -242,13 +290,11 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
         if k >= limit as f32 { limit } else { k.max(0.0) as i32 }
     }
 
-    /// True when the field's range over the corners from `start` to `reach`
-    /// steps along `step` shows them all outside: where most starts outside
-    /// the surface end, without an evaluation.
-    fn stays_outside(&self, start: LatticePoint, step: IVec3, reach: i32) -> bool {
-        let (a, b) = (self.lattice.position(start), self.lattice.position(start + step * reach));
-        let range = self.field.interval(&Aabb::new(a.min(b), a.max(b)));
-        range.hi < self.threshold - outside_margin(self.threshold)
+    /// True when the field's range over `region` shows every lattice point in
+    /// it outside: where most marches from outside the surface end, without
+    /// an evaluation.
+    fn stays_outside(&self, region: &Aabb) -> bool {
+        self.field.interval(region).hi < self.threshold - outside_margin(self.threshold)
     }
 
     /// Steps along `step` from `start` until past the field's bounds, where it is zero.
