@@ -63,6 +63,13 @@ pub trait Field: Sync {
     fn value(&self, p: Vec3A) -> f32;
     /// Gradient of the field at `p` (points inwards, towards higher values).
     fn gradient(&self, p: Vec3A) -> Vec3A;
+    /// A direction in which the field rises at `p`, for walks that look for
+    /// the surface (the polygonizer's seeds): the gradient, unless another
+    /// is cheaper. Any direction will do, so long as it depends on the field
+    /// near `p` alone.
+    fn uphill(&self, p: Vec3A) -> Vec3A {
+        self.gradient(p)
+    }
     /// [`Field::value`] and [`Field::gradient`] at `p` together, the same
     /// values, where computing both at once is cheaper.
     fn value_and_gradient(&self, p: Vec3A) -> (f32, Vec3A) {
@@ -149,6 +156,13 @@ impl Field for ModelField<'_> {
     }
     fn gradient(&self, p: Vec3A) -> Vec3A {
         self.model.node_gradient(self.model.root(), p, self.mode)
+    }
+    fn uphill(&self, p: Vec3A) -> Vec3A {
+        // Through the caches, a gradient fills the 27 samples of each one's
+        // quadratic filter that no other lookup may need; the exact gradient
+        // fills none, and an edit changes it only where it changes the caches.
+        let mode = if self.mode == EvalMode::Cached { EvalMode::Indexed } else { self.mode };
+        self.model.node_gradient(self.model.root(), p, mode)
     }
     fn value_and_gradient(&self, p: Vec3A) -> (f32, Vec3A) {
         self.model.node_value_and_gradient(self.model.root(), p, self.mode)

@@ -163,7 +163,7 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
             return self.finish();
         }
         let at = self.lattice.position(start);
-        let dir = self.field.gradient(at).normalize_or_zero();
+        let dir = self.field.uphill(at).normalize_or_zero();
         self.gradients += 1;
         if dir != Vec3A::ZERO {
             let far = at + dir * (reach as f32 * self.lattice.cell);
