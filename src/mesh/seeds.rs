@@ -83,21 +83,6 @@ pub(super) type Evaluated = Vec<(LatticePoint, f32)>;
 /// One step along +x, in half cells: the direction every start marches.
 pub(super) const ROW_STEP: IVec3 = IVec3::new(2, 0, 0);
 
-/// The other axis directions a start outside the surface may march along.
-const OTHER_STEPS: [IVec3; 5] =
-    [IVec3::new(-2, 0, 0), IVec3::new(0, 2, 0), IVec3::new(0, -2, 0), IVec3::new(0, 0, 2), IVec3::new(0, 0, -2)];
-
-/// Where a march stops once it has entered the surface.
-#[derive(Clone, Copy, PartialEq)]
-enum Until {
-    /// Where it leaves the surface again (a march along +x: past a hollow's
-    /// cavity wall to its outside).
-    Exit,
-    /// Right there (the walks from starts outside, which go no farther
-    /// than their reach, so a local update can tell which come near it).
-    Entry,
-}
-
 /// The fraction of a slope-certified jump taken, against rounding in the bound.
 const JUMP_SAFETY: f32 = 0.999;
 
@@ -143,7 +128,7 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
         let mut crossed_up_to = i32::MIN;
         for &(start, reach) in starts {
             if start.x > crossed_up_to
-                && let Some(last) = self.line(start, ROW_STEP, reach, Until::Exit)
+                && let Some(last) = self.line(start, ROW_STEP, reach)
             {
                 crossed_up_to = last.x;
             }
@@ -153,11 +138,9 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
 
     /// Walks uphill from `start`, if it is outside the surface: along the
     /// staircase of lattice edges nearest the ray up the field's gradient
-    /// there, at most `reach` cells along the ray, to the first sign change;
-    /// failing that, along those of the other five axis directions that lead
-    /// uphill (all five where the gradient vanishes). The gradient points at
-    /// a lens or a crescent off the axes; a surface thinner than a cell may
-    /// slip between the staircase's corners and meet an axis's.
+    /// there, at most `reach` cells along the ray, to the first sign change.
+    /// (No bound on the field's range over the walk is taken first: through
+    /// caches one costs more than the few values the walk reads.)
     pub fn uphill(mut self, start: LatticePoint, reach: i32) -> Marched {
         if self.value(start) > self.threshold {
             return self.finish();
@@ -166,18 +149,7 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
         let dir = self.field.uphill(at).normalize_or_zero();
         self.gradients += 1;
         if dir != Vec3A::ZERO {
-            let far = at + dir * (reach as f32 * self.lattice.cell);
-            // The staircase keeps within half a cell of the ray on every axis.
-            let path = Aabb::new(at.min(far), at.max(far)).padded(0.5 * self.lattice.cell);
-            if !self.stays_outside(&path) {
-                self.staircase(start, dir, reach);
-            }
-        }
-        if self.crossings.is_empty() {
-            let uphill = |step: &IVec3| dir == Vec3A::ZERO || step.as_vec3a().dot(dir) > 0.0;
-            for step in OTHER_STEPS.into_iter().filter(uphill) {
-                self.line(start, step, reach, Until::Entry);
-            }
+            self.staircase(start, dir, reach);
         }
         self.finish()
     }
@@ -223,9 +195,10 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
     }
 
     /// Walks from `start` by `step`: at most `reach` steps while outside, and
-    /// once inside as `until` says, never past the field's bounds. Records
-    /// the corner before each sign change in `crossings` and returns the last.
-    fn line(&mut self, start: LatticePoint, step: IVec3, reach: i32, until: Until) -> Option<LatticePoint> {
+    /// once inside on to where it leaves the surface, never past the field's
+    /// bounds. Records the corner before each sign change in `crossings` and
+    /// returns the last.
+    fn line(&mut self, start: LatticePoint, step: IVec3, reach: i32) -> Option<LatticePoint> {
         let max_steps = self.steps_to_leave_bounds(start, step);
         let (mut q, mut v, mut taken) = (start, self.value(start), 0);
         let end = self.lattice.position(start + step * reach.min(max_steps));
@@ -267,7 +240,7 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
             if (v_next > self.threshold) != inside {
                 self.crossings.push(q);
                 last = Some(q);
-                if inside || until == Until::Entry {
+                if inside {
                     return last;
                 }
             }
