@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, sort_key};
-use super::seeds::{Evaluated, Marched, ROW_STEP, Seed, SeedMarch, ray_meets};
+use super::seeds::{Evaluated, Marched, Seed, SeedMarch, row_meets};
 use super::vertex::{VertexPlacement, place_on_edge};
 use super::{Mesh, bcc, cubes};
 use crate::field::{DEFAULT_COLOR, Field};
@@ -351,7 +351,7 @@ impl Polygonizer {
         let lattice = self.lattice;
         // A cell on either side, and half a cell against rounding in positions.
         let near_hole = hole.map(|b| b.padded(1.5 * lattice.cell));
-        let reaches = |q: LatticePoint, step: IVec3| near_hole.is_none_or(|b| ray_meets(&b, lattice.position(q), step));
+        let reaches = |q: LatticePoint| near_hole.is_none_or(|b| row_meets(&b, lattice.position(q)));
         let mut starts: Vec<(LatticePoint, i32)> = seeds
             .iter()
             .map(|s| (lattice.nearest_corner(s.point), (s.reach / lattice.cell).ceil() as i32 + 1))
@@ -359,7 +359,7 @@ impl Polygonizer {
         // One start per corner, with the longest reach; rows of equal (z, y) by x.
         starts.sort_unstable_by_key(|&(q, reach)| (q.z, q.y, q.x, std::cmp::Reverse(reach)));
         starts.dedup_by_key(|(q, _)| *q);
-        let along_x: Vec<(LatticePoint, i32)> = starts.iter().copied().filter(|&(q, _)| reaches(q, ROW_STEP)).collect();
+        let along_x: Vec<(LatticePoint, i32)> = starts.iter().copied().filter(|&(q, _)| reaches(q)).collect();
         let rows: Vec<&[(LatticePoint, i32)]> = along_x.chunk_by(|a, b| (a.0.y, a.0.z) == (b.0.y, b.0.z)).collect();
         let marched: Vec<Marched> =
             rows.par_iter().map(|row| SeedMarch::new(field, lattice, &self.corners).row(row)).collect();

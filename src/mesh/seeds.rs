@@ -81,7 +81,7 @@ fn skeleton_samples(s: &Skeleton) -> impl Iterator<Item = Vec3A> {
 pub(super) type Evaluated = Vec<(LatticePoint, f32)>;
 
 /// One step along +x, in half cells: the direction every start marches.
-pub(super) const ROW_STEP: IVec3 = IVec3::new(2, 0, 0);
+const ROW_STEP: IVec3 = IVec3::new(2, 0, 0);
 
 /// The fraction of a slope-certified jump taken, against rounding in the bound.
 const JUMP_SAFETY: f32 = 0.999;
@@ -128,7 +128,7 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
         let mut crossed_up_to = i32::MIN;
         for &(start, reach) in starts {
             if start.x > crossed_up_to
-                && let Some(last) = self.line(start, ROW_STEP, reach)
+                && let Some(last) = self.row_line(start, reach)
             {
                 crossed_up_to = last.x;
             }
@@ -194,14 +194,14 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
         }
     }
 
-    /// Walks from `start` by `step`: at most `reach` steps while outside, and
+    /// Walks from `start` along +x: at most `reach` steps while outside, and
     /// once inside on to where it leaves the surface, never past the field's
     /// bounds. Records the corner before each sign change in `crossings` and
     /// returns the last.
-    fn line(&mut self, start: LatticePoint, step: IVec3, reach: i32) -> Option<LatticePoint> {
-        let max_steps = self.steps_to_leave_bounds(start, step);
+    fn row_line(&mut self, start: LatticePoint, reach: i32) -> Option<LatticePoint> {
+        let max_steps = self.steps_to_leave_bounds(start);
         let (mut q, mut v, mut taken) = (start, self.value(start), 0);
-        let end = self.lattice.position(start + step * reach.min(max_steps));
+        let end = self.lattice.position(start + ROW_STEP * reach.min(max_steps));
         let at = self.lattice.position(start);
         if v <= self.threshold && self.stays_outside(&Aabb::new(at.min(end), at.max(end))) {
             return None;
@@ -217,7 +217,7 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
             if taken >= limit {
                 return last;
             }
-            let jump = if taken >= plain_until { self.certified_steps(q, v, step, limit - taken) } else { 0 };
+            let jump = if taken >= plain_until { self.certified_steps(q, v, limit - taken) } else { 0 };
             if jump <= 1 && taken >= plain_until {
                 (plain_until, backoff) = (taken + backoff, 2 * backoff);
             }
@@ -226,7 +226,7 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
                     // The rest of the reach is outside.
                     return last;
                 }
-                let landing = q + step * jump;
+                let landing = q + ROW_STEP * jump;
                 let v_landing = self.value(landing);
                 if (v_landing > self.threshold) == inside {
                     (q, v, taken) = (landing, v_landing, taken + jump);
@@ -235,7 +235,7 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
                 }
                 continue;
             }
-            let next = q + step;
+            let next = q + ROW_STEP;
             let v_next = self.value(next);
             if (v_next > self.threshold) != inside {
                 self.crossings.push(q);
@@ -248,10 +248,10 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
         }
     }
 
-    /// How many of the next `limit` corners along `step` from `q` (value `v`)
-    /// a slope bound over them shows to be on `q`'s side of the surface.
-    fn certified_steps(&self, q: LatticePoint, v: f32, step: IVec3, limit: i32) -> i32 {
-        let (a, b) = (self.lattice.position(q), self.lattice.position(q + step * limit));
+    /// How many of the next `limit` corners along +x from `q` (value `v`) a
+    /// slope bound over them shows to be on `q`'s side of the surface.
+    fn certified_steps(&self, q: LatticePoint, v: f32, limit: i32) -> i32 {
+        let (a, b) = (self.lattice.position(q), self.lattice.position(q + ROW_STEP * limit));
         // Past the evaluation's rounding, as segment tracing certifies its steps.
         let margin = (v - self.threshold).abs() - outside_margin(self.threshold);
         if margin <= 0.0 {
@@ -270,25 +270,19 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
         self.field.interval(region).hi < self.threshold - outside_margin(self.threshold)
     }
 
-    /// Steps along `step` from `start` until past the field's bounds, where it is zero.
-    fn steps_to_leave_bounds(&self, start: LatticePoint, step: IVec3) -> i32 {
+    /// Steps along +x from `start` until past the field's bounds, where it is zero.
+    fn steps_to_leave_bounds(&self, start: LatticePoint) -> i32 {
         let bounds = self.field.bounds();
         if bounds.is_empty() {
             // The field is zero everywhere.
             return 0;
         }
-        let (lo, hi) = (self.lattice.nearest_corner(bounds.min), self.lattice.nearest_corner(bounds.max));
-        let axis = step.abs().max_position();
-        let beyond = if step[axis] > 0 { hi[axis] + 2 - start[axis] } else { start[axis] - (lo[axis] - 2) };
-        (beyond / 2).max(0)
+        let end_x = self.lattice.nearest_corner(bounds.max).x + 2;
+        ((end_x - start.x) / 2).max(0)
     }
 }
 
-/// True when the ray from `p` along the axis direction `step` meets box `b`.
-pub(super) fn ray_meets(b: &Aabb, p: Vec3A, step: IVec3) -> bool {
-    (0..3).all(|k| match step[k].signum() {
-        1 => p[k] <= b.max[k],
-        -1 => p[k] >= b.min[k],
-        _ => (b.min[k]..=b.max[k]).contains(&p[k]),
-    })
+/// True when the ray from `p` along +x meets box `b`.
+pub(super) fn row_meets(b: &Aabb, p: Vec3A) -> bool {
+    p.x <= b.max.x && (b.min.y..=b.max.y).contains(&p.y) && (b.min.z..=b.max.z).contains(&p.z)
 }
