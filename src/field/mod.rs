@@ -195,3 +195,35 @@ impl Field for ModelField<'_> {
         self.empty?.skip(ray, t, t_end)
     }
 }
+
+/// A field for unit tests of what walks along a line (root finding, hit
+/// snapping): `value(x)` of the x coordinate alone, with threshold 0.5, no
+/// bound tighter than trivial, and bounds far beyond the tests' lines.
+#[cfg(test)]
+pub(crate) struct AlongX<V>(pub V);
+
+#[cfg(test)]
+impl<V: Fn(f32) -> f32 + Sync> Field for AlongX<V> {
+    fn value(&self, p: Vec3A) -> f32 {
+        (self.0)(p.x)
+    }
+    fn gradient(&self, p: Vec3A) -> Vec3A {
+        let h = 1e-3;
+        Vec3A::X * ((self.0)(p.x + h) - (self.0)(p.x - h)) / (2.0 * h)
+    }
+    fn color(&self, _: Vec3A) -> Vec3 {
+        Vec3::ONE
+    }
+    fn interval(&self, _: &Aabb) -> Interval {
+        Interval::new(f32::NEG_INFINITY, f32::INFINITY)
+    }
+    fn lipschitz(&self, _: &Region) -> f32 {
+        f32::INFINITY
+    }
+    fn bounds(&self) -> Aabb {
+        Aabb::new(Vec3A::splat(-10.0), Vec3A::splat(10.0))
+    }
+    fn threshold(&self) -> f32 {
+        0.5
+    }
+}

@@ -116,65 +116,29 @@ fn bends((run_lo, rise_lo): (f32, f32), (run_hi, rise_hi): (f32, f32)) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::field::{EvalMode, ModelField, Region};
-    use crate::geom::{Aabb, Interval};
+    use crate::field::{AlongX, EvalMode, ModelField};
     use crate::scene::Scene;
-    use glam::Vec3;
 
     /// Along x from 0 to 1: a shelf rising gently from `T - 0.01` to
     /// `T - 0.005` at `wall`, then a steep rise to `T + height` at 1 (a
-    /// union's kink, say, next to a dense blend).
-    struct ShelfAndWall {
-        wall: f32,
-        height: f32,
-    }
-
-    impl ShelfAndWall {
-        /// Where the field crosses `T`.
-        fn root(&self) -> f32 {
-            self.wall + (1.0 - self.wall) * 0.005 / (0.005 + self.height)
-        }
-    }
-
-    impl Field for ShelfAndWall {
-        fn value(&self, p: Vec3A) -> f32 {
-            let shelf = p.x.clamp(0.0, self.wall) / self.wall;
-            let rise = ((p.x - self.wall) / (1.0 - self.wall)).max(0.0);
-            0.49 + 0.005 * shelf + (0.005 + self.height) * rise
-        }
-        fn gradient(&self, _: Vec3A) -> Vec3A {
-            Vec3A::X
-        }
-        fn color(&self, _: Vec3A) -> Vec3 {
-            Vec3::ONE
-        }
-        fn interval(&self, _: &Aabb) -> Interval {
-            Interval::new(0.0, 1.0 + self.height)
-        }
-        fn lipschitz(&self, _: &Region) -> f32 {
-            f32::INFINITY
-        }
-        fn bounds(&self) -> Aabb {
-            Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(2.0))
-        }
-        fn threshold(&self) -> f32 {
-            0.5
-        }
+    /// union's kink, say, next to a dense blend); and where it crosses `T`.
+    fn shelf_and_wall(wall: f32, height: f32) -> (AlongX<impl Fn(f32) -> f32 + Sync>, f32) {
+        let value = move |x: f32| {
+            let shelf = x.clamp(0.0, wall) / wall;
+            let rise = ((x - wall) / (1.0 - wall)).max(0.0);
+            0.49 + 0.005 * shelf + (0.005 + height) * rise
+        };
+        (AlongX(value), wall + (1.0 - wall) * 0.005 / (0.005 + height))
     }
 
     #[test]
     fn a_root_past_a_long_shelf_is_placed_to_the_tolerance() {
         for (wall, height) in [(0.9, 10.0), (0.99, 100.0), (0.5, 1000.0), (0.999, 3.0)] {
-            let field = ShelfAndWall { wall, height };
+            let (field, root) = shelf_and_wall(wall, height);
             let (a, b) = (Vec3A::ZERO, Vec3A::X);
             let (p, evals) =
                 place_on_edge(&field, (a, field.value(a)), (b, field.value(b)), VertexPlacement::default());
-            assert!(
-                (p.x - field.root()).abs() <= 1e-4,
-                "wall {wall}, height {height}: {} vs {} after {evals}",
-                p.x,
-                field.root()
-            );
+            assert!((p.x - root).abs() <= 1e-4, "wall {wall}, height {height}: {} vs {root} after {evals}", p.x);
         }
     }
 

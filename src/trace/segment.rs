@@ -443,39 +443,12 @@ fn snap<F: Field + ?Sized>(field: &F, ray: &Ray, a: f32, b: f32, q: f32) -> (Sna
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::{Aabb, Interval};
-    use glam::Vec3;
+    use crate::field::AlongX;
 
     /// Along +x, a bump peaking `height` above `T = 0.5` at `peak`, and a wall
     /// inside from `wall` on.
-    struct Bump {
-        peak: f32,
-        height: f32,
-        wall: f32,
-    }
-
-    impl Field for Bump {
-        fn value(&self, p: Vec3A) -> f32 {
-            if p.x >= self.wall { 1.0 } else { 0.5 + self.height - (p.x - self.peak).powi(2) }
-        }
-        fn gradient(&self, p: Vec3A) -> Vec3A {
-            Vec3A::X * -2.0 * (p.x - self.peak)
-        }
-        fn color(&self, _: Vec3A) -> Vec3 {
-            Vec3::ONE
-        }
-        fn interval(&self, _: &Aabb) -> Interval {
-            Interval::new(0.0, 1.0)
-        }
-        fn lipschitz(&self, _: &Region) -> f32 {
-            f32::INFINITY
-        }
-        fn bounds(&self) -> Aabb {
-            Aabb::new(Vec3A::splat(-10.0), Vec3A::splat(10.0))
-        }
-        fn threshold(&self) -> f32 {
-            0.5
-        }
+    fn bump(peak: f32, height: f32, wall: f32) -> AlongX<impl Fn(f32) -> f32 + Sync> {
+        AlongX(move |x: f32| if x >= wall { 1.0 } else { 0.5 + height - (x - peak).powi(2) })
     }
 
     #[test]
@@ -501,7 +474,7 @@ mod tests {
         let q = 1e-3;
         let ray = Ray::new(Vec3A::ZERO, Vec3A::X);
         // Inside over ±0.3 q around a point halfway between lattice points 1000 and 1001.
-        let bump = Bump { peak: 1000.5 * q, height: (0.3 * q) * (0.3 * q), wall: 1.2 };
+        let bump = bump(1000.5 * q, (0.3 * q) * (0.3 * q), 1.2);
         let (a, b) = (1000.3 * q, 1000.7 * q);
         assert!(bump.value(ray.at(0.5 * (a + b))) > 0.5);
         let (snapped, evals) = snap(&bump, &ray, a, b, q);
