@@ -16,6 +16,7 @@ use super::kernel::Kernel;
 use super::node::NodeId;
 use super::primitive::Primitive;
 use super::region::Region;
+use super::wide;
 use crate::geom::{Aabb, Interval, UniformGrid};
 
 /// Fewest leaves for which a blend gets an index: below this a plain loop is as fast.
@@ -96,6 +97,9 @@ impl PackedPoints {
     /// double precision.
     #[inline]
     fn sum(&self, items: &[u32], p: Vec3A) -> f64 {
+        if let Some(sum) = wide::sum(&self.terms, &self.weights, items, p) {
+            return sum;
+        }
         let mut acc = glam::DVec4::ZERO;
         self.for_each_quad(items, p, |lanes| acc += lanes.values());
         sum_lanes(acc)
@@ -104,6 +108,9 @@ impl PackedPoints {
     /// The sum of the listed points' gradients at `p`, four at a time.
     #[inline]
     fn gradient(&self, items: &[u32], p: Vec3A) -> Vec3A {
+        if let Some(gradient) = wide::gradient(&self.terms, &self.weights, items, p) {
+            return gradient;
+        }
         let mut acc = [Vec4::ZERO; 3];
         self.for_each_quad(items, p, |lanes| add_axes(&mut acc, lanes.gradients()));
         sum_axes(acc)
@@ -112,6 +119,9 @@ impl PackedPoints {
     /// [`Self::sum`] and [`Self::gradient`] in one pass, each to the same bits.
     #[inline]
     fn sum_and_gradient(&self, items: &[u32], p: Vec3A) -> (f64, Vec3A) {
+        if let Some(both) = wide::sum_and_gradient(&self.terms, &self.weights, items, p) {
+            return both;
+        }
         let (mut values, mut gradients) = (glam::DVec4::ZERO, [Vec4::ZERO; 3]);
         self.for_each_quad(items, p, |lanes| {
             values += lanes.values();

@@ -17,6 +17,7 @@ mod node;
 mod primitive;
 mod region;
 pub mod spline;
+mod wide;
 
 use glam::{Vec3, Vec3A};
 
