@@ -352,9 +352,20 @@ impl Polygonizer {
         // A cell on either side, and half a cell against rounding in positions.
         let near_hole = hole.map(|b| b.padded(1.5 * lattice.cell));
         let reaches = |q: LatticePoint| near_hole.is_none_or(|b| row_meets(&b, lattice.position(q)));
+        // An uphill walk goes no farther than its reach (plus a cell, the
+        // staircase's offset from its ray).
+        let walks_near_hole = |q: LatticePoint, reach: i32| {
+            near_hole
+                .is_none_or(|b| b.distance_squared(lattice.position(q)) <= ((reach + 1) as f32 * lattice.cell).powi(2))
+        };
+        // Only starts that can come near the hole are sorted (in a local update,
+        // a few of thousands). Neither test fails for a longer reach where it
+        // passes for a shorter one, so filtering before keeping each corner's
+        // longest reach keeps the same starts as filtering after.
         let mut starts: Vec<(LatticePoint, i32)> = seeds
             .iter()
             .map(|s| (lattice.nearest_corner(s.point), (s.reach / lattice.cell).ceil() as i32 + 1))
+            .filter(|&(q, reach)| reaches(q) || walks_near_hole(q, reach))
             .collect();
         // One start per corner, with the longest reach; rows of equal (z, y) by x.
         starts.sort_unstable_by_key(|&(q, reach)| (q.z, q.y, q.x, std::cmp::Reverse(reach)));
@@ -365,13 +376,7 @@ impl Polygonizer {
             rows.par_iter().map(|row| SeedMarch::new(field, lattice, &self.corners).row(row)).collect();
         let mut cells = vec![];
         self.take_marched(marched, &mut cells);
-        // The second round sees the corners the first evaluated. An uphill
-        // walk goes no farther than its reach (plus a cell, the staircase's
-        // offset from its ray).
-        let walks_near_hole = |q: LatticePoint, reach: i32| {
-            near_hole
-                .is_none_or(|b| b.distance_squared(lattice.position(q)) <= ((reach + 1) as f32 * lattice.cell).powi(2))
-        };
+        // The second round sees the corners the first evaluated.
         let marched: Vec<Marched> = starts
             .par_iter()
             .filter(|&&(q, reach)| walks_near_hole(q, reach))
