@@ -110,6 +110,7 @@ pub fn march<F: Field + ?Sized>(
     let mut segment = opts.first_segment * diag;
     let mut relax = true;
     let mut skipped = false;
+    let mut probes_left = MAX_PROBES;
     // The gradient at `t`, when the value there came with it.
     let mut gradient = None;
     while out.steps < opts.max_steps {
@@ -135,6 +136,19 @@ pub fn march<F: Field + ?Sized>(
         // where the field's gradient is smooth enough to have one.
         let curved =
             if -v < CURVATURE_MARGIN * iso { curvature_step(field, ray, (t, gradient), margin, room) } else { None };
+        if let Some(c) = curved
+            && probes_left > 0
+        {
+            // Near enough, a probe past the Newton root may settle the hit at once.
+            probes_left -= 1;
+            let (found, evals) = probe_past_newton_root(field, ray, (t, v), &c, opts.quantum.unwrap_or(tol));
+            out.evals += evals;
+            if let Some(root) = found {
+                out.evals += c.bound.bounds;
+                return (Crossing::At(root), out);
+            }
+        }
+        let curved = curved.map(|c| c.bound);
         let bound = curved.unwrap_or_else(|| {
             let halvings = if -v > HALVING_MARGIN * iso { MAX_BOUNDS_PER_STEP } else { 1 };
             bounded_step(field, ray, t, margin, room, halvings)
@@ -308,7 +322,7 @@ fn curvature_step<F: Field + ?Sized>(
     (t, gradient): (f32, Option<Vec3A>),
     m: f32,
     room: f32,
-) -> Option<BoundedStep> {
+) -> Option<CurvedStep> {
     let curvature = field.curvature(&Region::Segment(ray.at(t), ray.at(t + room)));
     if !curvature.is_finite() {
         return None;
@@ -323,7 +337,19 @@ fn curvature_step<F: Field + ?Sized>(
     // Shortened a little against rounding in f, g and the root.
     let step = if denominator > 0.0 { (CURVATURE_SAFETY * 2.0 * m / denominator).min(room) } else { room };
     // Counted as two evaluations: the bound and the gradient.
-    Some(BoundedStep { step, slope: f32::INFINITY, room, bounds: 2 })
+    Some(CurvedStep { bound: BoundedStep { step, slope: f32::INFINITY, room, bounds: 2 }, curvature, slope: g })
+}
+
+/// A step certified by a bound on the second derivative, with what it was
+/// taken from.
+#[derive(Clone, Copy)]
+struct CurvedStep {
+    /// The step.
+    bound: BoundedStep,
+    /// The bound `M` on the second derivative along the ray over `bound.room`.
+    curvature: f32,
+    /// The derivative along the ray at the step's start.
+    slope: f32,
 }
 
 /// A step certified by a slope bound.
@@ -385,6 +411,95 @@ fn refine<F: Field + ?Sized>(field: &F, ray: &Ray, a: (f32, f32), b: (f32, f32),
         }
     }
     ((ta, tb), evals)
+}
+
+/// Probes past the Newton root are tried at most this often per march: one
+/// that lands outside (the field bends away) is seldom followed by one that
+/// lands inside soon.
+const MAX_PROBES: u32 = 4;
+/// A probe is tried once the Newton root is at most this many lattice steps
+/// ahead: farther, the certified steps close in for fewer evaluations than
+/// a search of the bracket takes.
+const MAX_PROBE_LATTICE_STEPS: f32 = 2048.0;
+/// The probe lands this fraction past the Newton root (and a lattice step
+/// more), so that a field bending slightly away still puts it inside.
+const PROBE_OVERSHOOT: f32 = 0.2;
+
+/// The first lattice point inside, found from the curvature step `c` at `t`
+/// (value `v` less `T`) without further steps, when the field allows it.
+///
+/// The tangent at `t` meets `T` at the Newton root; a lattice point just past
+/// it is probed, with the gradient. If it is inside, and the curvature bound
+/// `M` over the step's segment shows the field rising along the whole stretch
+/// from the certified step's end to the probe (`f'(s) >= f'(b) - M (b - s)`)
+/// by more than its rounding per lattice step, then the lattice points there
+/// change from outside to inside exactly once: the first inside is found by
+/// false position on the lattice indices, and it is the very point a march
+/// walking the lattice would stop at. Otherwise nothing is found and the
+/// march goes on as if no probe was taken. Returns the evaluations spent.
+fn probe_past_newton_root<F: Field + ?Sized>(
+    field: &F,
+    ray: &Ray,
+    (t, v): (f32, f32),
+    c: &CurvedStep,
+    q: f32,
+) -> (Option<f32>, u32) {
+    let newton = -v / c.slope;
+    let hi = ((t + newton * (1.0 + PROBE_OVERSHOOT) + q) / q).ceil() as i64;
+    let certified = t + c.bound.step;
+    if !(c.slope > 0.0 && newton <= MAX_PROBE_LATTICE_STEPS * q && hi as f32 * q <= t + c.bound.room) {
+        return (None, 0);
+    }
+    let iso = field.threshold();
+    let (value, gradient) = field.value_and_gradient(ray.at(hi as f32 * q));
+    let v_hi = value - iso;
+    let rising = gradient.dot(ray.dir) - c.curvature.max(0.0) * (hi as f32 * q - certified);
+    if v_hi <= 0.0 || rising * q <= 2.0 * outside_margin(iso) {
+        return (None, 1);
+    }
+    let lo = (certified / q).floor() as i64;
+    let v_lo = field.value(ray.at(lo as f32 * q)) - iso;
+    if v_lo > 0.0 || lo >= hi {
+        // Rounding put the certified end inside: leave it to the march.
+        return (None, 2);
+    }
+    let (first, evals) = first_inside(field, ray, q, (lo, v_lo), (hi, v_hi));
+    (Some(first as f32 * q), 2 + evals)
+}
+
+/// The first lattice index inside in `(lo, hi]`, given `lo` outside, `hi`
+/// inside and one change between them: false position on the indices,
+/// halving a stale end's value (Illinois), so a few evaluations narrow a
+/// bracket of hundreds of lattice steps. Returns it and the evaluations spent.
+fn first_inside<F: Field + ?Sized>(
+    field: &F,
+    ray: &Ray,
+    q: f32,
+    (mut lo, mut v_lo): (i64, f32),
+    (mut hi, mut v_hi): (i64, f32),
+) -> (i64, u32) {
+    let iso = field.threshold();
+    let (mut evals, mut side) = (0, 0i8);
+    while hi - lo > 1 {
+        let at = lo as f32 + (hi - lo) as f32 * (v_lo / (v_lo - v_hi));
+        let k = (at.round() as i64).clamp(lo + 1, hi - 1);
+        let v = field.value(ray.at(k as f32 * q)) - iso;
+        evals += 1;
+        if v > 0.0 {
+            (hi, v_hi) = (k, v);
+            if side == 1 {
+                v_lo *= 0.5;
+            }
+            side = 1;
+        } else {
+            (lo, v_lo) = (k, v);
+            if side == -1 {
+                v_hi *= 0.5;
+            }
+            side = -1;
+        }
+    }
+    (hi, evals)
 }
 
 /// Most lattice steps `snap` walks outwards to re-establish its bracket.
@@ -449,6 +564,73 @@ mod tests {
     /// inside from `wall` on.
     fn bump(peak: f32, height: f32, wall: f32) -> AlongX<impl Fn(f32) -> f32 + Sync> {
         AlongX(move |x: f32| if x >= wall { 1.0 } else { 0.5 + height - (x - peak).powi(2) })
+    }
+
+    /// The first lattice index `k > from` with `f(k q)` inside, by walking.
+    fn first_inside_by_walking(field: &impl Field, ray: &Ray, from: f32, q: f32) -> i64 {
+        let mut k = (from / q).floor() as i64;
+        while field.value(ray.at(k as f32 * q)) <= field.threshold() {
+            k += 1;
+        }
+        k
+    }
+
+    #[test]
+    fn a_probe_past_the_newton_root_finds_the_lattice_point_a_walk_finds_or_declines() {
+        let q = 1e-3;
+        let ray = Ray::new(Vec3A::ZERO, Vec3A::X);
+        let (mut found, mut declined) = (0, 0);
+        // Parabolas `T + s (x - r) + c (x - r)² / 2`, bending towards the
+        // surface and away from it, approached from several distances.
+        for (slope, bend) in [(2.0f32, 30.0f32), (2.0, -30.0), (0.5, 200.0), (1.0, -400.0), (3.0, 0.0)] {
+            let root = 1.0003;
+            let field = AlongX(move |x: f32| 0.5 + slope * (x - root) + 0.5 * bend * (x - root).powi(2));
+            for back in [0.002f32, 0.01, 0.05, 0.2] {
+                let t = root - back;
+                let v = field.value(ray.at(t)) - 0.5;
+                if v >= 0.0 || slope + bend * (t - root) <= 0.0 {
+                    continue;
+                }
+                let room = 4.0 * back + 0.01;
+                // The exact second derivative bounds itself; the certified step as the tracer takes it.
+                let g = slope + bend * (t - root);
+                let step = CURVATURE_SAFETY * 2.0 * -v / (g + (g * g + 2.0 * bend.max(0.0) * -v).sqrt());
+                let bound = BoundedStep { step, slope: f32::INFINITY, room, bounds: 2 };
+                let c = CurvedStep { bound, curvature: bend, slope: g };
+                let walked = first_inside_by_walking(&field, &ray, t, q) as f32 * q;
+                match probe_past_newton_root(&field, &ray, (t, v), &c, q) {
+                    (Some(hit), evals) => {
+                        assert_eq!(hit, walked, "slope {slope}, bend {bend}, from {back} before the root");
+                        assert!(evals <= 12, "{evals} evaluations");
+                        found += 1;
+                    }
+                    (None, _) => declined += 1,
+                }
+            }
+        }
+        // Fields bending away from the surface put some probes outside.
+        assert!(found >= 10 && declined >= 1, "{found} found, {declined} declined");
+    }
+
+    #[test]
+    fn a_probe_declines_where_the_curvature_bound_allows_a_dip_before_it() {
+        let q = 1e-3;
+        let ray = Ray::new(Vec3A::ZERO, Vec3A::X);
+        // A steep rise to a first crossing, a dip back outside, and the rise
+        // the tangent at the start points to: the first lattice point inside
+        // is the narrow peak's, which only a bound of the peak's bend allows.
+        let field = AlongX(|x: f32| {
+            let peak = 0.5 + 1e-3 - 400.0 * (x - 1.0).powi(2);
+            (0.5 + (x - 1.02)).max(peak)
+        });
+        let t = 0.99;
+        let v = field.value(ray.at(t)) - 0.5;
+        let bound = BoundedStep { step: 1e-4, slope: f32::INFINITY, room: 0.1, bounds: 2 };
+        let (g, bend) = (1.0, 800.0);
+        let c = CurvedStep { bound, curvature: bend, slope: g };
+        let (found, _) = probe_past_newton_root(&field, &ray, (t, v), &c, q);
+        let walked = first_inside_by_walking(&field, &ray, t, q) as f32 * q;
+        assert!(found.is_none_or(|hit| hit == walked), "probe {found:?}, walk {walked}");
     }
 
     #[test]
