@@ -171,6 +171,60 @@ fn intervals_over_held_samples_are_tighter_and_still_hold() {
     }
 }
 
+/// Along any segment, the cached value's slope never drops below the floor
+/// the caches give for it (both value filters, both storages, under a
+/// rotating and stretching transform); and the floor is tight enough to show
+/// the field rising along many of the segments along which it rises.
+#[test]
+fn slope_floors_bound_the_cached_values_derivative_along_segments() {
+    for (value, storage) in [("Trilinear", "F32"), ("Triquadratic", "F16")] {
+        let scene = Scene::parse(
+            &format!(
+                r#"Scene(
+    camera: Camera(eye: (0.0, 0.5, 5.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
+    size: (64, 48),
+    model: Blend([
+        Transform(translate: (0.2, 0.0, 0.0), rotate: (20.0, 30.0, 10.0), scale: (1.0, 1.5, 0.8),
+            child: Cache(res: 24, value: {value}, storage: {storage}, child: Blend([
+                Point(center: (-0.5, 0.0, 0.0), radius: 1.2),
+                Point(center: (0.6, 0.1, 0.0), radius: 1.0),
+            ]))),
+        Cache(res: 16, child: Point(center: (0.0, 0.8, 0.3), radius: 0.6)),
+    ]),
+)"#
+            ),
+            "floors",
+        )
+        .expect("test scene parses");
+        let field = ModelField::new(&scene.model, EvalMode::Cached);
+        let exact = ModelField::new(&scene.model, EvalMode::Indexed);
+        let mut rng = Rng(31);
+        let (mut rising, mut shown) = (0, 0);
+        for p in random_points(&scene.model, 2000, 32) {
+            let q = p + rng.point_in(Vec3A::splat(-0.15), Vec3A::splat(0.15));
+            assert_eq!(exact.slope_floor(p, q), None, "exact fields take curvature bounds instead");
+            let floor = field.slope_floor(p, q).expect("a sum of caches has a floor");
+            let length = (q - p).length();
+            let values: Vec<f32> = (0..=64).map(|k| field.value(p.lerp(q, k as f32 / 64.0))).collect();
+            let h = length / 64.0;
+            for (k, pair) in values.windows(2).enumerate() {
+                let slope = (pair[1] - pair[0]) / h;
+                assert!(slope >= floor - 4e-6 / h, "{value} {storage}: slope {slope} < floor {floor} at step {k}");
+            }
+            if values.windows(2).all(|w| w[1] > w[0] + 1e-4) {
+                rising += 1;
+                shown += usize::from(floor > 0.0);
+            }
+        }
+        // The quadratic filter's floor takes the differences of a 4×4×4 block: looser.
+        let share = if value == "Trilinear" { 2 } else { 5 };
+        assert!(
+            rising > 30 && shown * share > rising,
+            "{value} {storage}: {shown} of {rising} rising segments shown rising"
+        );
+    }
+}
+
 #[test]
 fn invalidation_after_an_edit_matches_a_fresh_cache_and_spares_the_rest() {
     let mut scene = default_scene(32);

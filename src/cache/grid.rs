@@ -595,6 +595,58 @@ impl CacheGrid {
         g.length() * self.inv_cell
     }
 
+    /// A lower bound on `∇f·u` for the reconstructed value along the segment
+    /// `a..b` (cache frame). In each lattice cell the segment crosses, each
+    /// axis derivative of the value filter is a convex combination of the
+    /// differences along that axis between the samples it reads there (see
+    /// [`Self::cell_slope`]), so it lies between the least and the greatest.
+    /// Off the lattice the reconstruction is zero, and so is its derivative.
+    pub fn slope_floor(
+        &self,
+        (a, b): (Vec3A, Vec3A),
+        u: Vec3A,
+        pool: &SamplePool,
+        eval: &impl Fn(Vec3A) -> f32,
+    ) -> f32 {
+        let on_lattice = self.lattice.bounds();
+        let mut floor = if on_lattice.contains(a) && on_lattice.contains(b) { f32::INFINITY } else { 0.0 };
+        self.lattice.walk_segment(a, b, |c| {
+            let i = self.lattice_lo + self.lattice.coords(c).as_ivec3();
+            floor = floor.min(self.cell_slope_floor(i, u, pool, eval));
+        });
+        if floor.is_finite() { floor } else { 0.0 }
+    }
+
+    /// [`Self::slope_floor`] over the lattice cell with minimum corner `i`.
+    fn cell_slope_floor(&self, i: IVec3, u: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+        let reach: usize = match self.spec.value {
+            Filter::Trilinear => 0,
+            Filter::Triquadratic => 1,
+        };
+        let n = 2 + 2 * reach;
+        let mut s = [0.0f32; 64];
+        self.gather_cube(i - IVec3::splat(reach as i32), n, &mut s, pool, eval);
+        let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+        for (at, v) in s.iter().enumerate().take(n * n * n) {
+            let (x, y, z) = (at % n, (at / n) % n, at / (n * n));
+            let mut difference = |axis: usize, next: usize| {
+                let d = s[next] - v;
+                lo[axis] = lo[axis].min(d);
+                hi[axis] = hi[axis].max(d);
+            };
+            if x + 1 < n {
+                difference(0, at + 1);
+            }
+            if y + 1 < n {
+                difference(1, at + n);
+            }
+            if z + 1 < n {
+                difference(2, at + n * n);
+            }
+        }
+        (u * lo).min(u * hi).element_sum() * self.inv_cell
+    }
+
     /// A bound on the reconstruction's slope over `region`. Each axis
     /// derivative of either filter is a convex combination of sample
     /// differences along that axis, each at most the subtree's slope over the

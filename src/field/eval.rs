@@ -380,6 +380,54 @@ impl Model {
         }
     }
 
+    /// A lower bound on the derivative of node `id`'s value along the
+    /// segment `a..b` (in the node's frame) per unit of distance along the
+    /// world ray, which moves at velocity `u` in this frame: `∇f(p)·u >= floor`
+    /// at every `p` of the segment. Known where the field is a sum of cached
+    /// lattices (each cell's derivative lies between its samples'
+    /// differences); `None` elsewhere, where exact fields have curvature bounds.
+    pub fn node_slope_floor(&self, id: NodeId, (a, b): (Vec3A, Vec3A), u: Vec3A, mode: EvalMode) -> Option<f32> {
+        let node = self.node(id);
+        let segment = Region::Segment(a, b);
+        if !segment.meets(&node.bounds) {
+            return Some(0.0);
+        }
+        match &node.kind {
+            NodeKind::Blend { children, index } => match (mode, index) {
+                (m, Some(ix)) if m.indexed() => {
+                    let mut total = Some(0.0);
+                    for_each_unique_leaf(ix, &segment, |i| {
+                        let leaf = &ix.leaves[i as usize];
+                        let floor = match &leaf.leaf {
+                            Leaf::Node(id) => self.node_slope_floor(*id, (a, b), u, mode),
+                            Leaf::Primitive(_) if !segment.meets(&leaf.bounds) => Some(0.0),
+                            Leaf::Primitive(_) => None,
+                        };
+                        total = total.zip(floor).map(|(t, f)| t + f);
+                    });
+                    total
+                }
+                _ => children.iter().try_fold(0.0, |t, &c| Some(t + self.node_slope_floor(c, (a, b), u, mode)?)),
+            },
+            NodeKind::Transform { placement, child } => {
+                let l = &placement.to_local;
+                self.node_slope_floor(
+                    *child,
+                    (l.transform_point3a(a), l.transform_point3a(b)),
+                    l.transform_vector3a(u),
+                    mode,
+                )
+            }
+            NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
+                Some(self.cache(*grid).slope_floor((a, b), u, self.pool(), &|q| self.node_value(*child, q, mode)))
+            }
+            NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => {
+                self.node_slope_floor(*child, (a, b), u, mode)
+            }
+            _ => None,
+        }
+    }
+
     /// An upper bound on node `id`'s second derivative along any line
     /// through a region (it may be negative where the field is concave),
     /// infinite where the gradient may jump (the creases of unions,

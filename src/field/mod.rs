@@ -82,6 +82,12 @@ pub trait Field: Sync {
     fn interval(&self, b: &Aabb) -> Interval;
     /// A bound on `|∇f|` over a region: `|f(x) - f(y)| <= L |x - y|` for x, y in it.
     fn lipschitz(&self, region: &Region) -> f32;
+    /// A lower bound on the derivative of `f` along the segment `a..b`, per
+    /// unit length towards `b`, where the field knows one.
+    fn slope_floor(&self, a: Vec3A, b: Vec3A) -> Option<f32> {
+        let _ = (a, b);
+        None
+    }
     /// An upper bound `M` on the second derivative of `f` along any line
     /// through a region (`d²/ds² f(x + s u) <= M` for unit `u`; negative where
     /// `f` is concave), infinite where the gradient may jump. The default
@@ -173,6 +179,11 @@ impl Field for ModelField<'_> {
     }
     fn interval(&self, b: &Aabb) -> Interval {
         self.model.node_interval(self.model.root(), b, self.mode)
+    }
+    fn slope_floor(&self, a: Vec3A, b: Vec3A) -> Option<f32> {
+        let u = (b - a).normalize_or_zero();
+        (self.mode == EvalMode::Cached && u != Vec3A::ZERO)
+            .then(|| self.model.node_slope_floor(self.model.root(), (a, b), u, self.mode))?
     }
     fn fills_caches_on_read(&self) -> bool {
         self.mode == EvalMode::Cached && self.model.counts().caches > 0

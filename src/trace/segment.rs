@@ -111,6 +111,8 @@ pub fn march<F: Field + ?Sized>(
     let mut relax = true;
     let mut skipped = false;
     let mut probes_left = MAX_PROBES;
+    // The point the last step started from, and the value there less `T`.
+    let mut previous = None;
     // The gradient at `t`, when the value there came with it.
     let mut gradient = None;
     while out.steps < opts.max_steps {
@@ -118,7 +120,7 @@ pub fn march<F: Field + ?Sized>(
             match skip_empty(field, ray, (t, t_end), tol) {
                 Skip::ToEnd => return (Crossing::None, out),
                 Skip::To(t_skip, v_skip) => {
-                    (t, v, skipped, gradient) = (t_skip, v_skip, true, None);
+                    (t, v, skipped, gradient, previous) = (t_skip, v_skip, true, None, None);
                     out.evals += 1;
                     continue;
                 }
@@ -141,7 +143,9 @@ pub fn march<F: Field + ?Sized>(
         {
             // Near enough, a probe past the Newton root may settle the hit at once.
             probes_left -= 1;
-            let (found, evals) = probe_past_newton_root(field, ray, (t, v), &c, opts.quantum.unwrap_or(tol));
+            let rise = Rise::Curved { curvature: c.curvature, room: c.bound.room };
+            let probe = Probe { at: (t, v), slope: c.slope, certified: t + c.bound.step, rise };
+            let (found, evals) = probe_past_root(field, ray, &probe, opts.quantum.unwrap_or(tol));
             out.evals += evals;
             if let Some(root) = found {
                 out.evals += c.bound.bounds;
@@ -154,6 +158,24 @@ pub fn march<F: Field + ?Sized>(
             bounded_step(field, ray, t, margin, room, halvings)
         });
         out.evals += bound.bounds;
+        if curved.is_none()
+            && probes_left > 0
+            && -v < CURVATURE_MARGIN * iso
+            && let Some((t_before, v_before)) = previous
+            && v > v_before
+        {
+            // Where slope bounds alone step (cached lattices), they close in
+            // by a fixed fraction: the secant through the last two values
+            // points at the crossing instead.
+            probes_left -= 1;
+            let secant = (v - v_before) / (t - t_before);
+            let probe = Probe { at: (t, v), slope: secant, certified: t + bound.step, rise: Rise::Floor };
+            let (found, evals) = probe_past_root(field, ray, &probe, opts.quantum.unwrap_or(tol));
+            out.evals += evals;
+            if let Some(root) = found {
+                return (Crossing::At(root), out);
+            }
+        }
         let mut ahead = None;
         let t_next = if bound.step < tol && bound.step < bound.room {
             // Near the surface the bound's steps shrink towards the crossing:
@@ -213,6 +235,7 @@ pub fn march<F: Field + ?Sized>(
             (t_next, v_next)
         };
         segment = opts.growth * (t_next - t);
+        previous = Some((t, v));
         t = t_next;
         v = v_next;
     }
@@ -425,46 +448,77 @@ const MAX_PROBE_LATTICE_STEPS: f32 = 2048.0;
 /// more), so that a field bending slightly away still puts it inside.
 const PROBE_OVERSHOOT: f32 = 0.2;
 
-/// The first lattice point inside, found from the curvature step `c` at `t`
-/// (value `v` less `T`) without further steps, when the field allows it.
+/// What shows the field rising from a probe back to a certified point.
+#[derive(Clone, Copy)]
+enum Rise {
+    /// The bound `M` on the second derivative along the ray, valid over
+    /// `room` from the probe's start: `f'(s) >= f'(b) - M (b - s)`, with the
+    /// derivative `f'(b)` taken at the probe.
+    Curved { curvature: f32, room: f32 },
+    /// The field's own lower bound on its derivative along the stretch
+    /// ([`Field::slope_floor`]).
+    Floor,
+}
+
+/// A probe past the root the tangent (or secant) at `at` points to.
+struct Probe {
+    /// Where the march is, and the value there less `T`.
+    at: (f32, f32),
+    /// The field's derivative along the ray there, or an estimate of it.
+    slope: f32,
+    /// How far the march's current step shows the field outside.
+    certified: f32,
+    rise: Rise,
+}
+
+/// The first lattice point inside, found from a point of a march without
+/// further steps, when the field allows it.
 ///
-/// The tangent at `t` meets `T` at the Newton root; a lattice point just past
-/// it is probed, with the gradient. If it is inside, and the curvature bound
-/// `M` over the step's segment shows the field rising along the whole stretch
-/// from the certified step's end to the probe (`f'(s) >= f'(b) - M (b - s)`)
-/// by more than its rounding per lattice step, then the lattice points there
-/// change from outside to inside exactly once: the first inside is found by
-/// false position on the lattice indices, and it is the very point a march
-/// walking the lattice would stop at. Otherwise nothing is found and the
-/// march goes on as if no probe was taken. Returns the evaluations spent.
-fn probe_past_newton_root<F: Field + ?Sized>(
-    field: &F,
-    ray: &Ray,
-    (t, v): (f32, f32),
-    c: &CurvedStep,
-    q: f32,
-) -> (Option<f32>, u32) {
-    let newton = -v / c.slope;
-    let hi = ((t + newton * (1.0 + PROBE_OVERSHOOT) + q) / q).ceil() as i64;
-    let certified = t + c.bound.step;
-    if !(c.slope > 0.0 && newton <= MAX_PROBE_LATTICE_STEPS * q && hi as f32 * q <= t + c.bound.room) {
+/// A lattice point a little past the estimated root is probed. If it is
+/// inside, and `rise` shows the field rising along the whole stretch from
+/// the certified end of the march's step to the probe by more than its
+/// rounding per lattice step, then the lattice points there change from
+/// outside to inside exactly once: the first inside is found by false
+/// position on the lattice indices, and it is the very point a march walking
+/// the lattice would stop at. Otherwise nothing is found and the march goes
+/// on as if no probe was taken. Returns the evaluations spent.
+fn probe_past_root<F: Field + ?Sized>(field: &F, ray: &Ray, probe: &Probe, q: f32) -> (Option<f32>, u32) {
+    let ((t, v), certified) = (probe.at, probe.certified);
+    let estimate = -v / probe.slope;
+    let hi = ((t + estimate * (1.0 + PROBE_OVERSHOOT) + q) / q).ceil() as i64;
+    let b = hi as f32 * q;
+    if !(probe.slope > 0.0 && estimate <= MAX_PROBE_LATTICE_STEPS * q) {
         return (None, 0);
     }
     let iso = field.threshold();
-    let (value, gradient) = field.value_and_gradient(ray.at(hi as f32 * q));
-    let v_hi = value - iso;
-    let rising = gradient.dot(ray.dir) - c.curvature.max(0.0) * (hi as f32 * q - certified);
+    let (v_hi, rising, evals) = match probe.rise {
+        Rise::Curved { curvature, room } => {
+            if b > t + room {
+                return (None, 0);
+            }
+            let (value, gradient) = field.value_and_gradient(ray.at(b));
+            (value - iso, gradient.dot(ray.dir) - curvature.max(0.0) * (b - certified), 1)
+        }
+        Rise::Floor => {
+            // The bound first: without one the probe is not worth its value.
+            let Some(floor) = field.slope_floor(ray.at(certified), ray.at(b)) else { return (None, 0) };
+            if floor * q <= 2.0 * outside_margin(iso) {
+                return (None, 1);
+            }
+            (field.value(ray.at(b)) - iso, floor, 2)
+        }
+    };
     if v_hi <= 0.0 || rising * q <= 2.0 * outside_margin(iso) {
-        return (None, 1);
+        return (None, evals);
     }
     let lo = (certified / q).floor() as i64;
     let v_lo = field.value(ray.at(lo as f32 * q)) - iso;
     if v_lo > 0.0 || lo >= hi {
         // Rounding put the certified end inside: leave it to the march.
-        return (None, 2);
+        return (None, evals + 1);
     }
-    let (first, evals) = first_inside(field, ray, q, (lo, v_lo), (hi, v_hi));
-    (Some(first as f32 * q), 2 + evals)
+    let (first, search) = first_inside(field, ray, q, (lo, v_lo), (hi, v_hi));
+    (Some(first as f32 * q), evals + 1 + search)
 }
 
 /// The first lattice index inside in `(lo, hi]`, given `lo` outside, `hi`
@@ -595,10 +649,10 @@ mod tests {
                 // The exact second derivative bounds itself; the certified step as the tracer takes it.
                 let g = slope + bend * (t - root);
                 let step = CURVATURE_SAFETY * 2.0 * -v / (g + (g * g + 2.0 * bend.max(0.0) * -v).sqrt());
-                let bound = BoundedStep { step, slope: f32::INFINITY, room, bounds: 2 };
-                let c = CurvedStep { bound, curvature: bend, slope: g };
+                let rise = Rise::Curved { curvature: bend, room };
+                let probe = Probe { at: (t, v), slope: g, certified: t + step, rise };
                 let walked = first_inside_by_walking(&field, &ray, t, q) as f32 * q;
-                match probe_past_newton_root(&field, &ray, (t, v), &c, q) {
+                match probe_past_root(&field, &ray, &probe, q) {
                     (Some(hit), evals) => {
                         assert_eq!(hit, walked, "slope {slope}, bend {bend}, from {back} before the root");
                         assert!(evals <= 12, "{evals} evaluations");
@@ -625,12 +679,71 @@ mod tests {
         });
         let t = 0.99;
         let v = field.value(ray.at(t)) - 0.5;
-        let bound = BoundedStep { step: 1e-4, slope: f32::INFINITY, room: 0.1, bounds: 2 };
-        let (g, bend) = (1.0, 800.0);
-        let c = CurvedStep { bound, curvature: bend, slope: g };
-        let (found, _) = probe_past_newton_root(&field, &ray, (t, v), &c, q);
+        let rise = Rise::Curved { curvature: 800.0, room: 0.1 };
+        let (found, _) = probe_past_root(&field, &ray, &Probe { at: (t, v), slope: 1.0, certified: t + 1e-4, rise }, q);
         let walked = first_inside_by_walking(&field, &ray, t, q) as f32 * q;
         assert!(found.is_none_or(|hit| hit == walked), "probe {found:?}, walk {walked}");
+    }
+
+    /// A field along x that knows a floor on its slope.
+    struct Floored<V>(AlongX<V>, f32);
+
+    impl<V: Fn(f32) -> f32 + Sync> Field for Floored<V> {
+        fn value(&self, p: Vec3A) -> f32 {
+            self.0.value(p)
+        }
+        fn gradient(&self, p: Vec3A) -> Vec3A {
+            self.0.gradient(p)
+        }
+        fn color(&self, p: Vec3A) -> glam::Vec3 {
+            self.0.color(p)
+        }
+        fn interval(&self, b: &crate::geom::Aabb) -> crate::geom::Interval {
+            self.0.interval(b)
+        }
+        fn lipschitz(&self, region: &Region) -> f32 {
+            self.0.lipschitz(region)
+        }
+        fn slope_floor(&self, _: Vec3A, _: Vec3A) -> Option<f32> {
+            Some(self.1)
+        }
+        fn bounds(&self) -> crate::geom::Aabb {
+            self.0.bounds()
+        }
+        fn threshold(&self) -> f32 {
+            0.5
+        }
+    }
+
+    #[test]
+    fn a_secant_probe_finds_the_walked_lattice_point_where_the_slope_floor_shows_a_rise() {
+        let q = 1e-3;
+        let ray = Ray::new(Vec3A::ZERO, Vec3A::X);
+        let (mut found, mut declined) = (0, 0);
+        // A line through `T` at 1.0003 with ripples of amplitude `a` and
+        // frequency 50: its slope stays above `slope - 50 a`, which is the floor.
+        for (slope, ripple) in [(2.0f32, 0.01f32), (1.0, 0.015), (0.5, 0.02), (0.3, 0.01)] {
+            let line = move |x: f32| 0.5 + slope * (x - 1.0003) + ripple * (50.0 * x).sin();
+            let field = Floored(AlongX(line), slope - 50.0 * ripple);
+            for back in [0.003f32, 0.02, 0.08] {
+                let t = 1.0003 - back;
+                let v = field.value(ray.at(t)) - 0.5;
+                if v >= 0.0 {
+                    continue;
+                }
+                let walked = first_inside_by_walking(&field, &ray, t, q) as f32 * q;
+                let probe = Probe { at: (t, v), slope, certified: t, rise: Rise::Floor };
+                match probe_past_root(&field, &ray, &probe, q) {
+                    (Some(hit), _) => {
+                        assert_eq!(hit, walked, "slope {slope}, ripple {ripple}, from {back} before");
+                        found += 1;
+                    }
+                    (None, _) => declined += 1,
+                }
+            }
+        }
+        // The ripples of the last two fields can turn their slope negative.
+        assert!(found >= 5 && declined >= 4, "{found} found, {declined} declined");
     }
 
     #[test]
