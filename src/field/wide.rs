@@ -83,15 +83,20 @@ mod avx2 {
         let mut values = _mm256_setzero_pd();
         let mut gradient = [zero; 3];
         for chunk in items.chunks(8) {
-            let idx: [usize; 8] = std::array::from_fn(|k| chunk.get(k).copied().unwrap_or(chunk[0]) as usize);
-            let load = |i: usize| -> __m128 {
-                let t: [f32; 4] = terms[i].to_array();
-                // SAFETY: reads the four floats of a local array.
-                unsafe { _mm_loadu_ps(t.as_ptr()) }
-            };
+            // No closures here: one that is not inlined loses the target
+            // features, and the loop with it (which build inlines them varies).
+            let mut idx = [chunk[0] as usize; 8];
+            for (slot, &i) in idx.iter_mut().zip(chunk) {
+                *slot = i as usize;
+            }
             // Rows hold points (k, k + 4) as (x, y, z, 1/R²) in their two
             // halves; a 4×4 transpose within each half makes component rows.
-            let rows = [0, 1, 2, 3].map(|k| _mm256_set_m128(load(idx[k + 4]), load(idx[k])));
+            let rows = [
+                _mm256_set_m128(load(terms, idx[4]), load(terms, idx[0])),
+                _mm256_set_m128(load(terms, idx[5]), load(terms, idx[1])),
+                _mm256_set_m128(load(terms, idx[6]), load(terms, idx[2])),
+                _mm256_set_m128(load(terms, idx[7]), load(terms, idx[3])),
+            ];
             let xy_lo = _mm256_unpacklo_ps(rows[0], rows[1]);
             let xy_hi = _mm256_unpacklo_ps(rows[2], rows[3]);
             let zr_lo = _mm256_unpackhi_ps(rows[0], rows[1]);
@@ -102,7 +107,10 @@ mod avx2 {
                 _mm256_sub_ps(_mm256_shuffle_ps::<0x44>(zr_lo, zr_hi), p[2]),
             ];
             let inv_r2 = _mm256_shuffle_ps::<0xEE>(zr_lo, zr_hi);
-            let w = idx.map(|i| weights[i]);
+            let mut w = [0.0f32; 8];
+            for (w, &i) in w.iter_mut().zip(&idx) {
+                *w = weights[i];
+            }
             let live = _mm256_cmp_ps::<_CMP_LT_OQ>(lane, _mm256_set1_ps(chunk.len() as f32));
             let weight = _mm256_and_ps(_mm256_set_ps(w[7], w[6], w[5], w[4], w[3], w[2], w[1], w[0]), live);
             let [dx, dy, dz] = to_center;
@@ -121,6 +129,15 @@ mod avx2 {
             }
         }
         (total(values), Vec3A::new(total_f32(gradient[0]), total_f32(gradient[1]), total_f32(gradient[2])))
+    }
+
+    /// Point `i`'s `x, y, z, 1/R²`.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn load(terms: &[Vec4], i: usize) -> __m128 {
+        let t: [f32; 4] = terms[i].to_array();
+        // SAFETY: reads the four floats of a local array.
+        unsafe { _mm_loadu_ps(t.as_ptr()) }
     }
 
     /// The total of four double lanes, summed in pairs.
