@@ -41,15 +41,19 @@ impl SeenLeaves {
             self.stamp.fill(0);
             self.generation = 1;
         }
-        ix.for_each_cell_in(region, |c| {
-            for &i in ix.leaves_in(c) {
+        let mut unseen = |items: &[u32]| {
+            for &i in items {
                 let mark = &mut self.stamp[i as usize];
                 if *mark != self.generation {
                     *mark = self.generation;
                     f(i);
                 }
             }
-        });
+        };
+        match region {
+            Region::Box(b) => ix.for_each_list_over(b, unseen),
+            Region::Segment(..) => ix.for_each_cell_in(region, |c| unseen(ix.leaves_in(c))),
+        }
     }
 }
 

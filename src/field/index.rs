@@ -9,7 +9,7 @@
 //! then cost one grid walk, not a sum. (Short regions may still sum their
 //! leaves, where the cells would be too loose: see `field::eval`.)
 
-use glam::{Mat4, Vec3, Vec3A, Vec4};
+use glam::{Mat4, UVec3, Vec3, Vec3A, Vec4};
 use rayon::prelude::*;
 
 use super::kernel::Kernel;
@@ -62,12 +62,75 @@ pub struct BlendIndex {
     grid: UniformGrid,
     offsets: Vec<u32>,
     items: Vec<u32>,
+    /// The leaves reaching each block of `BLOCK_CELLS³` cells, for boxes
+    /// meeting many cells: far fewer listings to pass over than the cells'.
+    blocks: Lists,
     cell_lipschitz: Vec<f32>,
     cell_curvature: Vec<f32>,
     cell_range: Vec<Interval>,
     has_node_leaves: bool,
     /// The leaves packed for a four-wide sum, when all are Wyvill points.
     points: Option<PackedPoints>,
+}
+
+/// Cells per side of a block of [`BlendIndex`]'s block lists.
+const BLOCK_CELLS: u32 = 4;
+/// A box meeting more cells than this takes its leaves from the block lists.
+const MAX_CELLS_FOR_CELL_LISTS: usize = 8;
+
+/// Leaves listed per cell of a grid (offsets into one array of leaf indices).
+#[derive(Clone, Debug)]
+struct Lists {
+    grid: UniformGrid,
+    offsets: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Lists {
+    /// The leaves reaching each cell of `grid`, in leaf order (a counting sort
+    /// of (cell, leaf) pairs; the cells each leaf reaches are found in parallel).
+    fn bucket(grid: UniformGrid, leaves: &[IndexedLeaf]) -> Self {
+        let reached: Vec<Vec<u32>> = leaves.par_iter().map(|leaf| reached_cells(&grid, leaf)).collect();
+        let cells = grid.cell_count();
+        let mut counts = vec![0u32; cells + 1];
+        for &c in reached.iter().flatten() {
+            counts[c as usize + 1] += 1;
+        }
+        for i in 0..cells {
+            counts[i + 1] += counts[i];
+        }
+        let mut cursor = counts.clone();
+        let mut items = vec![0u32; counts[cells] as usize];
+        for (i, leaf_cells) in reached.iter().enumerate() {
+            for &c in leaf_cells {
+                items[cursor[c as usize] as usize] = i as u32;
+                cursor[c as usize] += 1;
+            }
+        }
+        Self { grid, offsets: counts, items }
+    }
+
+    fn cell(&self, c: usize) -> &[u32] {
+        &self.items[self.offsets[c] as usize..self.offsets[c + 1] as usize]
+    }
+}
+
+/// The cells of `grid` where `leaf` can be non-zero: those its box overlaps,
+/// less, for a primitive, those wholly outside its support (a ball's box holds
+/// twice the ball, so a dense model's cells list about half as many leaves).
+fn reached_cells(grid: &UniformGrid, leaf: &IndexedLeaf) -> Vec<u32> {
+    let mut cells = Vec::with_capacity(grid.cells_overlapped(&leaf.bounds));
+    grid.for_each_cell(&leaf.bounds, |c| {
+        let reached = match &leaf.leaf {
+            // A hair wider than the support, against rounding in the value.
+            Leaf::Primitive(p) => p.support_reaches(&grid.cell_box(c), SUPPORT_SLACK),
+            Leaf::Node(_) => true,
+        };
+        if reached {
+            cells.push(c as u32);
+        }
+    });
+    cells
 }
 
 /// Point leaves reduced to what their values need: centre and `1/R²` in one
@@ -223,62 +286,24 @@ impl BlendIndex {
         let has_node_leaves = leaves.iter().any(|l| matches!(l.leaf, Leaf::Node(_)));
         let points = PackedPoints::pack(&leaves);
         let dims = (bounds.size() / cell).ceil().as_uvec3();
+        let grid = UniformGrid::new(bounds.min, cell, dims);
+        let Lists { offsets, items, .. } = Lists::bucket(grid, &leaves);
+        let block_dims = (dims + UVec3::splat(BLOCK_CELLS - 1)) / BLOCK_CELLS;
+        let blocks = Lists::bucket(UniformGrid::new(bounds.min, cell * BLOCK_CELLS as f32, block_dims), &leaves);
         let mut index = Self {
             leaves,
-            grid: UniformGrid::new(bounds.min, cell, dims),
-            offsets: vec![],
-            items: vec![],
+            grid,
+            offsets,
+            items,
+            blocks,
             cell_lipschitz: vec![],
             cell_curvature: vec![],
             cell_range: vec![],
             has_node_leaves,
             points,
         };
-        index.bucket();
         index.precompute_cell_bounds(interval, lipschitz);
         index
-    }
-
-    /// Counting sort of (cell, leaf) pairs; stable, so each cell lists leaves
-    /// in order. The cells each leaf reaches are found in parallel.
-    fn bucket(&mut self) {
-        let reached: Vec<Vec<u32>> = self.leaves.par_iter().map(|leaf| self.reached_cells(leaf)).collect();
-        let cells = self.grid.cell_count();
-        let mut counts = vec![0u32; cells + 1];
-        for &c in reached.iter().flatten() {
-            counts[c as usize + 1] += 1;
-        }
-        for i in 0..cells {
-            counts[i + 1] += counts[i];
-        }
-        let mut cursor = counts.clone();
-        let mut items = vec![0u32; counts[cells] as usize];
-        for (i, leaf_cells) in reached.iter().enumerate() {
-            for &c in leaf_cells {
-                items[cursor[c as usize] as usize] = i as u32;
-                cursor[c as usize] += 1;
-            }
-        }
-        self.offsets = counts;
-        self.items = items;
-    }
-
-    /// The cells where `leaf` can be non-zero: those its box overlaps, less,
-    /// for a primitive, those wholly outside its support (a ball's box holds
-    /// twice the ball, so a dense model's cells list about half as many leaves).
-    fn reached_cells(&self, leaf: &IndexedLeaf) -> Vec<u32> {
-        let mut cells = Vec::with_capacity(self.grid.cells_overlapped(&leaf.bounds));
-        self.grid.for_each_cell(&leaf.bounds, |c| {
-            let reached = match &leaf.leaf {
-                // A hair wider than the support, against rounding in the value.
-                Leaf::Primitive(p) => p.support_reaches(&self.grid.cell_box(c), SUPPORT_SLACK),
-                Leaf::Node(_) => true,
-            };
-            if reached {
-                cells.push(c as u32);
-            }
-        });
-        cells
     }
 
     fn precompute_cell_bounds(
@@ -385,6 +410,17 @@ impl BlendIndex {
         self.cell_items(c)
     }
 
+    /// Calls `f` with lists of leaves that together hold every leaf reaching
+    /// `b` (and some that do not; each may be listed more than once): the
+    /// lists of the cells `b` meets, or of the blocks when it meets many cells.
+    pub fn for_each_list_over(&self, b: &Aabb, mut f: impl FnMut(&[u32])) {
+        if self.grid.cells_overlapped(b) > MAX_CELLS_FOR_CELL_LISTS {
+            self.blocks.grid.for_each_cell(b, |c| f(self.blocks.cell(c)));
+        } else {
+            self.grid.for_each_cell(b, |c| f(self.cell_items(c)));
+        }
+    }
+
     /// Visits the cells a region meets: those a segment passes through
     /// (Amanatides–Woo walk), or those a box overlaps.
     pub fn for_each_cell_in(&self, region: &Region, f: impl FnMut(usize)) {
@@ -477,6 +513,30 @@ mod tests {
             }
         }
         assert!(checked > 1000, "only {checked} points near support boundaries were checked");
+    }
+
+    #[test]
+    fn the_lists_over_a_box_hold_every_leaf_reaching_it() {
+        let ix = cluster();
+        let (mut by_blocks, mut by_cells) = (0, 0);
+        for k in 0..400 {
+            let f = k as f32;
+            let center = Vec3A::new((f * 0.61).sin(), (f * 0.37).cos(), (f * 0.83).sin() * 0.6);
+            // From a fraction of a cell to most of the cluster.
+            let b = Aabb::around(center, ix.grid.cell * (0.2 + 0.05 * (k % 60) as f32));
+            let mut listed = vec![false; ix.leaves.len()];
+            ix.for_each_list_over(&b, |items| items.iter().for_each(|&i| listed[i as usize] = true));
+            for (i, leaf) in ix.leaves.iter().enumerate() {
+                let Leaf::Primitive(p) = &leaf.leaf else { unreachable!("the cluster holds primitives only") };
+                assert!(listed[i] || !p.support_reaches(&b, 1.0), "leaf {i} reaches {b:?} but is not listed");
+            }
+            if ix.grid.cells_overlapped(&b) > MAX_CELLS_FOR_CELL_LISTS {
+                by_blocks += 1;
+            } else {
+                by_cells += 1;
+            }
+        }
+        assert!(by_blocks > 100 && by_cells > 20, "{by_blocks} boxes by blocks, {by_cells} by cells");
     }
 
     #[test]
