@@ -572,6 +572,14 @@ impl CacheGrid {
     /// quadratic), so the largest such difference bounds it. Tight where the
     /// tracer needs it most: next to the surface.
     fn cell_slope(&self, i: IVec3, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+        let (lo, hi) = self.cell_differences(i, pool, eval);
+        lo.abs().max(hi.abs()).length() * self.inv_cell
+    }
+
+    /// The least and the greatest difference along each axis between
+    /// neighbouring samples the value filter reads in the lattice cell with
+    /// minimum corner `i`.
+    fn cell_differences(&self, i: IVec3, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> (Vec3A, Vec3A) {
         let reach: usize = match self.spec.value {
             Filter::Trilinear => 0,
             Filter::Triquadratic => 1,
@@ -579,20 +587,25 @@ impl CacheGrid {
         let n = 2 + 2 * reach;
         let mut s = [0.0f32; 64];
         self.gather_cube(i - IVec3::splat(reach as i32), n, &mut s, pool, eval);
-        let mut g = Vec3A::ZERO;
+        let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
         for (at, v) in s.iter().enumerate().take(n * n * n) {
             let (x, y, z) = (at % n, (at / n) % n, at / (n * n));
+            let mut difference = |axis: usize, next: usize| {
+                let d = s[next] - v;
+                lo[axis] = lo[axis].min(d);
+                hi[axis] = hi[axis].max(d);
+            };
             if x + 1 < n {
-                g.x = g.x.max((s[at + 1] - v).abs());
+                difference(0, at + 1);
             }
             if y + 1 < n {
-                g.y = g.y.max((s[at + n] - v).abs());
+                difference(1, at + n);
             }
             if z + 1 < n {
-                g.z = g.z.max((s[at + n * n] - v).abs());
+                difference(2, at + n * n);
             }
         }
-        g.length() * self.inv_cell
+        (lo, hi)
     }
 
     /// A lower bound on `∇f·u` for the reconstructed value along the segment
@@ -619,31 +632,7 @@ impl CacheGrid {
 
     /// [`Self::slope_floor`] over the lattice cell with minimum corner `i`.
     fn cell_slope_floor(&self, i: IVec3, u: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
-        let reach: usize = match self.spec.value {
-            Filter::Trilinear => 0,
-            Filter::Triquadratic => 1,
-        };
-        let n = 2 + 2 * reach;
-        let mut s = [0.0f32; 64];
-        self.gather_cube(i - IVec3::splat(reach as i32), n, &mut s, pool, eval);
-        let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-        for (at, v) in s.iter().enumerate().take(n * n * n) {
-            let (x, y, z) = (at % n, (at / n) % n, at / (n * n));
-            let mut difference = |axis: usize, next: usize| {
-                let d = s[next] - v;
-                lo[axis] = lo[axis].min(d);
-                hi[axis] = hi[axis].max(d);
-            };
-            if x + 1 < n {
-                difference(0, at + 1);
-            }
-            if y + 1 < n {
-                difference(1, at + n);
-            }
-            if z + 1 < n {
-                difference(2, at + n * n);
-            }
-        }
+        let (lo, hi) = self.cell_differences(i, pool, eval);
         (u * lo).min(u * hi).element_sum() * self.inv_cell
     }
 
