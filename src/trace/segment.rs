@@ -143,8 +143,9 @@ pub fn march<F: Field + ?Sized>(
         {
             // Near enough, a probe past the Newton root may settle the hit at once.
             probes_left -= 1;
-            let rise = Rise::Curved { curvature: c.curvature, room: c.bound.room };
-            let probe = Probe { at: (t, v), slope: c.slope, certified: t + c.bound.step, rise };
+            let rise = Rise::Curved { curvature: c.curvature };
+            let reach = t + c.bound.room;
+            let probe = Probe { at: (t, v), slope: c.slope, certified: t + c.bound.step, reach, rise };
             let (found, evals) = probe_past_root(field, ray, &probe, opts.quantum.unwrap_or(tol));
             out.evals += evals;
             if let Some(root) = found {
@@ -169,7 +170,8 @@ pub fn march<F: Field + ?Sized>(
             // points at the crossing instead.
             probes_left -= 1;
             let secant = (v - v_before) / (t - t_before);
-            let probe = Probe { at: (t, v), slope: secant, certified: t + bound.step, rise: Rise::Floor };
+            let (certified, reach) = (t + bound.step, t_end);
+            let probe = Probe { at: (t, v), slope: secant, certified, reach, rise: Rise::Floor };
             let (found, evals) = probe_past_root(field, ray, &probe, opts.quantum.unwrap_or(tol));
             out.evals += evals;
             if let Some(root) = found {
@@ -451,10 +453,10 @@ const PROBE_OVERSHOOT: f32 = 0.2;
 /// What shows the field rising from a probe back to a certified point.
 #[derive(Clone, Copy)]
 enum Rise {
-    /// The bound `M` on the second derivative along the ray, valid over
-    /// `room` from the probe's start: `f'(s) >= f'(b) - M (b - s)`, with the
-    /// derivative `f'(b)` taken at the probe.
-    Curved { curvature: f32, room: f32 },
+    /// The bound `M` on the second derivative along the ray, valid up to the
+    /// probe's reach: `f'(s) >= f'(b) - M (b - s)`, with the derivative
+    /// `f'(b)` taken at the probe.
+    Curved { curvature: f32 },
     /// The field's own lower bound on its derivative along the stretch
     /// ([`Field::slope_floor`]).
     Floor,
@@ -468,6 +470,9 @@ struct Probe {
     slope: f32,
     /// How far the march's current step shows the field outside.
     certified: f32,
+    /// The farthest the probe may land: the end of the march's stretch, or
+    /// of the curvature bound's segment.
+    reach: f32,
     rise: Rise,
 }
 
@@ -487,15 +492,12 @@ fn probe_past_root<F: Field + ?Sized>(field: &F, ray: &Ray, probe: &Probe, q: f3
     let estimate = -v / probe.slope;
     let hi = ((t + estimate * (1.0 + PROBE_OVERSHOOT) + q) / q).ceil() as i64;
     let b = hi as f32 * q;
-    if !(probe.slope > 0.0 && estimate <= MAX_PROBE_LATTICE_STEPS * q) {
+    if !(probe.slope > 0.0 && estimate <= MAX_PROBE_LATTICE_STEPS * q && b <= probe.reach) {
         return (None, 0);
     }
     let iso = field.threshold();
     let (v_hi, rising, evals) = match probe.rise {
-        Rise::Curved { curvature, room } => {
-            if b > t + room {
-                return (None, 0);
-            }
+        Rise::Curved { curvature } => {
             let (value, gradient) = field.value_and_gradient(ray.at(b));
             (value - iso, gradient.dot(ray.dir) - curvature.max(0.0) * (b - certified), 1)
         }
@@ -657,8 +659,8 @@ mod tests {
                 // The exact second derivative bounds itself; the certified step as the tracer takes it.
                 let g = slope + bend * (t - root);
                 let step = CURVATURE_SAFETY * 2.0 * -v / (g + (g * g + 2.0 * bend.max(0.0) * -v).sqrt());
-                let rise = Rise::Curved { curvature: bend, room };
-                let probe = Probe { at: (t, v), slope: g, certified: t + step, rise };
+                let rise = Rise::Curved { curvature: bend };
+                let probe = Probe { at: (t, v), slope: g, certified: t + step, reach: t + room, rise };
                 match probes_as_walked(&field, &ray, &probe, q, &format!("slope {slope}, bend {bend}, {back} before")) {
                     Some(evals) => {
                         assert!(evals <= 12, "{evals} evaluations");
@@ -685,8 +687,14 @@ mod tests {
         });
         let t = 0.99;
         let v = field.value(ray.at(t)) - 0.5;
-        let rise = Rise::Curved { curvature: 800.0, room: 0.1 };
-        probes_as_walked(&field, &ray, &Probe { at: (t, v), slope: 1.0, certified: t + 1e-4, rise }, q, "a peak");
+        let probe = Probe {
+            at: (t, v),
+            slope: 1.0,
+            certified: t + 1e-4,
+            reach: t + 0.1,
+            rise: Rise::Curved { curvature: 800.0 },
+        };
+        probes_as_walked(&field, &ray, &probe, q, "a peak");
     }
 
     /// A field along x that knows a floor on its slope.
@@ -735,7 +743,7 @@ mod tests {
                 if v >= 0.0 {
                     continue;
                 }
-                let probe = Probe { at: (t, v), slope, certified: t, rise: Rise::Floor };
+                let probe = Probe { at: (t, v), slope, certified: t, reach: 10.0, rise: Rise::Floor };
                 match probes_as_walked(
                     &field,
                     &ray,
