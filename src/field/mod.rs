@@ -182,8 +182,10 @@ impl Field for ModelField<'_> {
     }
     fn slope_floor(&self, a: Vec3A, b: Vec3A) -> Option<f32> {
         let u = (b - a).normalize_or_zero();
-        (self.mode == EvalMode::Cached && u != Vec3A::ZERO)
-            .then(|| self.model.node_slope_floor(self.model.root(), (a, b), u, self.mode))?
+        if self.mode != EvalMode::Cached || u == Vec3A::ZERO {
+            return None;
+        }
+        self.model.node_slope_floor(self.model.root(), (a, b), u, self.mode)
     }
     fn fills_caches_on_read(&self) -> bool {
         self.mode == EvalMode::Cached && self.model.counts().caches > 0

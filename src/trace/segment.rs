@@ -138,46 +138,37 @@ pub fn march<F: Field + ?Sized>(
         // where the field's gradient is smooth enough to have one.
         let curved =
             if -v < CURVATURE_MARGIN * iso { curvature_step(field, ray, (t, gradient), margin, room) } else { None };
-        if let Some(c) = curved
-            && probes_left > 0
-        {
-            // Near enough, a probe past the Newton root may settle the hit at once.
-            probes_left -= 1;
-            let rise = Rise::Curved { curvature: c.curvature };
-            let reach = t + c.bound.room;
-            let probe = Probe { at: (t, v), slope: c.slope, certified: t + c.bound.step, reach, rise };
-            let (found, evals) = probe_past_root(field, ray, &probe, opts.quantum.unwrap_or(tol));
-            out.evals += evals;
-            if let Some(root) = found {
-                out.evals += c.bound.bounds;
-                return (Crossing::At(root), out);
-            }
-        }
-        let curved = curved.map(|c| c.bound);
-        let bound = curved.unwrap_or_else(|| {
-            let halvings = if -v > HALVING_MARGIN * iso { MAX_BOUNDS_PER_STEP } else { 1 };
-            bounded_step(field, ray, t, margin, room, halvings)
-        });
+        let bound = curved.map_or_else(
+            || {
+                let halvings = if -v > HALVING_MARGIN * iso { MAX_BOUNDS_PER_STEP } else { 1 };
+                bounded_step(field, ray, t, margin, room, halvings)
+            },
+            |c| c.bound,
+        );
         out.evals += bound.bounds;
-        if curved.is_none()
+        // Near enough, a probe past the root the tangent points to (or, where
+        // slope bounds alone step and close in by a fixed fraction, as on
+        // cached lattices, the secant through the last two values) may settle
+        // the hit at once.
+        let probe = match (curved, previous) {
+            (Some(c), _) => Some((c.slope, t + c.bound.room, Rise::Curved { curvature: c.curvature })),
+            (None, Some((t_before, v_before))) if -v < CURVATURE_MARGIN * iso && v > v_before => {
+                Some(((v - v_before) / (t - t_before), t_end, Rise::Floor))
+            }
+            _ => None,
+        };
+        if let Some((slope, reach, rise)) = probe
             && probes_left > 0
-            && -v < CURVATURE_MARGIN * iso
-            && let Some((t_before, v_before)) = previous
-            && v > v_before
         {
-            // Where slope bounds alone step (cached lattices), they close in
-            // by a fixed fraction: the secant through the last two values
-            // points at the crossing instead.
             probes_left -= 1;
-            let secant = (v - v_before) / (t - t_before);
-            let (certified, reach) = (t + bound.step, t_end);
-            let probe = Probe { at: (t, v), slope: secant, certified, reach, rise: Rise::Floor };
+            let probe = Probe { at: (t, v), slope, certified: t + bound.step, reach, rise };
             let (found, evals) = probe_past_root(field, ray, &probe, opts.quantum.unwrap_or(tol));
             out.evals += evals;
             if let Some(root) = found {
                 return (Crossing::At(root), out);
             }
         }
+        let took_curvature_step = curved.is_some();
         let mut ahead = None;
         let t_next = if bound.step < tol && bound.step < bound.room {
             // Near the surface the bound's steps shrink towards the crossing:
@@ -189,7 +180,7 @@ pub fn march<F: Field + ?Sized>(
             // walk on a lattice finer than the tolerance (the lattice is fixed
             // by the first frame's bounds; edits may grow the tolerance past it).
             lattice_step(t, bound.step, opts.quantum.unwrap_or(tol))
-        } else if relax && curved.is_none() && bound.step < bound.room {
+        } else if relax && !took_curvature_step && bound.step < bound.room {
             // Try a longer step and keep it if the slope bound still shows,
             // from both of its ends, that it crosses nothing (Keinert et al.
             // 2014); after the first miss the march stays conservative.
@@ -215,7 +206,7 @@ pub fn march<F: Field + ?Sized>(
         gradient = None;
         let v_next = ahead.unwrap_or_else(|| {
             out.evals += 1;
-            if curved.is_some() {
+            if took_curvature_step {
                 let (value, g) = field.value_and_gradient(ray.at(t_next));
                 gradient = Some(g);
                 value - iso
