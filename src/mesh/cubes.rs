@@ -179,6 +179,19 @@ pub fn neighbours(cell: Cell, mask: u8, out: &mut Vec<Cell>) {
     }
 }
 
+/// The crossed edges `cell` owns: those leaving its lowest corner along +x,
+/// +y and +z, lower end first. Every lattice edge is owned by exactly one
+/// cube, and the owner of a crossed edge is crossed (it holds both ends), so
+/// the owned edges of all crossed cubes list each crossed edge once.
+pub fn owned_crossed_edges(cell: Cell, mask: u8, out: &mut Vec<[LatticePoint; 2]>) {
+    let lowest = cell.cube * 2;
+    for far in [1, 2, 4] {
+        if (mask ^ mask >> far) & 1 == 1 {
+            out.push([lowest, lowest + corner_offset(far) * 2]);
+        }
+    }
+}
+
 /// Emits the cell's triangles, each as its three edges (an edge as its two
 /// lattice endpoints), oriented outwards.
 pub fn polygons(cell: Cell, mask: u8, emit: &mut impl FnMut(&[[LatticePoint; 2]])) {
@@ -194,6 +207,30 @@ pub fn polygons(cell: Cell, mask: u8, emit: &mut impl FnMut(&[[LatticePoint; 2]]
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_owned_edges_of_the_cubes_around_a_crossed_edge_list_it_once() {
+        // Every sign case of the cube at the origin (all other corners
+        // outside): each edge of its triangles is owned by one of the 27
+        // cubes around it, once.
+        for mask in 1..=254u8 {
+            let at = |q: LatticePoint| (0..8).any(|i| corner_offset(i) * 2 == q && mask >> i & 1 == 1);
+            let mut crossed = vec![];
+            polygons(Cell { cube: IVec3::ZERO, sub: 0 }, mask, &mut |p| crossed.extend_from_slice(p));
+            for [a, b] in crossed {
+                let (lo, hi) = if a.to_array() < b.to_array() { (a, b) } else { (b, a) };
+                let mut owners = 0;
+                for i in 0..27 {
+                    let cube = Cell { cube: IVec3::new(i % 3, i / 3 % 3, i / 9) - IVec3::ONE, sub: 0 };
+                    let cube_mask = (0..8).filter(|&j| at(vertices(cube)[j])).fold(0u8, |m, j| m | 1 << j);
+                    let mut owned = vec![];
+                    owned_crossed_edges(cube, cube_mask, &mut owned);
+                    owners += owned.iter().filter(|&&e| e == [lo, hi]).count();
+                }
+                assert_eq!(owners, 1, "mask {mask:#010b}, edge {a} {b}");
+            }
+        }
+    }
 
     #[test]
     fn every_crossed_edge_lies_on_exactly_one_loop() {

@@ -68,6 +68,24 @@ impl CellShape {
         }
     }
 
+    /// Crossed edges of `cell` to place vertices on, lower end first (so a
+    /// root never depends on which cell asked): for cubes only those the cell
+    /// owns, which every crossed edge is for one crossed cube; for tetrahedra
+    /// all of them, repeated across the cells that share them.
+    fn crossed_edges(self, cell: Cell, mask: u8, out: &mut Vec<[LatticePoint; 2]>) {
+        match self {
+            CellShape::Cubes => cubes::owned_crossed_edges(cell, mask, out),
+            CellShape::Bcc => bcc::polygons(cell, mask, &mut |polygon| {
+                out.extend(polygon.iter().map(|&[a, b]| if a.to_array() < b.to_array() { [a, b] } else { [b, a] }))
+            }),
+        }
+    }
+
+    /// True when [`Self::crossed_edges`] over all crossed cells lists each edge once.
+    fn lists_each_edge_once(self) -> bool {
+        self == CellShape::Cubes
+    }
+
     fn neighbours(self, cell: Cell, mask: u8, out: &mut Vec<Cell>) {
         match self {
             CellShape::Cubes => cubes::neighbours(cell, mask, out),
@@ -495,21 +513,17 @@ impl Polygonizer {
             .par_iter()
             .with_min_len(MIN_PARALLEL_ITEMS)
             .flat_map_iter(|&(cell, mask)| {
-                let mut new_edges = vec![];
-                shape.polygons(cell, mask, &mut |polygon| {
-                    for &[a, b] in polygon {
-                        if !known.contains_key(&edge_key(a, b)) {
-                            // Ordered ends, so the root never depends on which cell asked.
-                            new_edges.push(if a.to_array() < b.to_array() { [a, b] } else { [b, a] });
-                        }
-                    }
-                });
-                new_edges
+                let mut crossed = vec![];
+                shape.crossed_edges(cell, mask, &mut crossed);
+                crossed.retain(|&[a, b]| !known.contains_key(&edge_key(a, b)));
+                crossed
             })
             .collect();
-        // An edge's key names it alone: sorting by it brings each edge together.
-        edges.par_sort_unstable_by_key(|&[a, b]| sort_key(edge_key(a, b)));
-        edges.dedup();
+        if !shape.lists_each_edge_once() {
+            // An edge's key names it alone: sorting by it brings each edge together.
+            edges.par_sort_unstable_by_key(|&[a, b]| sort_key(edge_key(a, b)));
+            edges.dedup();
+        }
         let (lattice, placement, with_colors) = (self.lattice, self.options.vertex, self.with_colors);
         let corners = &self.corners;
         let placed: Vec<(EdgeKey, EdgeVertex, u32)> = edges
