@@ -582,34 +582,76 @@ impl Polygonizer {
     }
 
     /// The mesh of the crossed cells, in a canonical order (cells by lattice
-    /// position), so equal polygonizations give equal meshes.
+    /// position, vertices by first use), so equal polygonizations give equal meshes.
     #[must_use]
     pub fn mesh(&self) -> Mesh {
-        let shape = self.options.cells;
-        let mut crossed_cells: Vec<(Cell, u8)> =
-            self.cells.iter().filter(|&(_, &m)| crossed(m, shape)).map(|(&c, &m)| (c, m)).collect();
-        crossed_cells.sort_unstable_by_key(|(c, _)| c.order_key());
-        let mut mesh = Mesh::default();
+        let mut crossed_cells = self.crossed_with_masks();
+        crossed_cells.par_sort_unstable_by_key(|(c, _)| c.order_key());
+        let loops = self.polygon_loops(&crossed_cells);
+        // Numbering by first use is the one serial pass.
         let mut index: FxHashMap<EdgeKey, u32> = FxHashMap::default();
-        let mut ids = Vec::with_capacity(12);
-        for &(cell, mask) in &crossed_cells {
-            shape.polygons(cell, mask, &mut |polygon| {
-                ids.clear();
-                ids.extend(polygon.iter().map(|&[a, b]| {
-                    let key = edge_key(a, b);
-                    *index.entry(key).or_insert_with(|| {
-                        let v = &self.vertices[&key];
-                        mesh.push_vertex(v.position, v.normal, self.with_colors.then_some(v.color))
-                    })
-                }));
-                mesh.push_polygon(&ids);
-            });
+        index.reserve(self.vertices.len());
+        let mut used = Vec::with_capacity(self.vertices.len());
+        let ids: Vec<u32> = loops
+            .edges
+            .iter()
+            .map(|&key| {
+                *index.entry(key).or_insert_with(|| {
+                    used.push(key);
+                    (used.len() - 1) as u32
+                })
+            })
+            .collect();
+        let vertices: Vec<EdgeVertex> = used.par_iter().map(|key| self.vertices[key]).collect();
+        let mut mesh = Mesh {
+            positions: vertices.iter().map(|v| v.position).collect(),
+            normals: vertices.iter().map(|v| v.normal).collect(),
+            colors: (self.with_colors && !vertices.is_empty()).then(|| vertices.iter().map(|v| v.color).collect()),
+            ..Mesh::default()
+        };
+        let mut first = 0;
+        for &len in &loops.lengths {
+            let end = first + usize::from(len);
+            mesh.push_polygon(&ids[first..end]);
+            first = end;
         }
         if self.options.vertex == VertexPlacement::Linear {
             mesh.set_normals_from_faces();
         }
         mesh
     }
+
+    /// The polygons of `cells`, in order, as loops of edge keys; in parallel.
+    fn polygon_loops(&self, cells: &[(Cell, u8)]) -> PolygonLoops {
+        const CELLS_PER_TASK: usize = 4096;
+        let shape = self.options.cells;
+        let parts: Vec<PolygonLoops> = cells
+            .par_chunks(CELLS_PER_TASK)
+            .map(|chunk| {
+                let mut part = PolygonLoops::default();
+                for &(cell, mask) in chunk {
+                    shape.polygons(cell, mask, &mut |polygon| {
+                        part.edges.extend(polygon.iter().map(|&[a, b]| edge_key(a, b)));
+                        part.lengths.push(polygon.len() as u8);
+                    });
+                }
+                part
+            })
+            .collect();
+        let mut loops = PolygonLoops::default();
+        for part in parts {
+            loops.edges.extend(part.edges);
+            loops.lengths.extend(part.lengths);
+        }
+        loops
+    }
+}
+
+/// Polygons as consecutive loops of edge keys.
+#[derive(Default)]
+struct PolygonLoops {
+    edges: Vec<EdgeKey>,
+    lengths: Vec<u8>,
 }
 
 /// The neighbours of one cell to visit (at most six, across the faces of a cube).
