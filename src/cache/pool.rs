@@ -28,8 +28,11 @@ pub const UNSET: u32 = 0x7fff_7fff;
 const FREE: u64 = u64::MAX;
 
 /// One block's worth of samples, and who holds it.
+///
+/// The words live inline, after the header: a reader's loads of the
+/// generation and of its words then depend only on the slot's address, and
+/// go to memory together rather than one after the other.
 pub struct Slot {
-    words: Box<[AtomicU32]>,
     /// Even while the owner is stable; odd while the slot is reassigned.
     generation: AtomicU32,
     /// Writers between their generation check and their store.
@@ -38,6 +41,7 @@ pub struct Slot {
     owner: AtomicU64,
     /// Pool clock at the last use, for least-recently-used eviction.
     last_used: AtomicU32,
+    words: [AtomicU32; SLOT_WORDS],
 }
 
 /// The outcome of reading one word of a slot.
@@ -52,11 +56,11 @@ pub enum Read {
 impl Slot {
     fn new() -> Self {
         Self {
-            words: (0..SLOT_WORDS).map(|_| AtomicU32::new(UNSET)).collect(),
             generation: AtomicU32::new(0),
             writers: AtomicU32::new(0),
             owner: AtomicU64::new(FREE),
             last_used: AtomicU32::new(0),
+            words: [const { AtomicU32::new(UNSET) }; SLOT_WORDS],
         }
     }
 
