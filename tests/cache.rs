@@ -5,7 +5,7 @@ mod common;
 
 use blobtrace::cache::{CacheGrid, CacheSpec, Filter, Refit, SamplePool, Storage};
 use blobtrace::field::{EvalMode, Field, Model, ModelField, NodeId, NodeKind, Placement, Primitive, Region, Skeleton};
-use blobtrace::geom::Aabb;
+use blobtrace::geom::{Aabb, Interval};
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::{RenderSettings, render};
 use common::{Rng, assert_traces_like_brute_force, bundled};
@@ -169,6 +169,40 @@ fn intervals_over_held_samples_are_tighter_and_still_hold() {
         }
         assert!(tighter > 40, "{value} {storage}: only {tighter} of 400 ranges got tighter");
     }
+}
+
+/// A cache bounds its value over a box by exactly the samples its value
+/// filter reads there. Just outside a ball, where the lattice plane one cell
+/// in is inside it but no point of the box reads that plane, the bound is
+/// zero, cold (the subtree's range over the samples read) and warm (their
+/// range once held); a box reaching one cell farther in reads the plane.
+#[test]
+fn intervals_bound_only_the_samples_the_value_filter_reads() {
+    let pool = SamplePool::new(None);
+    let grid = CacheGrid::new(CacheSpec::new(16), Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0)), &pool);
+    let c = grid.cell();
+    assert_eq!(c, 0.125);
+    // Wyvill's kernel of a point at the origin with radius 0.95, and its
+    // exact range over a box (it falls with the distance to the origin).
+    let field = |p: Vec3A| (1.0 - p.length_squared() / (0.95 * 0.95)).max(0.0).powi(3);
+    let range = |b: &Aabb| {
+        let nearest = Vec3A::ZERO.clamp(b.min, b.max);
+        let farthest = Vec3A::select(b.min.abs().cmpgt(b.max.abs()), b.min, b.max);
+        Interval::new(field(farthest), field(nearest))
+    };
+    // The lattice plane x = 1 is outside the ball, x = 0.875 inside.
+    let (outside, inside) = (8.0 * c, 7.0 * c);
+    assert!(field(Vec3A::new(outside, 0.0, 0.0)) == 0.0 && field(Vec3A::new(inside, 0.0, 0.0)) > 0.0);
+    let b =
+        Aabb::new(Vec3A::new(outside + 0.1 * c, -0.4 * c, -0.4 * c), Vec3A::new(outside + 0.9 * c, 0.4 * c, 0.4 * c));
+    assert_eq!(grid.interval(&b, &pool, &range).hi, 0.0, "cold");
+    let mut rng = Rng(31);
+    for _ in 0..200 {
+        assert_eq!(grid.value(rng.point_in(b.min, b.max), &pool, &field), 0.0);
+    }
+    assert_eq!(grid.interval(&b, &pool, &range).hi, 0.0, "warm");
+    let wider = Aabb::new(b.min - Vec3A::new(c, 0.0, 0.0), b.max);
+    assert!(grid.interval(&wider, &pool, &range).hi > 0.0);
 }
 
 /// Along any segment, the cached value's slope never drops below the floor

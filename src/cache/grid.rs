@@ -471,34 +471,44 @@ impl CacheGrid {
         filter.gradient(u, &self.gather(filter, u, pool, eval)) * self.inv_cell
     }
 
-    /// A box holding every sample the value filter may read for points of `b`:
-    /// the reconstruction over `b` lies within the subtree's range over it.
+    /// A box holding every sample either filter may read for points of `b`:
+    /// where an edit inside `b` can change the reconstruction or its gradient.
     #[must_use]
     pub fn sample_reach(&self, b: &Aabb) -> Aabb {
         b.padded(MAX_SUPPORT_CELLS * self.cell)
     }
 
+    /// The lattice points `lo..=hi` the value filter reads for points of `b`,
+    /// exactly: its first sample moves monotonically with the query point.
+    fn value_reach(&self, b: &Aabb) -> (IVec3, IVec3) {
+        let filter = self.spec.value;
+        let (lo, _) = filter.footprint(b.min * self.inv_cell);
+        let (first_hi, taps) = filter.footprint(b.max * self.inv_cell);
+        (lo, first_hi + IVec3::splat(taps as i32 - 1))
+    }
+
     /// Bounds of the reconstructed value over `b`: the range of the samples
-    /// the filters may read there when all are held (both filters stay within
-    /// it), else `child_range`, the subtree's range over their reach, widened
-    /// by the samples' rounding in storage.
+    /// the value filter reads there when all are held (the reconstruction, a
+    /// weighted mean of them, stays within it), else `child_range`, the
+    /// subtree's range over the box of those samples, widened by the samples'
+    /// rounding in storage.
     pub fn interval(&self, b: &Aabb, pool: &SamplePool, child_range: &impl Fn(&Aabb) -> Interval) -> Interval {
-        if let Some(held) = self.held_range(b, pool) {
+        let (lo, hi) = self.value_reach(b);
+        if let Some(held) = self.held_range(lo, hi, pool) {
             return held;
         }
-        let r = child_range(&self.sample_reach(b));
+        // The samples sit at exactly these positions (see `sample`).
+        let r = child_range(&Aabb::new(lo.as_vec3a() * self.cell, hi.as_vec3a() * self.cell));
         let e = self.spec.storage.rounding_error(r.lo.abs().max(r.hi.abs()));
         Interval::new(r.lo - e, r.hi + e)
     }
 
-    /// The range of the samples at the lattice points in the filters' reach
-    /// over `b`, if every one is held (points outside the subtree's bounds are
-    /// zero); `None` as soon as one is not, or when the reach holds more than
-    /// [`MAX_HELD_RANGE_SAMPLES`]. Evaluates nothing; reading a block counts
-    /// as a use of it, as a lookup's does.
-    fn held_range(&self, b: &Aabb, pool: &SamplePool) -> Option<Interval> {
-        let reach = self.sample_reach(b);
-        let (lo, hi) = ((reach.min * self.inv_cell).ceil().as_ivec3(), (reach.max * self.inv_cell).floor().as_ivec3());
+    /// The range of the samples at the lattice points `lo..=hi`, if every one
+    /// is held (points outside the subtree's bounds are zero); `None` as soon
+    /// as one is not, or when there are more than [`MAX_HELD_RANGE_SAMPLES`].
+    /// Evaluates nothing; reading a block counts as a use of it, as a
+    /// lookup's does.
+    fn held_range(&self, lo: IVec3, hi: IVec3, pool: &SamplePool) -> Option<Interval> {
         let count = (hi - lo + IVec3::ONE).max(IVec3::ZERO).as_i64vec3().element_product();
         if count == 0 || count > MAX_HELD_RANGE_SAMPLES {
             return None;
