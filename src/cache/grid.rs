@@ -487,6 +487,13 @@ impl CacheGrid {
         (lo, first_hi + IVec3::splat(taps as i32 - 1))
     }
 
+    /// The box of [`Self::value_reach`]'s lattice points (samples sit at
+    /// exactly these positions: see `sample`).
+    fn value_reach_box(&self, b: &Aabb) -> Aabb {
+        let (lo, hi) = self.value_reach(b);
+        Aabb::new(lo.as_vec3a() * self.cell, hi.as_vec3a() * self.cell)
+    }
+
     /// Bounds of the reconstructed value over `b`: the range of the samples
     /// the value filter reads there when all are held (the reconstruction, a
     /// weighted mean of them, stays within it), else `child_range`, the
@@ -497,8 +504,7 @@ impl CacheGrid {
         if let Some(held) = self.held_range(lo, hi, pool) {
             return held;
         }
-        // The samples sit at exactly these positions (see `sample`).
-        let r = child_range(&Aabb::new(lo.as_vec3a() * self.cell, hi.as_vec3a() * self.cell));
+        let r = child_range(&self.value_reach_box(b));
         let e = self.spec.storage.rounding_error(r.lo.abs().max(r.hi.abs()));
         Interval::new(r.lo - e, r.hi + e)
     }
@@ -646,11 +652,11 @@ impl CacheGrid {
         (u * lo).min(u * hi).element_sum() * self.inv_cell
     }
 
-    /// A bound on the reconstruction's slope over `region`. Each axis
-    /// derivative of either filter is a convex combination of sample
-    /// differences along that axis, each at most the subtree's slope over the
-    /// samples' reach (`child_slope`) plus twice the storage rounding over one
-    /// cell; √3 times that bounds the gradient's norm. Bounds per 8-cell cube
+    /// A bound on the reconstructed value's slope over `region`. Each axis
+    /// derivative of the value filter is a convex combination of differences
+    /// along that axis between the samples it reads, each at most the
+    /// subtree's slope over their box (`child_slope`) plus twice the storage
+    /// rounding over one cell; √3 times that bounds the gradient's norm. Bounds per 8-cell cube
     /// are computed once and kept; long regions take one bound over their box.
     pub fn lipschitz(
         &self,
@@ -737,7 +743,7 @@ impl CacheGrid {
         child_slope: &impl Fn(&Aabb) -> f32,
         child_range: &impl Fn(&Aabb) -> Interval,
     ) -> f32 {
-        let reach = self.sample_reach(b);
+        let reach = self.value_reach_box(b);
         let rounding = match self.spec.storage {
             Storage::F32 => 0.0,
             Storage::F16 => {
