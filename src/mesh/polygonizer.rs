@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, sort_key};
-use super::seeds::{Evaluated, Marched, Seed, SeedMarch, row_meets};
+use super::seeds::{Evaluated, Marched, RowSpans, Seed, SeedMarch, row_meets};
 use super::vertex::{VertexPlacement, place_on_edge};
 use super::{Mesh, bcc, cubes};
 use crate::field::{DEFAULT_COLOR, Field};
@@ -187,6 +187,9 @@ pub struct Polygonizer {
     /// Visited cells and their inside masks.
     cells: FxHashMap<Cell, u8>,
     vertices: FxHashMap<EdgeKey, EdgeVertex>,
+    /// For each lattice row seeds marched along (by `y` and `z`), the spans
+    /// of `x` whose values decided what its marches found (see [`SeedMarch::row`]).
+    row_spans: FxHashMap<(i32, i32), Vec<(i32, i32)>>,
     with_colors: bool,
     threshold: f32,
     stats: PolygonizeStats,
@@ -202,6 +205,7 @@ impl Polygonizer {
             corners: FxHashMap::default(),
             cells: FxHashMap::default(),
             vertices: FxHashMap::default(),
+            row_spans: FxHashMap::default(),
             with_colors: false,
             threshold: 0.0,
             stats: PolygonizeStats::default(),
@@ -389,7 +393,10 @@ impl Polygonizer {
         starts.sort_unstable_by_key(|&(q, reach)| (q.z, q.y, q.x, std::cmp::Reverse(reach)));
         starts.dedup_by_key(|(q, _)| *q);
         let along_x: Vec<(LatticePoint, i32)> = starts.iter().copied().filter(|&(q, _)| reaches(q)).collect();
-        let rows: Vec<&[(LatticePoint, i32)]> = along_x.chunk_by(|a, b| (a.0.y, a.0.z) == (b.0.y, b.0.z)).collect();
+        let rows: Vec<&[(LatticePoint, i32)]> = along_x
+            .chunk_by(|a, b| (a.0.y, a.0.z) == (b.0.y, b.0.z))
+            .filter_map(|row| near_hole.map_or(Some(row), |near| self.changed_part(row, &near)))
+            .collect();
         let marched: Vec<Marched> =
             rows.par_iter().map(|row| SeedMarch::new(field, lattice, &self.corners).row(row)).collect();
         let mut cells = vec![];
@@ -404,9 +411,37 @@ impl Polygonizer {
         self.claim(cells)
     }
 
-    /// Keeps the corners `marched` evaluated and lists the cells around its crossings.
+    /// The starts of `row` (sorted by `x`, none past the hole) whose marches
+    /// may find something new: from the first that lies near the hole, or
+    /// that an earlier march whose span meets the hole started or skipped.
+    /// Every march from before it read only values kept (the field changed
+    /// only in the hole) and finds what it found; only starts of changed
+    /// primitives are new, and those lie in the hole. A row never marched
+    /// before is marched whole.
+    fn changed_part<'s>(&self, row: &'s [(LatticePoint, i32)], near_hole: &Aabb) -> Option<&'s [(LatticePoint, i32)]> {
+        let (y, z) = (row[0].0.y, row[0].0.z);
+        let Some(spans) = self.row_spans.get(&(y, z)) else {
+            return Some(row);
+        };
+        let at = |x: i32| self.lattice.position(IVec3::new(x, y, z));
+        let from_spans = spans.iter().filter(|&&(lo, hi)| near_hole.overlaps(&Aabb::new(at(lo), at(hi)))).map(|s| s.0);
+        let from_starts = row.iter().map(|&(q, _)| q.x).filter(|&x| near_hole.contains(at(x)));
+        let first = from_spans.chain(from_starts).min()?;
+        Some(&row[row.partition_point(|&(q, _)| q.x < first)..]).filter(|part| !part.is_empty())
+    }
+
+    /// Keeps the corners `marched` evaluated and lists the cells around its
+    /// crossings; a row marched again from some start on keeps the spans of
+    /// the marches before it and takes the new ones.
     fn take_marched(&mut self, marched: Vec<Marched>, cells: &mut Vec<Cell>) {
-        for Marched { crossings, evaluated, gradients } in marched {
+        for Marched { crossings, evaluated, gradients, row_spans } in marched {
+            if let Some(RowSpans { row, spans: new }) = row_spans
+                && let Some(&(from, _)) = new.first()
+            {
+                let spans = self.row_spans.entry(row).or_default();
+                spans.retain(|&(lo, _)| lo < from);
+                spans.extend(new);
+            }
             self.stats.corner_evals += evaluated.len() as u64;
             self.stats.gradient_evals += gradients;
             self.corners.extend(evaluated);
@@ -677,4 +712,39 @@ impl From<&[Cell]> for Neighbours {
 /// True when a cell's vertices differ in sign.
 fn crossed(mask: u8, shape: CellShape) -> bool {
     mask != 0 && mask != shape.full_mask()
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3A;
+
+    use super::*;
+    use crate::field::{EvalMode, ModelField};
+    use crate::mesh::skeleton_seeds;
+    use crate::scene::Scene;
+
+    /// Two blobs on one lattice row: the left one's march ends near it, so a
+    /// change around the right one marches the row only from the right
+    /// one's start, a change around the left one marches it all, and a
+    /// change between them, which no march reached, marches none of it.
+    #[test]
+    fn a_local_update_marches_a_row_from_where_its_spans_meet_the_hole() {
+        let scene = Scene::parse(
+            "Scene(camera: Camera(eye: (0.0, 0.0, 9.0), target: (0.0, 0.0, 0.0), fov_y: 40.0), size: (8, 8),
+                   model: Blend([Point(center: (-2.0, 0.0, 0.0), radius: 0.8), Point(center: (2.0, 0.0, 0.0), radius: 0.8)]))",
+            "two blobs",
+        )
+        .expect("test scene parses");
+        let field = ModelField::new(&scene.model, EvalMode::Indexed);
+        let lattice = Lattice { cell: 0.1 };
+        let mut polygonizer = Polygonizer::new(lattice, PolygonizeOptions::default());
+        let seeds = skeleton_seeds(&scene.model, scene.model.root());
+        polygonizer.polygonize(&field, &seeds);
+        let mut row: Vec<(LatticePoint, i32)> = seeds.iter().map(|s| (lattice.nearest_corner(s.point), 9)).collect();
+        row.sort_by_key(|(q, _)| q.x);
+        let around = |x: f32| Aabb::around(Vec3A::new(x, 0.0, 0.0), 0.3);
+        assert_eq!(polygonizer.changed_part(&row, &around(2.0)), Some(&row[1..]));
+        assert_eq!(polygonizer.changed_part(&row, &around(-2.0)), Some(&row[..]));
+        assert_eq!(polygonizer.changed_part(&row, &around(0.0)), None);
+    }
 }

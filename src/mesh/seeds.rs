@@ -95,6 +95,17 @@ pub(super) struct Marched {
     pub evaluated: Evaluated,
     /// Gradients evaluated (one per uphill walk).
     pub gradients: u64,
+    /// For the marches of one row: the row, and for each march the span of
+    /// it whose values decided what the march found.
+    pub row_spans: Option<RowSpans>,
+}
+
+/// The marches along one lattice row (by its `y` and `z`): for each, the span
+/// `start..=farthest` of `x` (in half cells) its outcome depended on.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(super) struct RowSpans {
+    pub row: (i32, i32),
+    pub spans: Vec<(i32, i32)>,
 }
 
 /// Marches from seed starts (with their reach, in lattice steps) along
@@ -107,12 +118,24 @@ pub(super) struct SeedMarch<'a, F: ?Sized> {
     fresh: FxHashMap<LatticePoint, f32>,
     crossings: Vec<LatticePoint>,
     gradients: u64,
+    /// The farthest `x` whose value (or whose place in a march's reach) a row
+    /// march's outcome depended on.
+    farthest: i32,
 }
 
 impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
     pub fn new(field: &'a F, lattice: Lattice, known: &'a FxHashMap<LatticePoint, f32>) -> Self {
         let threshold = field.threshold();
-        Self { field, lattice, threshold, known, fresh: FxHashMap::default(), crossings: vec![], gradients: 0 }
+        Self {
+            field,
+            lattice,
+            threshold,
+            known,
+            fresh: FxHashMap::default(),
+            crossings: vec![],
+            gradients: 0,
+            farthest: i32::MIN,
+        }
     }
 
     /// Marches the starts of one lattice row, in x order, along +x.
@@ -124,16 +147,29 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
     /// behind the wall of its cavity, where every skeleton lies. A start on a
     /// stretch an earlier march crossed to its last change would find the
     /// same changes, and is skipped.
+    ///
+    /// The result records, for each march, the span of the row its outcome
+    /// depended on: the values it read, and from a start outside its whole
+    /// reach (how far it goes depends on the field's bounds too, which other
+    /// edits move). Where no value in a march's span changes, marching again
+    /// finds the same changes; a start it skipped finds some of them.
     pub fn row(mut self, starts: &[(LatticePoint, i32)]) -> Marched {
         let mut crossed_up_to = i32::MIN;
+        let mut spans = vec![];
         for &(start, reach) in starts {
-            if start.x > crossed_up_to
-                && let Some(last) = self.row_line(start, reach)
-            {
-                crossed_up_to = last.x;
+            if start.x > crossed_up_to {
+                self.farthest = start.x;
+                let last = self.row_line(start, reach);
+                spans.push((start.x, self.farthest));
+                if let Some(last) = last {
+                    crossed_up_to = last.x;
+                }
             }
         }
-        self.finish()
+        let row = starts.first().map(|&(q, _)| (q.y, q.z));
+        let mut marched = self.finish();
+        marched.row_spans = row.map(|row| RowSpans { row, spans });
+        marched
     }
 
     /// Walks uphill from `start`, if it is outside the surface: along the
@@ -183,11 +219,12 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
     fn finish(self) -> Marched {
         let mut evaluated: Evaluated = self.fresh.into_iter().collect();
         evaluated.sort_unstable_by_key(|&(q, _)| sort_key(q));
-        Marched { crossings: self.crossings, evaluated, gradients: self.gradients }
+        Marched { crossings: self.crossings, evaluated, gradients: self.gradients, row_spans: None }
     }
 
     /// The value at corner `q`: known before seeding, or evaluated now and kept.
     fn value(&mut self, q: LatticePoint) -> f32 {
+        self.farthest = self.farthest.max(q.x);
         match self.known.get(&q) {
             Some(&v) => v,
             None => *self.fresh.entry(q).or_insert_with(|| self.field.value(self.lattice.position(q))),
@@ -201,6 +238,9 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
     fn row_line(&mut self, start: LatticePoint, reach: i32) -> Option<LatticePoint> {
         let max_steps = self.steps_to_leave_bounds(start);
         let (mut q, mut v, mut taken) = (start, self.value(start), 0);
+        if v <= self.threshold {
+            self.farthest = self.farthest.max((start + ROW_STEP * reach).x);
+        }
         let end = self.lattice.position(start + ROW_STEP * reach.min(max_steps));
         let at = self.lattice.position(start);
         if v <= self.threshold && self.stays_outside(&Aabb::new(at.min(end), at.max(end))) {
