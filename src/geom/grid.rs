@@ -142,28 +142,45 @@ impl UniformGrid {
         let step = IVec3::new(sign(d.x), sign(d.y), sign(d.z));
         let next_face = (cell + step.max(IVec3::ZERO)).as_vec3a() * self.cell + self.origin;
         // Parameter of the next face crossing per axis; infinite along axes the segment does not move on.
-        let mut t_max = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (next_face - a) * inv);
+        let t_max = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (next_face - a) * inv);
         let t_delta = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (self.cell * inv).abs());
+        // The parameter of the next face crossing on each axis, kept in plain
+        // scalars: a vector indexed by the axis chosen went through memory
+        // (a store and a reload of the whole vector) every cell.
+        let (mut tx, mut ty, mut tz) = (t_max.x, t_max.y, t_max.z);
         loop {
-            let axis = if t_max.x <= t_max.y && t_max.x <= t_max.z {
-                0
-            } else if t_max.y <= t_max.z {
-                1
+            let (axis, t_cross) = if tx <= ty && tx <= tz {
+                (0, tx)
+            } else if ty <= tz {
+                (1, ty)
             } else {
-                2
+                (2, tz)
             };
+            if !f(self.linear(cell.as_uvec3()), t_cross.min(t1)) || t_cross > t1 {
+                return;
+            }
             // An axis the segment does not move along is chosen only when the
             // crossings are NaN (a degenerate grid): stop rather than spin.
-            if !f(self.linear(cell.as_uvec3()), t_max[axis].min(t1)) || t_max[axis] > t1 || step[axis] == 0 {
+            let inside = match axis {
+                0 => advance(&mut cell.x, &mut tx, (step.x, top.x), t_delta.x),
+                1 => advance(&mut cell.y, &mut ty, (step.y, top.y), t_delta.y),
+                _ => advance(&mut cell.z, &mut tz, (step.z, top.z), t_delta.z),
+            };
+            if !inside {
                 return;
             }
-            cell[axis] += step[axis];
-            if cell[axis] < 0 || cell[axis] > top[axis] {
-                return;
-            }
-            t_max[axis] += t_delta[axis];
         }
     }
+}
+
+/// One cell of a walk along an axis: the cell coordinate moves by `step`
+/// and the next crossing by `t_delta`. False when the walk leaves the grid
+/// (past cell `last`) or does not move along the axis.
+#[inline(always)]
+fn advance(cell: &mut i32, t_next: &mut f32, (step, last): (i32, i32), t_delta: f32) -> bool {
+    *cell += step;
+    *t_next += t_delta;
+    step != 0 && (0..=last).contains(cell)
 }
 
 /// The linear index (x fastest) of cell `i` in a block of `dims` cells.
