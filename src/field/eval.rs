@@ -432,6 +432,70 @@ impl Model {
         }
     }
 
+    /// Bounds on the derivative of node `id`'s value along the segment
+    /// `a..b` (in the node's frame) per unit of distance along the world
+    /// ray, which moves at velocity `u` in this frame: `(rise, slope)` with
+    /// `∇f(p)·u <= rise` and `|∇f(p)·u| <= slope` at every `p` of the segment.
+    /// Cached lattices know how fast they can rise along a direction (see
+    /// [`crate::cache::CacheGrid::slope_bounds`]); sums add the bounds,
+    /// unions and intersections take the larger, and every other node gives
+    /// its Lipschitz bound both ways.
+    pub fn node_slope_bounds(&self, id: NodeId, (a, b): (Vec3A, Vec3A), u: Vec3A, mode: EvalMode) -> (f32, f32) {
+        let node = self.node(id);
+        let segment = Region::Segment(a, b);
+        if !segment.meets(&node.bounds) {
+            return (0.0, 0.0);
+        }
+        let both_ways = |l: f32| (l * u.length(), l * u.length());
+        let add = |(r, s): (f32, f32), (r2, s2): (f32, f32)| (r + r2, s + s2);
+        match &node.kind {
+            NodeKind::Blend { children, index } => match (mode, index) {
+                (m, Some(ix)) if m.indexed() => {
+                    if !sums_node_leaves(ix, &segment) {
+                        return both_ways(ix.cell_lipschitz(&segment));
+                    }
+                    let mut total = (0.0, 0.0);
+                    for_each_unique_leaf(ix, &segment, |i| {
+                        let leaf = &ix.leaves[i as usize];
+                        total = add(
+                            total,
+                            match &leaf.leaf {
+                                Leaf::Node(id) => self.node_slope_bounds(*id, (a, b), u, mode),
+                                Leaf::Primitive(_) => both_ways(self.leaf_lipschitz(leaf, &segment, mode)),
+                            },
+                        );
+                    });
+                    total
+                }
+                _ => children.iter().fold((0.0, 0.0), |t, &c| add(t, self.node_slope_bounds(c, (a, b), u, mode))),
+            },
+            NodeKind::Union(cs) | NodeKind::Intersection(cs) => cs.iter().fold((0.0, 0.0), |(r, s), &c| {
+                let (r2, s2) = self.node_slope_bounds(c, (a, b), u, mode);
+                (r.max(r2), s.max(s2))
+            }),
+            NodeKind::Transform { placement, child } => {
+                let l = &placement.to_local;
+                self.node_slope_bounds(
+                    *child,
+                    (l.transform_point3a(a), l.transform_point3a(b)),
+                    l.transform_vector3a(u),
+                    mode,
+                )
+            }
+            NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => self.cache(*grid).slope_bounds(
+                (a, b),
+                u,
+                &|b| self.node_lipschitz(*child, &Region::Box(*b), mode),
+                &|b| self.node_interval(*child, b, mode),
+                (self.pool(), &|q| self.node_value(*child, q, mode)),
+            ),
+            NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => {
+                self.node_slope_bounds(*child, (a, b), u, mode)
+            }
+            _ => both_ways(self.node_lipschitz(id, &segment, mode)),
+        }
+    }
+
     /// An upper bound on node `id`'s second derivative along any line
     /// through a region (it may be negative where the field is concave),
     /// infinite where the gradient may jump (the creases of unions,
