@@ -32,8 +32,8 @@ const MAX_SUMMARY_CELLS: usize = 64;
 const SQRT_3: f32 = 1.732_050_8;
 /// The word of a slope summary not yet computed.
 const UNSET_SLOPE: u32 = u32::MAX;
-/// The word of a cell's slope bounds not yet computed (see [`CellBounds`]).
-const UNSET_CELL_BOUNDS: u64 = u64::MAX;
+/// The half-precision word of a cell slope not yet computed (a NaN).
+const UNSET_CELL_SLOPE: u16 = u16::MAX;
 
 /// The lattice, the block table and the per-region slope summaries of one cache.
 pub struct CacheGrid {
@@ -54,11 +54,11 @@ pub struct CacheGrid {
     /// Cubes of 8 cells over the table's region, each with a lazily computed slope bound.
     summary: UniformGrid,
     slopes: Box<[AtomicU32]>,
-    /// Per block of the table, the sampled slope bounds of each of its cells
-    /// once computed (the tracer's hottest query), packed (see
-    /// [`CellBounds`]). Samples are pure functions of their lattice points,
-    /// so these stay valid when blocks are evicted; only invalidation clears them.
-    cell_slopes: Box<[OnceLock<Box<[AtomicU64]>>]>,
+    /// Per block of the table, the sampled slope bound of each of its cells
+    /// once computed (the tracer's hottest query). Samples are pure functions
+    /// of their lattice points, so these stay valid when blocks are evicted;
+    /// only invalidation clears them.
+    cell_slopes: Box<[OnceLock<Box<[AtomicU16]>>]>,
     lookups: ShardedCounter,
     /// Samples evaluated, counted per thread: one shared counter bounced
     /// between the cores on every fill.
@@ -233,7 +233,7 @@ impl CacheGrid {
         let dims = (hi - lo + IVec3::ONE).max(IVec3::ONE).as_uvec3();
         let mut table: Vec<AtomicPtr<Slot>> =
             (0..dims.as_usizevec3().element_product()).map(|_| AtomicPtr::new(std::ptr::null_mut())).collect();
-        let mut cell_slopes: Vec<OnceLock<Box<[AtomicU64]>>> = table.iter().map(|_| OnceLock::new()).collect();
+        let mut cell_slopes: Vec<OnceLock<Box<[AtomicU16]>>> = table.iter().map(|_| OnceLock::new()).collect();
         for (i, entry) in self.table.iter().enumerate() {
             let b = self.table_lo + cell_coords(i, self.table_dims).as_ivec3();
             let to = linear_index((b - lo).as_uvec3(), dims);
@@ -581,6 +581,17 @@ impl CacheGrid {
         Some((min, max))
     }
 
+    /// A bound on the reconstruction's slope over the lattice cell with minimum
+    /// corner `i`, from the samples themselves: each axis derivative is a convex
+    /// combination of the differences along that axis between the samples the
+    /// filter reads anywhere in the cell (2 per axis for tri-linear, 4 for the
+    /// quadratic), so the largest such difference bounds it. Tight where the
+    /// tracer needs it most: next to the surface.
+    fn cell_slope(&self, i: IVec3, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+        let (lo, hi) = self.cell_differences(i, pool, eval);
+        lo.abs().max(hi.abs()).length() * self.inv_cell
+    }
+
     /// The least and the greatest difference along each axis between
     /// neighbouring samples the value filter reads in the lattice cell with
     /// minimum corner `i`.
@@ -617,7 +628,7 @@ impl CacheGrid {
     /// `a..b` (cache frame). In each lattice cell the segment crosses, each
     /// axis derivative of the value filter is a convex combination of the
     /// differences along that axis between the samples it reads there (see
-    /// [`Self::cell_bounds`]), so it lies between the least and the greatest.
+    /// [`Self::cell_slope`]), so it lies between the least and the greatest.
     /// Off the lattice the reconstruction is zero, and so is its derivative.
     pub fn slope_floor(
         &self,
@@ -677,70 +688,26 @@ impl CacheGrid {
         let mut l = 0.0f32;
         self.lattice.walk_segment(a, b, |c| {
             let i = self.lattice_lo + self.lattice.coords(c).as_ivec3();
-            l = l.max(self.kept_cell_bounds(i, pool, eval).slope());
+            l = l.max(self.kept_cell_slope(i, pool, eval));
         });
         l
     }
 
-    /// Bounds on the reconstruction's derivative along the segment `a..b`
-    /// (cache frame) per unit of distance along the world ray, which moves at
-    /// velocity `u` in this frame: `(rise, slope)` with `∇f·u <= rise` and
-    /// `|∇f·u| <= slope` all along it. On a short segment each cell it
-    /// crosses bounds each axis derivative from below and above by its
-    /// samples' differences (see [`Self::slope_floor`]), so the rise is the
-    /// most `u` can gain from them: a ray leaving a surface behind may rise
-    /// not at all. Longer segments take [`Self::lipschitz`] both ways.
-    pub fn slope_bounds(
-        &self,
-        (a, b): (Vec3A, Vec3A),
-        u: Vec3A,
-        child_slope: &impl Fn(&Aabb) -> f32,
-        child_range: &impl Fn(&Aabb) -> Interval,
-        sample: (&SamplePool, &impl Fn(Vec3A) -> f32),
-    ) -> (f32, f32) {
-        let speed = u.length();
-        if (b - a).length() * self.inv_cell > MAX_SAMPLED_SEGMENT_CELLS {
-            let l = self.lipschitz(&Region::Segment(a, b), child_slope, child_range, sample) * speed;
-            return (l, l);
-        }
-        let (mut rise, mut slope) = (0.0f32, 0.0f32);
-        self.lattice.walk_segment(a, b, |c| {
-            let i = self.lattice_lo + self.lattice.coords(c).as_ivec3();
-            let cell = self.kept_cell_bounds(i, sample.0, sample.1);
-            // Rounded outwards, the axis bounds may bound a rise a little
-            // above the norm bound: both hold.
-            rise = rise.max(cell.rise(u).min(cell.slope() * speed));
-            slope = slope.max(cell.slope());
-        });
-        (rise, slope * speed)
-    }
-
-    /// The bounds of [`Self::cell_bounds`], kept once computed (packed as
-    /// they are always returned: kept or not, the same bounds). Under a
+    /// [`Self::cell_slope`], kept once computed (in half precision, rounded
+    /// up, as it is always returned: kept or not, the same bound). Under a
     /// budget nothing is kept, so the budget bounds all the memory the cache holds.
-    fn kept_cell_bounds(&self, i: IVec3, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> CellBounds {
+    fn kept_cell_slope(&self, i: IVec3, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
         let Some((t, w)) = self.cell_slope_word(i).filter(|_| pool.budget_slots().is_none()) else {
-            return self.cell_bounds(i, pool, eval);
+            return half::f16::from_bits(half_up(self.cell_slope(i, pool, eval))).to_f32();
         };
         let words = self.cell_slopes[t]
-            .get_or_init(|| (0..self.block_volume()).map(|_| AtomicU64::new(UNSET_CELL_BOUNDS)).collect());
+            .get_or_init(|| (0..self.block_volume()).map(|_| AtomicU16::new(UNSET_CELL_SLOPE)).collect());
         let mut bits = words[w].load(Ordering::Relaxed);
-        if bits == UNSET_CELL_BOUNDS {
-            bits = self.cell_bounds(i, pool, eval).0;
+        if bits == UNSET_CELL_SLOPE {
+            bits = half_up(self.cell_slope(i, pool, eval));
             words[w].store(bits, Ordering::Relaxed);
         }
-        CellBounds(bits)
-    }
-
-    /// The slope bounds of the lattice cell with minimum corner `i`, from the
-    /// samples themselves: each axis derivative is a convex combination of the
-    /// differences along that axis between the samples the value filter reads
-    /// anywhere in the cell (2 per axis for tri-linear, 4 for the quadratic),
-    /// so it lies between the least and the greatest of them, and the largest
-    /// in size bounds it. Tight where the tracer needs it most: next to the surface.
-    fn cell_bounds(&self, i: IVec3, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> CellBounds {
-        let (lo, hi) = self.cell_differences(i, pool, eval);
-        CellBounds::new(lo, hi, self.inv_cell)
+        half::f16::from_bits(bits).to_f32()
     }
 
     /// The table entry of cell `i`'s block and the cell's place in it.
@@ -763,7 +730,7 @@ impl CacheGrid {
                 for x in lo.x - 2..=hi.x + 1 {
                     let Some((t, w)) = self.cell_slope_word(IVec3::new(x, y, z)) else { continue };
                     if let Some(words) = self.cell_slopes[t].get() {
-                        words[w].store(UNSET_CELL_BOUNDS, Ordering::Relaxed);
+                        words[w].store(UNSET_CELL_SLOPE, Ordering::Relaxed);
                     }
                 }
             }
@@ -860,7 +827,7 @@ impl CacheGrid {
             blocks,
             bytes: blocks * (SLOT_WORDS * 4) as u64,
             slope_bytes: self.cell_slopes.iter().filter(|b| b.get().is_some()).count() as u64
-                * (self.block_volume() * 8) as u64,
+                * (self.block_volume() * 2) as u64,
             lookups: self.lookups.total(),
         }
     }
@@ -883,62 +850,6 @@ impl CacheGrid {
             }
         }
         n
-    }
-}
-
-/// A cell's bounds on the reconstruction's derivative, packed in one word:
-/// in the low 16 bits a bound on its gradient's norm (half precision,
-/// rounded up), then per axis the least and the greatest derivative (x, y, z
-/// lows, then highs) as signed multiples of 1/127 of that bound, rounded
-/// outwards.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct CellBounds(u64);
-
-/// Multiples of the slope bound per unit in [`CellBounds`]' axis bounds.
-const AXIS_QUANTA: f32 = 127.0;
-
-impl CellBounds {
-    /// The bounds of a cell whose neighbouring samples differ along each
-    /// axis by `lo..=hi`, on a lattice of `1 / inv_cell` spacing.
-    fn new(lo: Vec3A, hi: Vec3A, inv_cell: f32) -> Self {
-        let slope_bits = half_up(lo.abs().max(hi.abs()).length() * inv_cell);
-        let (lo, hi) = (lo * inv_cell, hi * inv_cell);
-        let slope = half::f16::from_bits(slope_bits).to_f32();
-        // Each derivative is at most the norm bound; a hundredth of a step
-        // outwards covers the rounding of this division and of the decoding.
-        let quantum = |d: f32, up: bool| -> u64 {
-            let x = if slope > 0.0 && slope.is_finite() { d / slope * AXIS_QUANTA } else { 0.0 };
-            let q = if up { (x + 0.01).ceil() } else { (x - 0.01).floor() };
-            u64::from(q.clamp(-AXIS_QUANTA, AXIS_QUANTA) as i8 as u8)
-        };
-        let mut bits = u64::from(slope_bits);
-        for axis in 0..3 {
-            bits |= quantum(lo[axis], false) << (16 + 8 * axis);
-            bits |= quantum(hi[axis], true) << (40 + 8 * axis);
-        }
-        Self(bits)
-    }
-
-    /// The bound on the gradient's norm.
-    fn slope(self) -> f32 {
-        half::f16::from_bits(self.0 as u16).to_f32()
-    }
-
-    /// The least and the greatest derivative along each axis.
-    fn axes(self) -> (Vec3A, Vec3A) {
-        let slope = self.slope();
-        let at = |shift: u64| f32::from((self.0 >> shift) as u8 as i8) * slope / AXIS_QUANTA;
-        (Vec3A::new(at(16), at(24), at(32)), Vec3A::new(at(40), at(48), at(56)))
-    }
-
-    /// A bound on `∇f·u` over the cell.
-    fn rise(self, u: Vec3A) -> f32 {
-        let slope = self.slope();
-        if !slope.is_finite() {
-            return slope * u.length();
-        }
-        let (lo, hi) = self.axes();
-        (u * lo).max(u * hi).element_sum()
     }
 }
 

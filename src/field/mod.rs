@@ -88,14 +88,6 @@ pub trait Field: Sync {
         let _ = (a, b);
         None
     }
-    /// Bounds on the derivative of `f` along the segment `a..b`, per unit
-    /// length towards `b`: `(rise, slope)`, an upper bound on how fast it can
-    /// rise (all a march from outside the surface needs) and one on its
-    /// magnitude. The default takes both from [`Field::lipschitz`].
-    fn slope_bounds(&self, a: Vec3A, b: Vec3A) -> (f32, f32) {
-        let l = self.lipschitz(&Region::Segment(a, b));
-        (l, l)
-    }
     /// An upper bound `M` on the second derivative of `f` along any line
     /// through a region (`d²/ds² f(x + s u) <= M` for unit `u`; negative where
     /// `f` is concave), infinite where the gradient may jump. The default
@@ -197,14 +189,6 @@ impl Field for ModelField<'_> {
     }
     fn fills_caches_on_read(&self) -> bool {
         self.mode == EvalMode::Cached && self.model.counts().caches > 0
-    }
-    fn slope_bounds(&self, a: Vec3A, b: Vec3A) -> (f32, f32) {
-        let u = (b - a).normalize_or_zero();
-        if self.mode != EvalMode::Cached || u == Vec3A::ZERO {
-            let l = self.lipschitz(&Region::Segment(a, b));
-            return (l, l);
-        }
-        self.model.node_slope_bounds(self.model.root(), (a, b), u, self.mode)
     }
     fn lipschitz(&self, region: &Region) -> f32 {
         self.model.node_lipschitz(self.model.root(), region, self.mode)

@@ -310,10 +310,9 @@ fn bounded_step<F: Field + ?Sized>(
 ) -> BoundedStep {
     let mut best = BoundedStep { step: 0.0, slope: 0.0, room, bounds: 0 };
     while room > best.step && best.bounds < max_bounds {
-        // Outside the surface only a rise can reach it.
-        let (rise, slope) = field.slope_bounds(ray.at(t), ray.at(t + room));
+        let slope = field.lipschitz(&Region::Segment(ray.at(t), ray.at(t + room)));
         best.bounds += 1;
-        let step = if rise > 0.0 { (margin / rise).min(room) } else { room };
+        let step = if slope > 0.0 { (margin / slope).min(room) } else { room };
         if step > best.step {
             (best.step, best.slope, best.room) = (step, slope, room);
         }
