@@ -656,8 +656,9 @@ impl CacheGrid {
     /// derivative of the value filter is a convex combination of differences
     /// along that axis between the samples it reads, each at most the
     /// subtree's slope over their box (`child_slope`) plus twice the storage
-    /// rounding over one cell; √3 times that bounds the gradient's norm. Bounds per 8-cell cube
-    /// are computed once and kept; long regions take one bound over their box.
+    /// rounding over one cell; √3 times that bounds the gradient's norm.
+    /// Bounds per 8-cell cube are computed once and kept; long regions take
+    /// one bound over their box.
     pub fn lipschitz(
         &self,
         region: &Region,
