@@ -207,6 +207,7 @@ pub fn polygons(cell: Cell, mask: u8, emit: &mut impl FnMut(&[[LatticePoint; 2]]
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mesh::lattice::ordered_edge;
 
     #[test]
     fn the_owned_edges_of_the_cubes_around_a_crossed_edge_list_it_once() {
@@ -218,14 +219,14 @@ mod tests {
             let mut crossed = vec![];
             polygons(Cell { cube: IVec3::ZERO, sub: 0 }, mask, &mut |p| crossed.extend_from_slice(p));
             for [a, b] in crossed {
-                let (lo, hi) = if a.to_array() < b.to_array() { (a, b) } else { (b, a) };
+                let ends = ordered_edge(a, b);
                 let mut owners = 0;
                 for i in 0..27 {
                     let cube = Cell { cube: IVec3::new(i % 3, i / 3 % 3, i / 9) - IVec3::ONE, sub: 0 };
                     let cube_mask = (0..8).filter(|&j| at(vertices(cube)[j])).fold(0u8, |m, j| m | 1 << j);
                     let mut owned = vec![];
                     owned_crossed_edges(cube, cube_mask, &mut owned);
-                    owners += owned.iter().filter(|&&e| e == [lo, hi]).count();
+                    owners += owned.iter().filter(|&&e| e == ends).count();
                 }
                 assert_eq!(owners, 1, "mask {mask:#010b}, edge {a} {b}");
             }

@@ -77,6 +77,14 @@ pub fn edge_key(a: LatticePoint, b: LatticePoint) -> EdgeKey {
     a + b
 }
 
+/// The edge `a`–`b` with its ends in one fixed order (lexicographic by
+/// coordinates), whichever end a caller names first.
+#[inline]
+#[must_use]
+pub fn ordered_edge(a: LatticePoint, b: LatticePoint) -> [LatticePoint; 2] {
+    if a.to_array() < b.to_array() { [a, b] } else { [b, a] }
+}
+
 /// A sort key for lattice points (and edge keys): one integer, in the order
 /// of their coordinates as unsigned words. Sorting by it only has to bring
 /// equal points together; comparing one integer is far cheaper than three.
@@ -131,9 +139,9 @@ mod tests {
                 let axis_step = d.element_sum() == 2 && d.max_element() == 2;
                 let diagonal = d == IVec3::ONE && (a.x & 1) != (b.x & 1);
                 if a != b && (axis_step || diagonal) {
-                    let (lo, hi) = if a.to_array() < b.to_array() { (a, b) } else { (b, a) };
-                    let prev = seen.insert(edge_key(a, b), (lo, hi));
-                    assert!(prev.is_none() || prev == Some((lo, hi)), "{a} {b} collide with {prev:?}");
+                    let ends = ordered_edge(a, b);
+                    let prev = seen.insert(edge_key(a, b), ends);
+                    assert!(prev.is_none() || prev == Some(ends), "{a} {b} collide with {prev:?}");
                 }
             }
         }

@@ -16,7 +16,7 @@ use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
-use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, sort_key};
+use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, ordered_edge, sort_key};
 use super::seeds::{Evaluated, Marched, RowSpans, Seed, SeedMarch, row_meets};
 use super::vertex::{VertexPlacement, place_on_edge};
 use super::{Mesh, bcc, cubes};
@@ -75,9 +75,9 @@ impl CellShape {
     fn crossed_edges(self, cell: Cell, mask: u8, out: &mut Vec<[LatticePoint; 2]>) {
         match self {
             CellShape::Cubes => cubes::owned_crossed_edges(cell, mask, out),
-            CellShape::Bcc => bcc::polygons(cell, mask, &mut |polygon| {
-                out.extend(polygon.iter().map(|&[a, b]| if a.to_array() < b.to_array() { [a, b] } else { [b, a] }))
-            }),
+            CellShape::Bcc => {
+                bcc::polygons(cell, mask, &mut |polygon| out.extend(polygon.iter().map(|&[a, b]| ordered_edge(a, b))))
+            }
         }
     }
 
@@ -591,8 +591,7 @@ impl Polygonizer {
     /// The crossed cells, sorted by lattice position.
     #[must_use]
     pub fn crossed_cell_list(&self) -> Vec<Cell> {
-        let shape = self.options.cells;
-        let mut cells: Vec<Cell> = self.cells.iter().filter(|&(_, &m)| crossed(m, shape)).map(|(&c, _)| c).collect();
+        let mut cells: Vec<Cell> = self.crossed_with_masks().into_iter().map(|(c, _)| c).collect();
         cells.sort_unstable_by_key(Cell::order_key);
         cells
     }
