@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, ordered_edge, sort_key};
-use super::seeds::{Evaluated, Marched, RowSpans, Seed, SeedMarch, row_meets};
+use super::seeds::{Evaluated, Marched, Rejoin, RowSpans, RowStarts, Seed, SeedMarch, row_passes};
 use super::vertex::{VertexPlacement, place_on_edge};
 use super::{Mesh, bcc, cubes};
 use crate::field::{DEFAULT_COLOR, Field};
@@ -373,7 +373,9 @@ impl Polygonizer {
         let lattice = self.lattice;
         // A cell on either side, and half a cell against rounding in positions.
         let near_hole = hole.map(|b| b.padded(1.5 * lattice.cell));
-        let reaches = |q: LatticePoint| near_hole.is_none_or(|b| row_meets(&b, lattice.position(q)));
+        // Marches past the hole find what they found, but which of them run
+        // depends on the marches before them: rows keep their starts there.
+        let in_row = |q: LatticePoint| near_hole.is_none_or(|b| row_passes(&b, lattice.position(q)));
         // An uphill walk goes no farther than its reach (plus a cell, the
         // staircase's offset from its ray).
         let walks_near_hole = |q: LatticePoint, reach: i32| {
@@ -387,18 +389,23 @@ impl Polygonizer {
         let mut starts: Vec<(LatticePoint, i32)> = seeds
             .iter()
             .map(|s| (lattice.nearest_corner(s.point), (s.reach / lattice.cell).ceil() as i32 + 1))
-            .filter(|&(q, reach)| reaches(q) || walks_near_hole(q, reach))
+            .filter(|&(q, reach)| in_row(q) || walks_near_hole(q, reach))
             .collect();
         // One start per corner, with the longest reach; rows of equal (z, y) by x.
         starts.sort_unstable_by_key(|&(q, reach)| (q.z, q.y, q.x, std::cmp::Reverse(reach)));
         starts.dedup_by_key(|(q, _)| *q);
-        let along_x: Vec<(LatticePoint, i32)> = starts.iter().copied().filter(|&(q, _)| reaches(q)).collect();
-        let rows: Vec<&[(LatticePoint, i32)]> = along_x
+        let along_x: Vec<(LatticePoint, i32)> = starts.iter().copied().filter(|&(q, _)| in_row(q)).collect();
+        let rows: Vec<(&RowStarts, Option<Rejoin>)> = along_x
             .chunk_by(|a, b| (a.0.y, a.0.z) == (b.0.y, b.0.z))
-            .filter_map(|row| near_hole.map_or(Some(row), |near| self.changed_part(row, &near)))
+            .filter_map(|row| match near_hole {
+                None => Some((row, None)),
+                Some(near) => self.changed_part(row, &near),
+            })
             .collect();
-        let marched: Vec<Marched> =
-            rows.par_iter().map(|row| SeedMarch::new(field, lattice, &self.corners).row(row)).collect();
+        let marched: Vec<Marched> = rows
+            .par_iter()
+            .map(|&(row, rejoin)| SeedMarch::new(field, lattice, &self.corners).row(row, rejoin))
+            .collect();
         let mut cells = vec![];
         self.take_marched(marched, &mut cells);
         // The second round sees the corners the first evaluated.
@@ -411,23 +418,27 @@ impl Polygonizer {
         self.claim(cells)
     }
 
-    /// The starts of `row` (sorted by `x`, none past the hole) whose marches
-    /// may find something new: from the first that lies near the hole, or
-    /// that an earlier march whose span meets the hole started or skipped.
-    /// Every march from before it read only values kept (the field changed
-    /// only in the hole) and finds what it found; only starts of changed
-    /// primitives are new, and those lie in the hole. A row never marched
-    /// before is marched whole.
-    fn changed_part<'s>(&self, row: &'s [(LatticePoint, i32)], near_hole: &Aabb) -> Option<&'s [(LatticePoint, i32)]> {
+    /// The starts of `row` (sorted by `x`) whose marches may find something
+    /// new: from the first that lies near the hole, or that an earlier march
+    /// whose span meets the hole started or skipped. Every march from before
+    /// it read only values kept (the field changed only in the hole) and
+    /// finds what it found; only starts of changed primitives are new, and
+    /// those lie in the hole. Past the hole the marches may stop where they
+    /// rejoin the ones recorded before. A row never marched before is
+    /// marched whole.
+    fn changed_part<'s>(&'s self, row: &'s RowStarts, near_hole: &Aabb) -> Option<(&'s RowStarts, Option<Rejoin<'s>>)> {
         let (y, z) = (row[0].0.y, row[0].0.z);
         let Some(spans) = self.row_spans.get(&(y, z)) else {
-            return Some(row);
+            return Some((row, None));
         };
         let at = |x: i32| self.lattice.position(IVec3::new(x, y, z));
         let from_spans = spans.iter().filter(|&&(lo, hi)| near_hole.overlaps(&Aabb::new(at(lo), at(hi)))).map(|s| s.0);
         let from_starts = row.iter().map(|&(q, _)| q.x).filter(|&x| near_hole.contains(at(x)));
         let first = from_spans.chain(from_starts).min()?;
-        Some(&row[row.partition_point(|&(q, _)| q.x < first)..]).filter(|part| !part.is_empty())
+        // A lattice step (two half cells) past the corner nearest the hole's end.
+        let past = self.lattice.nearest_corner(near_hole.max).x + 2;
+        let part = &row[row.partition_point(|&(q, _)| q.x < first)..];
+        (!part.is_empty()).then_some((part, Some(Rejoin { first, past, before: spans })))
     }
 
     /// Keeps the corners `marched` evaluated and lists the cells around its
@@ -435,12 +446,14 @@ impl Polygonizer {
     /// the marches before it and takes the new ones.
     fn take_marched(&mut self, marched: Vec<Marched>, cells: &mut Vec<Cell>) {
         for Marched { crossings, evaluated, gradients, row_spans } in marched {
-            if let Some(RowSpans { row, spans: new }) = row_spans
-                && let Some(&(from, _)) = new.first()
-            {
+            if let Some(RowSpans { row, spans: new, from, kept_from }) = row_spans {
+                // Sorted by start: the spans before the marches, theirs (in
+                // place of those of starts now gone or skipped), and those
+                // they rejoined.
                 let spans = self.row_spans.entry(row).or_default();
-                spans.retain(|&(lo, _)| lo < from);
-                spans.extend(new);
+                let rejoined = kept_from.map_or(spans.len(), |x| spans.partition_point(|s| s.0 < x));
+                let redone = spans.partition_point(|s| s.0 < from);
+                spans.splice(redone..rejoined, new);
             }
             self.stats.corner_evals += evaluated.len() as u64;
             self.stats.gradient_evals += gradients;
@@ -742,8 +755,50 @@ mod tests {
         let mut row: Vec<(LatticePoint, i32)> = seeds.iter().map(|s| (lattice.nearest_corner(s.point), 9)).collect();
         row.sort_by_key(|(q, _)| q.x);
         let around = |x: f32| Aabb::around(Vec3A::new(x, 0.0, 0.0), 0.3);
-        assert_eq!(polygonizer.changed_part(&row, &around(2.0)), Some(&row[1..]));
-        assert_eq!(polygonizer.changed_part(&row, &around(-2.0)), Some(&row[..]));
-        assert_eq!(polygonizer.changed_part(&row, &around(0.0)), None);
+        let part = |x: f32| polygonizer.changed_part(&row, &around(x)).map(|(part, _)| part);
+        assert_eq!(part(2.0), Some(&row[1..]));
+        assert_eq!(part(-2.0), Some(&row[..]));
+        assert_eq!(part(0.0), None);
+    }
+
+    /// Three blobs on one lattice row, the middle one moved a little: the
+    /// local update marches the row from the middle blob's start, and the
+    /// marches past the hole, which read only values kept, must keep their
+    /// spans, so that later updates see where they reached. The records then
+    /// equal a fresh polygonization's.
+    #[test]
+    fn a_local_update_keeps_the_spans_of_the_marches_past_the_hole() {
+        let mut scene = Scene::parse(
+            "Scene(camera: Camera(eye: (0.0, 0.0, 9.0), target: (0.0, 0.0, 0.0), fov_y: 40.0), size: (8, 8),
+                   model: Blend([Point(center: (-3.0, 0.0, 0.0), radius: 0.8),
+                                 Named(\"mid\", Point(center: (0.0, 0.0, 0.0), radius: 0.8)),
+                                 Point(center: (3.0, 0.0, 0.0), radius: 0.8), Point(center: (3.5, 0.0, 0.0), radius: 0.8)]))",
+            "three blobs",
+        )
+        .expect("test scene parses");
+        let lattice = Lattice { cell: 0.1 };
+        let mut local = Polygonizer::new(lattice, PolygonizeOptions::default());
+        local.polygonize(
+            &ModelField::new(&scene.model, EvalMode::Indexed),
+            &skeleton_seeds(&scene.model, scene.model.root()),
+        );
+        for by in [Vec3A::new(0.0, 0.0, 0.03), Vec3A::new(0.45, 0.0, -0.03)] {
+            let change =
+                scene.model.apply(&crate::field::Edit::Translate { node: "mid".into(), by: by.into() }).unwrap();
+            let region = scene.model.change_region(&change, false);
+            let field = ModelField::new(&scene.model, EvalMode::Indexed);
+            let seeds = skeleton_seeds(&scene.model, scene.model.root());
+            local.repolygonize(&field, &region, &seeds);
+            let mut fresh = Polygonizer::new(lattice, PolygonizeOptions::default());
+            fresh.polygonize(&field, &seeds);
+            let row = |p: &Polygonizer| {
+                p.row_spans.get(&(0, 0)).cloned().map(|mut s| {
+                    s.sort_unstable();
+                    s
+                })
+            };
+            assert!(fresh.row_spans[&(0, 0)].len() >= 3, "{:?}", fresh.row_spans[&(0, 0)]);
+            assert_eq!(row(&local), row(&fresh), "moved by {by}");
+        }
     }
 }

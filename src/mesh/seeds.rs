@@ -106,6 +106,35 @@ pub(super) struct Marched {
 pub(super) struct RowSpans {
     pub row: (i32, i32),
     pub spans: Vec<(i32, i32)>,
+    /// The first `x` from which these spans replace those recorded before.
+    pub from: i32,
+    /// Where the marches stopped, the spans recorded before from here on
+    /// still standing (see [`Rejoin`]).
+    pub kept_from: Option<i32>,
+}
+
+/// The starts of seed marches along one lattice row, by `x`, each with its
+/// reach in lattice steps.
+pub(super) type RowStarts = [(LatticePoint, i32)];
+
+/// What a row marched again after an edit knows of its marches before it.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Rejoin<'a> {
+    /// Where the marches start again: the starts from here on are marched
+    /// (or skipped) anew, and spans recorded from here on are replaced.
+    pub first: i32,
+    /// The last `x` whose value may have changed.
+    pub past: i32,
+    /// The spans the row's marches recorded before, sorted by start.
+    pub before: &'a [(i32, i32)],
+}
+
+impl Rejoin<'_> {
+    /// True when a march from `x`, marched now, would find and record what
+    /// it did before: it starts past every change and was marched then.
+    fn rejoins_at(&self, x: i32) -> bool {
+        x > self.past && self.before.binary_search_by_key(&x, |s| s.0).is_ok()
+    }
 }
 
 /// Marches from seed starts (with their reach, in lattice steps) along
@@ -153,11 +182,24 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
     /// reach (how far it goes depends on the field's bounds too, which other
     /// edits move). Where no value in a march's span changes, marching again
     /// finds the same changes; a start it skipped finds some of them.
-    pub fn row(mut self, starts: &[(LatticePoint, i32)]) -> Marched {
+    ///
+    /// With `rejoin`, the row was marched before and changed only up to
+    /// `rejoin.past`: a start beyond it that is marched now and was marched
+    /// then (it has a span in `rejoin.before`) reads only values kept, and
+    /// every later start is skipped or marched as it was then (a march
+    /// leaves `crossed_up_to` either at what it found, or below its start
+    /// and so below every later one), so the marches stop there and the
+    /// result's `kept_from` says the spans recorded from it on stand.
+    pub fn row(mut self, starts: &RowStarts, rejoin: Option<Rejoin>) -> Marched {
         let mut crossed_up_to = i32::MIN;
         let mut spans = vec![];
+        let mut kept_from = None;
         for &(start, reach) in starts {
             if start.x > crossed_up_to {
+                if rejoin.is_some_and(|r| r.rejoins_at(start.x)) {
+                    kept_from = Some(start.x);
+                    break;
+                }
                 self.farthest = start.x;
                 let last = self.row_line(start, reach);
                 spans.push((start.x, self.farthest));
@@ -168,7 +210,8 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
         }
         let row = starts.first().map(|&(q, _)| (q.y, q.z));
         let mut marched = self.finish();
-        marched.row_spans = row.map(|row| RowSpans { row, spans });
+        let from = rejoin.map_or(i32::MIN, |r| r.first);
+        marched.row_spans = row.map(|row| RowSpans { row, spans, from, kept_from });
         marched
     }
 
@@ -322,7 +365,7 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
     }
 }
 
-/// True when the ray from `p` along +x meets box `b`.
-pub(super) fn row_meets(b: &Aabb, p: Vec3A) -> bool {
-    p.x <= b.max.x && (b.min.y..=b.max.y).contains(&p.y) && (b.min.z..=b.max.z).contains(&p.z)
+/// True when the line through `p` along x meets box `b`.
+pub(super) fn row_passes(b: &Aabb, p: Vec3A) -> bool {
+    (b.min.y..=b.max.y).contains(&p.y) && (b.min.z..=b.max.z).contains(&p.z)
 }
