@@ -42,8 +42,8 @@ impl EmptySpace {
         // Before a first render, point values at the coarse cells' corners
         // would fill cache samples that no ray reads (a cold cached render of
         // Medusa took ~5% longer with them).
-        let probe = !field.fills_caches_on_read();
-        space.mark(field, probe, |_| true);
+        let order = if field.fills_caches_on_read() { Order::RangesOnly } else { Order::ValuesFirst };
+        space.mark(field, order, |_| true);
         space
     }
 
@@ -55,13 +55,14 @@ impl EmptySpace {
         for b in changed {
             self.grid.for_each_row(b, |row| touched[row].fill(true));
         }
-        // The samples around an edit are read again by the rays re-traced there.
-        self.mark(field, true, |c| touched[c]);
+        // The samples around an edit are read again by the rays re-traced
+        // there; most cells keep their marks, so the old ones pick the order.
+        let before = self.empty.clone();
+        self.mark(field, Order::Guided(&before), |c| touched[c]);
     }
 
-    /// Marks the cells `chosen` picks, a block of cells at a time, settling
-    /// occupied cells by point values first where `probe` says.
-    fn mark<F: Field + ?Sized>(&mut self, field: &F, probe: bool, chosen: impl Fn(usize) -> bool + Sync) {
+    /// Marks the cells `chosen` picks, a block of cells at a time, in `order`.
+    fn mark<F: Field + ?Sized>(&mut self, field: &F, order: Order, chosen: impl Fn(usize) -> bool + Sync) {
         let grid = &self.grid;
         let blocks =
             UniformGrid::new(grid.origin, grid.cell * BLOCK as f32, (grid.dims + UVec3::splat(BLOCK - 1)) / BLOCK);
@@ -69,7 +70,7 @@ impl EmptySpace {
             .into_par_iter()
             .flat_map_iter(|b| {
                 let first = blocks.coords(b) * BLOCK;
-                let mut marker = BlockMarker::new(field, grid, &chosen, first, probe);
+                let mut marker = BlockMarker::new(field, grid, &chosen, first, order);
                 marker.descend(first, (first + UVec3::splat(BLOCK)).min(grid.dims));
                 marker.marks
             })
@@ -107,6 +108,22 @@ impl EmptySpace {
     }
 }
 
+/// Which questions settle a part of a block first. Each cell's mark is its
+/// range against the threshold whatever the order (a point value at or above
+/// it puts the range there too); the order only saves work.
+#[derive(Clone, Copy)]
+enum Order<'a> {
+    /// Ranges only: before a first cached render, point values would fill
+    /// cache samples that no ray reads.
+    RangesOnly,
+    /// Whole blocks by their range, smaller parts by point values first.
+    ValuesFirst,
+    /// After an edit, by the marks before it (indexed by cell): a part all
+    /// empty before asks its range first, and a block not all empty before
+    /// goes straight to its parts, whose values settle most of it.
+    Guided(&'a [bool]),
+}
+
 /// Marks the chosen cells of one block, from the whole block down to single
 /// cells. Most of a model's bounds (and of an edit's boxes) is whole blocks
 /// whose range stays below the threshold, answered by one range query. Below
@@ -121,8 +138,8 @@ struct BlockMarker<'a, F: ?Sized, C> {
     chosen: &'a C,
     /// Ranges below this leave a cell empty: the threshold less [`super::outside_margin`].
     level: f32,
-    /// Whether to ask point values before ranges below a block.
-    probe: bool,
+    /// Which questions to ask first.
+    order: Order<'a>,
     /// Lattice point (0, 0, 0) of the block's corner values.
     first: UVec3,
     /// Whether the field reaches the threshold at each lattice point of the
@@ -136,10 +153,10 @@ struct BlockMarker<'a, F: ?Sized, C> {
 const PROBES: usize = 2 * BLOCK as usize + 1;
 
 impl<'a, F: Field + ?Sized, C: Fn(usize) -> bool> BlockMarker<'a, F, C> {
-    fn new(field: &'a F, grid: &'a UniformGrid, chosen: &'a C, first: UVec3, probe: bool) -> Self {
+    fn new(field: &'a F, grid: &'a UniformGrid, chosen: &'a C, first: UVec3, order: Order<'a>) -> Self {
         let iso = field.threshold();
         let level = iso - super::outside_margin(iso);
-        Self { field, grid, chosen, level, probe, first, reached: [None; PROBES * PROBES * PROBES], marks: vec![] }
+        Self { field, grid, chosen, level, order, first, reached: [None; PROBES * PROBES * PROBES], marks: vec![] }
     }
 
     /// Marks the chosen cells in `lo..hi`.
@@ -151,8 +168,20 @@ impl<'a, F: Field + ?Sized, C: Fn(usize) -> bool> BlockMarker<'a, F, C> {
         }
         let whole_block = hi - lo == UVec3::splat(BLOCK);
         let single = hi - lo == UVec3::ONE;
-        // A whole block is mostly empty space: ask its range first.
-        if self.probe && !whole_block && self.reaches_threshold(lo, hi) {
+        let (values_first, straight_down) = match self.order {
+            Order::RangesOnly => (false, false),
+            // A whole block is mostly empty space: ask its range first.
+            Order::ValuesFirst => (!whole_block, false),
+            Order::Guided(before) => {
+                let was_empty = cells.iter().all(|&c| before[c]);
+                (!whole_block && !was_empty, whole_block && !was_empty)
+            }
+        };
+        if straight_down {
+            self.split(lo, hi);
+            return;
+        }
+        if values_first && self.reaches_threshold(lo, hi) {
             if single {
                 self.marks.push((cells[0], false));
             } else {
@@ -174,7 +203,7 @@ impl<'a, F: Field + ?Sized, C: Fn(usize) -> bool> BlockMarker<'a, F, C> {
     /// cell; without point values, straight into its cells, since a range
     /// query over half a block seldom spares the queries over its cells.
     fn split(&mut self, lo: UVec3, hi: UVec3) {
-        if !self.probe {
+        if matches!(self.order, Order::RangesOnly) {
             for i in cells_between(lo, hi) {
                 self.descend(i, i + UVec3::ONE);
             }
@@ -284,9 +313,49 @@ mod tests {
             assert_eq!(space.empty, direct, "bounds {:?}, point values first", ball.0);
             assert!(space.empty_fraction() > empty_at_least && space.empty_fraction() < 1.0);
             space.empty.fill(false);
-            space.mark(&ball, false, |_| true);
+            space.mark(&ball, Order::RangesOnly, |_| true);
             assert_eq!(space.empty, direct, "bounds {:?}, ranges only", ball.0);
         }
+    }
+
+    /// [`BALL`] moved by an offset, in the same bounds.
+    struct Moved(Vec3A);
+
+    impl Field for Moved {
+        fn value(&self, p: Vec3A) -> f32 {
+            BALL.value(p - self.0)
+        }
+        fn gradient(&self, p: Vec3A) -> Vec3A {
+            BALL.gradient(p - self.0)
+        }
+        fn color(&self, p: Vec3A) -> glam::Vec3 {
+            BALL.color(p)
+        }
+        fn interval(&self, b: &Aabb) -> Interval {
+            BALL.interval(&Aabb::new(b.min - self.0, b.max - self.0))
+        }
+        fn lipschitz(&self, r: &super::super::Region) -> f32 {
+            BALL.lipschitz(r)
+        }
+        fn bounds(&self) -> Aabb {
+            BALL.0
+        }
+        fn threshold(&self) -> f32 {
+            0.5
+        }
+    }
+
+    #[test]
+    fn an_update_guided_by_the_old_marks_equals_marking_every_cell() {
+        let mut space = EmptySpace::build(&BALL);
+        let moved = Moved(Vec3A::new(0.3, -0.25, 0.1));
+        space.update(&moved, &[Aabb::around(Vec3A::ZERO, 1.0), Aabb::around(moved.0, 1.0)]);
+        let direct: Vec<bool> =
+            (0..space.grid.cell_count()).map(|c| moved.interval(&space.grid.cell_box(c)).hi < 0.5).collect();
+        assert_eq!(space.empty, direct);
+        let was_empty = EmptySpace::build(&BALL).empty;
+        let changed = direct.iter().zip(&was_empty).filter(|(a, b)| a != b).count();
+        assert!(changed > 100, "the move changed {changed} marks");
     }
 
     #[test]
