@@ -255,30 +255,34 @@ mod tests {
     use super::*;
     use crate::geom::Interval;
 
-    /// A ball of radius 1 at the origin, `f = 1 - |p|²` inside, and the bounds it claims.
-    struct Ball(Aabb);
+    /// A ball of radius 1 around `centre`, `f = 1 - |p - centre|²` inside,
+    /// and the bounds it claims.
+    struct Ball {
+        bounds: Aabb,
+        centre: Vec3A,
+    }
 
-    /// The ball inside bounds of ±2.
-    const BALL: Ball = Ball(Aabb { min: Vec3A::splat(-2.0), max: Vec3A::splat(2.0) });
+    /// The ball at the origin inside bounds of ±2.
+    const BALL: Ball = Ball { bounds: Aabb { min: Vec3A::splat(-2.0), max: Vec3A::splat(2.0) }, centre: Vec3A::ZERO };
 
     impl Field for Ball {
         fn value(&self, p: Vec3A) -> f32 {
-            (1.0 - p.length_squared()).max(0.0)
+            (1.0 - (p - self.centre).length_squared()).max(0.0)
         }
         fn gradient(&self, p: Vec3A) -> Vec3A {
-            -2.0 * p
+            -2.0 * (p - self.centre)
         }
         fn color(&self, _: Vec3A) -> glam::Vec3 {
             glam::Vec3::ONE
         }
         fn interval(&self, b: &Aabb) -> Interval {
-            Interval::new(0.0, (1.0 - b.distance_squared(Vec3A::ZERO)).max(0.0))
+            Interval::new(0.0, (1.0 - b.distance_squared(self.centre)).max(0.0))
         }
         fn lipschitz(&self, _: &super::super::Region) -> f32 {
             4.0
         }
         fn bounds(&self) -> Aabb {
-            self.0
+            self.bounds
         }
         fn threshold(&self) -> f32 {
             0.5
@@ -305,51 +309,24 @@ mod tests {
     #[test]
     fn marking_by_blocks_equals_marking_every_cell() {
         // Whole blocks only, then bounds cutting the ball and the last blocks short.
-        let cut = Ball(Aabb::new(Vec3A::new(-2.0, -1.3, -0.9), Vec3A::new(1.7, 1.1, 0.35)));
+        let cut = Ball { bounds: Aabb::new(Vec3A::new(-2.0, -1.3, -0.9), Vec3A::new(1.7, 1.1, 0.35)), ..BALL };
         for (ball, empty_at_least) in [(BALL, 0.9), (cut, 0.3)] {
             let mut space = EmptySpace::build(&ball);
             let direct: Vec<bool> =
                 (0..space.grid.cell_count()).map(|c| ball.interval(&space.grid.cell_box(c)).hi < 0.5).collect();
-            assert_eq!(space.empty, direct, "bounds {:?}, point values first", ball.0);
+            assert_eq!(space.empty, direct, "bounds {:?}, point values first", ball.bounds);
             assert!(space.empty_fraction() > empty_at_least && space.empty_fraction() < 1.0);
             space.empty.fill(false);
             space.mark(&ball, Order::RangesOnly, |_| true);
-            assert_eq!(space.empty, direct, "bounds {:?}, ranges only", ball.0);
-        }
-    }
-
-    /// [`BALL`] moved by an offset, in the same bounds.
-    struct Moved(Vec3A);
-
-    impl Field for Moved {
-        fn value(&self, p: Vec3A) -> f32 {
-            BALL.value(p - self.0)
-        }
-        fn gradient(&self, p: Vec3A) -> Vec3A {
-            BALL.gradient(p - self.0)
-        }
-        fn color(&self, p: Vec3A) -> glam::Vec3 {
-            BALL.color(p)
-        }
-        fn interval(&self, b: &Aabb) -> Interval {
-            BALL.interval(&Aabb::new(b.min - self.0, b.max - self.0))
-        }
-        fn lipschitz(&self, r: &super::super::Region) -> f32 {
-            BALL.lipschitz(r)
-        }
-        fn bounds(&self) -> Aabb {
-            BALL.0
-        }
-        fn threshold(&self) -> f32 {
-            0.5
+            assert_eq!(space.empty, direct, "bounds {:?}, ranges only", ball.bounds);
         }
     }
 
     #[test]
     fn an_update_guided_by_the_old_marks_equals_marking_every_cell() {
         let mut space = EmptySpace::build(&BALL);
-        let moved = Moved(Vec3A::new(0.3, -0.25, 0.1));
-        space.update(&moved, &[Aabb::around(Vec3A::ZERO, 1.0), Aabb::around(moved.0, 1.0)]);
+        let moved = Ball { centre: Vec3A::new(0.3, -0.25, 0.1), ..BALL };
+        space.update(&moved, &[Aabb::around(Vec3A::ZERO, 1.0), Aabb::around(moved.centre, 1.0)]);
         let direct: Vec<bool> =
             (0..space.grid.cell_count()).map(|c| moved.interval(&space.grid.cell_box(c)).hi < 0.5).collect();
         assert_eq!(space.empty, direct);
