@@ -321,37 +321,18 @@ impl Polygonizer {
         // A cell with a vertex in `near` has its cube (or, for a tetrahedron, its
         // owning cube) within one cube of it.
         let (lo, hi) = lattice.cubes_overlapping(&near.padded(cell));
-        let inside = |c: IVec3, margin: i32| c.cmpge(lo - margin).all() && c.cmple(hi + margin).all();
-        let shape = self.options.cells;
-        let (mut removed, mut border, mut around) = (vec![], vec![], vec![]);
         // The three maps are dropped from in parallel, each in one pass.
         let (corners, vertices, cells) = (&mut self.corners, &mut self.vertices, &mut self.cells);
-        rayon::join(
+        let ((), ((), hole_cells)) = rayon::join(
             || corners.retain(|&q, _| !near.contains(lattice.position(q))),
             || {
                 rayon::join(
                     || vertices.retain(|&k, _| !midpoints.contains(lattice.position(k) * 0.5)),
-                    || {
-                        cells.retain(|&c, &mut mask| {
-                            let keep = !inside(c.cube, 0);
-                            if !crossed(mask, shape) {
-                                return keep;
-                            }
-                            if !keep {
-                                removed.push(c);
-                            } else if inside(c.cube, 2) {
-                                // A crossed cell kept next to the hole: growth restarts
-                                // from its neighbours, and it may have lost vertices on
-                                // the hole's faces.
-                                shape.neighbours(c, mask, &mut around);
-                                border.push((c, mask));
-                            }
-                            keep
-                        });
-                    },
+                    || HoleCells::drop_from(cells, self.options.cells, (lo, hi)),
                 )
             },
         );
+        let HoleCells { removed, mut border, around } = hole_cells;
         let mut frontier = self.claim(around);
         let hole = Aabb::new(lo.as_vec3a() * cell, (hi + IVec3::ONE).as_vec3a() * cell);
         frontier.extend(self.seed(field, seeds, Some(&hole)));
@@ -700,6 +681,39 @@ impl Polygonizer {
             loops.lengths.extend(part.lengths);
         }
         loops
+    }
+}
+
+/// What dropping a local update's cells leaves to do.
+struct HoleCells {
+    /// The crossed cells dropped, whose triangles go.
+    removed: Vec<Cell>,
+    /// The crossed cells kept within two cubes of the dropped ones: growth
+    /// restarts from their neighbours, and they may have lost vertices on
+    /// the hole's faces.
+    border: Vec<(Cell, u8)>,
+    /// The border cells' neighbours across crossed faces.
+    around: Vec<Cell>,
+}
+
+impl HoleCells {
+    /// Drops from `cells` those whose cube lies in `lo..=hi`, in one pass.
+    fn drop_from(cells: &mut FxHashMap<Cell, u8>, shape: CellShape, (lo, hi): (IVec3, IVec3)) -> Self {
+        let inside = |c: IVec3, margin: i32| c.cmpge(lo - margin).all() && c.cmple(hi + margin).all();
+        let mut hole = Self { removed: vec![], border: vec![], around: vec![] };
+        cells.retain(|&c, &mut mask| {
+            let keep = !inside(c.cube, 0);
+            if crossed(mask, shape) {
+                if !keep {
+                    hole.removed.push(c);
+                } else if inside(c.cube, 2) {
+                    shape.neighbours(c, mask, &mut hole.around);
+                    hole.border.push((c, mask));
+                }
+            }
+            keep
+        });
+        hole
     }
 }
 
