@@ -168,7 +168,6 @@ pub fn march<F: Field + ?Sized>(
                 return (Crossing::At(root), out);
             }
         }
-        let took_curvature_step = curved.is_some();
         let mut ahead = None;
         let t_next = if bound.step < tol && bound.step < bound.room {
             // Near the surface the bound's steps shrink towards the crossing:
@@ -180,7 +179,7 @@ pub fn march<F: Field + ?Sized>(
             // walk on a lattice finer than the tolerance (the lattice is fixed
             // by the first frame's bounds; edits may grow the tolerance past it).
             lattice_step(t, bound.step, opts.quantum.unwrap_or(tol))
-        } else if relax && !took_curvature_step && bound.step < bound.room {
+        } else if relax && curved.is_none() && bound.step < bound.room {
             // Try a longer step and keep it if the slope bound still shows,
             // from both of its ends, that it crosses nothing (Keinert et al.
             // 2014); after the first miss the march stays conservative.
@@ -206,7 +205,7 @@ pub fn march<F: Field + ?Sized>(
         gradient = None;
         let v_next = ahead.unwrap_or_else(|| {
             out.evals += 1;
-            if took_curvature_step {
+            if curved.is_some() {
                 let (value, g) = field.value_and_gradient(ray.at(t_next));
                 gradient = Some(g);
                 value - iso
