@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, ordered_edge, sort_key};
-use super::seeds::{Evaluated, Marched, Rejoin, RowSpans, RowStarts, Seed, SeedMarch, row_passes};
+use super::seeds::{Evaluated, Marched, Rejoin, RowSpans, RowStarts, Seed, SeedMarch, SeedStarts, row_passes};
 use super::vertex::{VertexPlacement, place_on_edge};
 use super::{Mesh, bcc, cubes};
 use crate::field::{DEFAULT_COLOR, Field};
@@ -190,6 +190,8 @@ pub struct Polygonizer {
     /// For each lattice row seeds marched along (by `y` and `z`), the spans
     /// of `x` whose values decided what its marches found (see [`SeedMarch::row`]).
     row_spans: FxHashMap<(i32, i32), Vec<(i32, i32)>>,
+    /// The seeds' starts, sorted, from the last polygonization or update.
+    starts: SeedStarts,
     with_colors: bool,
     threshold: f32,
     stats: PolygonizeStats,
@@ -206,6 +208,7 @@ impl Polygonizer {
             cells: FxHashMap::default(),
             vertices: FxHashMap::default(),
             row_spans: FxHashMap::default(),
+            starts: SeedStarts::default(),
             with_colors: false,
             threshold: 0.0,
             stats: PolygonizeStats::default(),
@@ -372,18 +375,11 @@ impl Polygonizer {
             near_hole
                 .is_none_or(|b| b.distance_squared(lattice.position(q)) <= ((reach + 1) as f32 * lattice.cell).powi(2))
         };
-        // Only starts that can come near the hole are sorted (in a local update,
-        // a few of thousands). Neither test fails for a longer reach where it
-        // passes for a shorter one, so filtering before keeping each corner's
-        // longest reach keeps the same starts as filtering after.
-        let mut starts: Vec<(LatticePoint, i32)> = seeds
-            .iter()
-            .map(|s| (lattice.nearest_corner(s.point), (s.reach / lattice.cell).ceil() as i32 + 1))
-            .filter(|&(q, reach)| in_row(q) || walks_near_hole(q, reach))
-            .collect();
-        // One start per corner, with the longest reach; rows of equal (z, y) by x.
-        starts.sort_unstable_by_key(|&(q, reach)| (q.z, q.y, q.x, std::cmp::Reverse(reach)));
-        starts.dedup_by_key(|(q, _)| *q);
+        // Only starts that can come near the hole are kept (in a local update,
+        // a few of thousands); neither test fails for a longer reach where it
+        // passes for a shorter one.
+        self.starts.update(lattice, seeds);
+        let starts = self.starts.kept(|(q, reach)| in_row(q) || walks_near_hole(q, reach));
         let along_x: Vec<(LatticePoint, i32)> = starts.iter().copied().filter(|&(q, _)| in_row(q)).collect();
         let rows: Vec<(&RowStarts, Option<Rejoin>)> = along_x
             .chunk_by(|a, b| (a.0.y, a.0.z) == (b.0.y, b.0.z))

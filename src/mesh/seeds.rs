@@ -60,21 +60,29 @@ fn collect(model: &Model, id: NodeId, to_world: Affine3A, out: &mut Vec<Seed>) {
 
 /// A few points on a skeleton: the point, a segment's ends and middle, eight on a circle.
 fn skeleton_samples(s: &Skeleton) -> impl Iterator<Item = Vec3A> {
-    let points: Vec<Vec3A> = match *s {
-        Skeleton::Point { center } => vec![center],
-        Skeleton::Segment { a, b } => vec![a, (a + b) * 0.5, b],
+    // A fixed array: seeds are listed again for every local update, and a
+    // dense model has thousands of primitives.
+    let mut points = [Vec3A::ZERO; 8];
+    let count = match *s {
+        Skeleton::Point { center } => {
+            points[0] = center;
+            1
+        }
+        Skeleton::Segment { a, b } => {
+            points[..3].copy_from_slice(&[a, (a + b) * 0.5, b]);
+            3
+        }
         Skeleton::Circle { center, normal, ring } => {
             let u = normal.any_orthonormal_vector();
             let v = normal.cross(u);
-            (0..8)
-                .map(|i| {
-                    let a = i as f32 * std::f32::consts::FRAC_PI_4;
-                    center + (u * a.cos() + v * a.sin()) * ring
-                })
-                .collect()
+            for (i, point) in points.iter_mut().enumerate() {
+                let a = i as f32 * std::f32::consts::FRAC_PI_4;
+                *point = center + (u * a.cos() + v * a.sin()) * ring;
+            }
+            8
         }
     };
-    points.into_iter()
+    points.into_iter().take(count)
 }
 
 /// Lattice points evaluated on a walk, with their values.
@@ -116,6 +124,76 @@ pub(super) struct RowSpans {
 /// The starts of seed marches along one lattice row, by `x`, each with its
 /// reach in lattice steps.
 pub(super) type RowStarts = [(LatticePoint, i32)];
+
+/// A seed's start: its nearest lattice corner and its reach in lattice steps.
+pub(super) type Start = (LatticePoint, i32);
+
+/// Every seed's start, in the order rows are marched (by `z`, `y`, then `x`,
+/// the longest reach first), kept from one call to the next with the seeds
+/// it came from. A local update's seeds differ from the last call's in the
+/// few primitives an edit moved: those starts move alone, instead of
+/// thousands being sorted again each frame.
+#[derive(Clone, Debug, Default)]
+pub(super) struct SeedStarts {
+    seeds: Vec<Seed>,
+    sorted: Vec<Start>,
+}
+
+/// Seeds that moved, per seed, past which all are sorted afresh.
+const MAX_MOVED_SHARE: f64 = 1.0 / 16.0;
+
+impl SeedStarts {
+    /// Brings the starts up to date with `seeds` on `lattice` (the same lattice
+    /// at every call).
+    pub fn update(&mut self, lattice: Lattice, seeds: &[Seed]) {
+        let start = |s: &Seed| (lattice.nearest_corner(s.point), (s.reach / lattice.cell).ceil() as i32 + 1);
+        if self.seeds.len() == seeds.len() {
+            let moved: Vec<usize> = (0..seeds.len()).filter(|&i| self.seeds[i] != seeds[i]).collect();
+            if moved.len() as f64 <= MAX_MOVED_SHARE * seeds.len() as f64
+                && moved.iter().all(|&i| self.remove(start(&self.seeds[i])))
+            {
+                for i in moved {
+                    self.insert(start(&seeds[i]));
+                    self.seeds[i] = seeds[i];
+                }
+                return;
+            }
+        }
+        self.seeds = seeds.to_vec();
+        self.sorted = seeds.iter().map(start).collect();
+        self.sorted.sort_unstable_by_key(march_order);
+    }
+
+    /// One start per corner, the one with the longest reach, among those
+    /// `keep` passes, in march order. `keep` must not fail for a longer reach
+    /// where it passes for a shorter one: then keeping each corner's longest
+    /// reach first and filtering after keeps the starts filtering first would.
+    pub fn kept(&self, keep: impl Fn(Start) -> bool) -> Vec<Start> {
+        self.sorted.chunk_by(|a, b| a.0 == b.0).map(|same_corner| same_corner[0]).filter(|&s| keep(s)).collect()
+    }
+
+    /// Removes one copy of `start`; false if there is none.
+    fn remove(&mut self, start: Start) -> bool {
+        let key = march_order(&start);
+        let at = self.sorted.partition_point(|s| march_order(s) < key);
+        let found = self.sorted.get(at) == Some(&start);
+        if found {
+            self.sorted.remove(at);
+        }
+        found
+    }
+
+    fn insert(&mut self, start: Start) {
+        let key = march_order(&start);
+        let at = self.sorted.partition_point(|s| march_order(s) < key);
+        self.sorted.insert(at, start);
+    }
+}
+
+/// Rows of equal `(z, y)` by `x`; at one corner, the longest reach first.
+fn march_order(&(q, reach): &Start) -> (i32, i32, i32, std::cmp::Reverse<i32>) {
+    (q.z, q.y, q.x, std::cmp::Reverse(reach))
+}
 
 /// What a row marched again after an edit knows of its marches before it.
 #[derive(Clone, Copy, Debug)]
@@ -368,4 +446,44 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
 /// True when the line through `p` along x meets box `b`.
 pub(super) fn row_passes(b: &Aabb, p: Vec3A) -> bool {
     (b.min.y..=b.max.y).contains(&p.y) && (b.min.z..=b.max.z).contains(&p.z)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Seeds on a few lattice rows, several sharing a corner with different reaches.
+    fn seeds(shift: f32) -> Vec<Seed> {
+        (0..200)
+            .map(|i| {
+                let f = i as f32;
+                let point = Vec3A::new((f * 0.37).sin(), ((i % 5) as f32) * 0.1, ((i % 3) as f32) * 0.1) + shift;
+                Seed { point, reach: 0.05 + 0.01 * (i % 7) as f32 }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn starts_kept_after_a_few_seeds_move_equal_starts_sorted_afresh() {
+        let lattice = Lattice { cell: 0.1 };
+        let mut kept = SeedStarts::default();
+        let mut current = seeds(0.0);
+        kept.update(lattice, &current);
+        let moved = seeds(0.23);
+        // Moves of one seed at a time, onto other seeds' corners and back.
+        for i in [3, 17, 17, 150, 3, 199, 0] {
+            current[i] = if current[i] == moved[i] { seeds(0.0)[i] } else { moved[i] };
+            kept.update(lattice, &current);
+            let mut fresh = SeedStarts::default();
+            fresh.update(lattice, &current);
+            assert_eq!(kept.sorted, fresh.sorted, "after moving seed {i}");
+            assert_eq!(kept.kept(|_| true), fresh.kept(|_| true));
+        }
+        // One start per corner, the longest reach.
+        let all = kept.kept(|_| true);
+        assert!(all.windows(2).all(|w| march_order(&w[0]) < march_order(&w[1]) && w[0].0 != w[1].0));
+        for &(q, reach) in &all {
+            assert!(kept.sorted.iter().all(|&(p, r)| p != q || r <= reach));
+        }
+    }
 }
