@@ -32,16 +32,20 @@ const FREE: u64 = u64::MAX;
 /// The words live inline, after the header: a reader's loads of the
 /// generation and of its words then depend only on the slot's address, and
 /// go to memory together rather than one after the other.
+#[repr(C)]
 pub struct Slot {
     /// Even while the owner is stable; odd while the slot is reassigned.
     generation: AtomicU32,
-    /// Writers between their generation check and their store.
-    writers: AtomicU32,
-    /// The block key (cache serial and block coordinates) that holds the slot.
-    owner: AtomicU64,
     /// Pool clock at the last use, for least-recently-used eviction.
     last_used: AtomicU32,
+    /// The block key (cache serial and block coordinates) that holds the slot.
+    owner: AtomicU64,
     words: [AtomicU32; SLOT_WORDS],
+    /// Writers between their generation check and their store. Last, away
+    /// from the header every read loads: each store counts itself in and out
+    /// here, which would otherwise take the header's line from the other
+    /// threads reading the slot.
+    writers: AtomicU32,
 }
 
 /// The outcome of reading one word of a slot.
