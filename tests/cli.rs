@@ -778,3 +778,65 @@ fn bench_edit_reports_figure_8_and_plots_it() {
     assert!(image::open(&plot).is_ok());
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn view_runs_headless_on_keys_and_explains_a_missing_display() {
+    let dir = scratch("view");
+    let png = dir.join("view.png");
+    let keys = "right,right,up,v";
+    let out = blobtrace(&[
+        "view",
+        "scenes/hair_point.ron",
+        "--node",
+        "probe",
+        "--res",
+        "24",
+        "--size",
+        "80x60",
+        "--headless",
+        "--keys",
+        keys,
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "failed: {stderr}");
+    assert!(stderr.contains("mesh") && stderr.contains("moving probe") && stderr.contains("frame 3"), "{stderr}");
+    let img = image::open(&png).expect("a PNG was written").to_rgb8();
+    assert_eq!(img.dimensions(), (80, 60));
+    // Bad input: an unknown key, an unknown node, no window to open.
+    let bad_key =
+        blobtrace(&["view", "scenes/sphere.ron", "--headless", "--keys", "left,f13", "-o", png.to_str().unwrap()]);
+    assert!(!bad_key.status.success() && String::from_utf8_lossy(&bad_key.stderr).contains("unknown key \"f13\""));
+    let scripted = blobtrace(&[
+        "view",
+        "scenes/hair_point.ron",
+        "--script",
+        "scenes/hair-probe.ron",
+        "--res",
+        "24",
+        "--size",
+        "40x30",
+        "--headless",
+        "--keys",
+        "space,space",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    let scripted_err = String::from_utf8_lossy(&scripted.stderr);
+    assert!(scripted.status.success() && scripted_err.contains("frame 2"), "{scripted_err}");
+    let bad_node =
+        blobtrace(&["view", "scenes/hair_point.ron", "--node", "tail", "--headless", "-o", png.to_str().unwrap()]);
+    let bad_node_err = String::from_utf8_lossy(&bad_node.stderr);
+    assert!(!bad_node.status.success() && bad_node_err.contains("no node is named \"tail\""), "{bad_node_err}");
+    let no_display = Command::new(env!("CARGO_BIN_EXE_blobtrace"))
+        .args(["view", "scenes/sphere.ron", "--res", "16", "--size", "32x24"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&no_display.stderr);
+    assert!(!no_display.status.success() && err.contains("--headless") && !err.contains("panicked"), "{err}");
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -118,16 +118,17 @@ pub struct EditReport {
 }
 
 /// Everything kept between frames.
-struct EditState {
-    settings: RenderSettings,
+pub(super) struct EditState {
+    pub(super) settings: RenderSettings,
     mode: EvalMode,
-    polygonizer: Polygonizer,
-    dynamic: DynamicMesh,
-    field_frame: Frame,
+    pub(super) polygonizer: Polygonizer,
+    pub(super) dynamic: DynamicMesh,
+    pub(super) field_frame: Frame,
     /// The field's empty space, updated where each edit changed the field.
     empty: EmptySpace,
-    mesh_frame: Frame,
-    depth_diff: Vec<f32>,
+    pub(super) mesh_frame: Frame,
+    /// Mesh depth less field depth, per pixel.
+    pub(super) depth_diff: Vec<f32>,
 }
 
 /// Runs `blobtrace edit`.
@@ -167,7 +168,7 @@ pub fn run(a: &EditArgs) -> anyhow::Result<()> {
 
 /// Checks before any work that every edit names a node that exists by then
 /// (names added and removed by earlier edits of the script count).
-fn check_names(scene: &Scene, frames: &[Vec<Edit>]) -> Result<(), String> {
+pub(super) fn check_names(scene: &Scene, frames: &[Vec<Edit>]) -> Result<(), String> {
     let mut known: std::collections::HashSet<String> = scene.model.names().into_iter().map(String::from).collect();
     for (i, edits) in frames.iter().enumerate() {
         for e in edits {
@@ -256,7 +257,7 @@ pub fn replay(
     Ok((rows, verified))
 }
 
-fn initial_state(scene: &Scene, mode: EvalMode, size: Size, polygonize: &PolygonizeArgs) -> EditState {
+pub(super) fn initial_state(scene: &Scene, mode: EvalMode, size: Size, polygonize: &PolygonizeArgs) -> EditState {
     let settings = RenderSettings::for_scene(scene, size);
     let (field_frame, _, empty) = render_model(&scene.model, mode, &settings, &|_| {});
     let field = ModelField::new(&scene.model, mode);
@@ -270,7 +271,7 @@ fn initial_state(scene: &Scene, mode: EvalMode, size: Size, polygonize: &Polygon
 }
 
 /// Applies one frame's edits and updates everything incrementally.
-fn step(
+pub(super) fn step(
     scene: &mut Scene,
     s: &mut EditState,
     edits: &[Edit],

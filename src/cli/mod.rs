@@ -13,6 +13,7 @@ mod progress;
 mod regress;
 mod render;
 mod slice;
+mod view;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -57,6 +58,10 @@ pub enum Command {
     Diff(diff::DiffArgs),
     /// Print what a scene holds: node, primitive and cache counts, names, bounds.
     Info(info::InfoArgs),
+    /// Preview a scene in a window: keys move its named nodes (or step an edit
+    /// script), and each move updates only what it changed; V switches between
+    /// the field render, the mesh render and their depth difference.
+    View(view::ViewArgs),
     /// Measure performance figures in one process, as ratios against a baseline.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -154,6 +159,7 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Exi
         Command::Edit(a) => edit::run(&a),
         Command::Mesh(a) => mesh::run(&a),
         Command::Info(a) => info::run(&a),
+        Command::View(a) => view::run(&a),
         Command::Bench(b) => bench::run(&b),
     };
     match result {

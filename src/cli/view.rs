@@ -1,0 +1,359 @@
+//! `blobtrace view`: the interactive previewer. A window shows the field
+//! render, the mesh render or their depth difference; keys move a named node
+//! or play an edit script, and each move updates only what it changed (the
+//! `edit` command's incremental frame: dirty rectangles, local mesh cells,
+//! BVH2 triangles, the difference in those rectangles). `--headless` runs the
+//! same loop on a list of keys instead of a window and writes the last view,
+//! so the previewer runs where there is no display (and under `cargo test`).
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+use glam::Vec3;
+
+use super::edit::{EditState, check_names, initial_state, step};
+use super::mesh::PolygonizeArgs;
+use super::{EvalOptions, with_threads};
+use crate::compare::{Rgb8Image, Scale, frame_image};
+use crate::field::Edit;
+use crate::scene::{Scene, Size, load_script};
+
+/// Options of `blobtrace view`.
+#[derive(Debug, Args)]
+pub struct ViewArgs {
+    /// Scene file (RON).
+    pub scene: PathBuf,
+    /// Image size WIDTHxHEIGHT (default: the scene's).
+    #[arg(long, value_parser = super::parse_size)]
+    pub size: Option<Size>,
+    /// Edit script (RON) whose frames Space steps through.
+    #[arg(long)]
+    pub script: Option<PathBuf>,
+    /// The named node the arrow keys move first (default: the first name).
+    #[arg(long)]
+    pub node: Option<String>,
+    /// Run without a window: apply `--keys` in order, then write the view to `--output`.
+    #[arg(long)]
+    pub headless: bool,
+    /// Keys for `--headless`, comma-separated: left, right, up, down, pageup,
+    /// pagedown, tab, v, space.
+    #[arg(long, value_delimiter = ',', requires = "headless")]
+    pub keys: Vec<String>,
+    /// The PNG `--headless` writes.
+    #[arg(short, long, default_value = "view.png", requires = "headless")]
+    pub output: PathBuf,
+    /// Polygonizer options.
+    #[command(flatten)]
+    pub polygonize: PolygonizeArgs,
+    /// Field evaluation.
+    #[command(flatten)]
+    pub field: EvalOptions,
+}
+
+/// The keys' meanings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Action {
+    /// Move the selected node one step along an axis (0, 1, 2) in a direction (±1).
+    Move(usize, f32),
+    /// Select the next named node.
+    NextNode,
+    /// Show the next view.
+    NextView,
+    /// Apply the script's next frame.
+    NextScriptFrame,
+}
+
+impl Action {
+    /// The action of a key named on the command line.
+    fn named(key: &str) -> anyhow::Result<Self> {
+        Ok(match key.trim().to_lowercase().as_str() {
+            "left" => Action::Move(0, -1.0),
+            "right" => Action::Move(0, 1.0),
+            "down" => Action::Move(1, -1.0),
+            "up" => Action::Move(1, 1.0),
+            "pagedown" => Action::Move(2, -1.0),
+            "pageup" => Action::Move(2, 1.0),
+            "tab" => Action::NextNode,
+            "v" => Action::NextView,
+            "space" => Action::NextScriptFrame,
+            other => anyhow::bail!(
+                "--keys: unknown key {other:?} (known: left, right, up, down, pageup, pagedown, tab, v, space)"
+            ),
+        })
+    }
+
+    /// The action of a key pressed in the window.
+    fn of_key(key: minifb::Key) -> Option<Self> {
+        use minifb::Key;
+        Some(match key {
+            Key::Left => Action::Move(0, -1.0),
+            Key::Right => Action::Move(0, 1.0),
+            Key::Down => Action::Move(1, -1.0),
+            Key::Up => Action::Move(1, 1.0),
+            Key::PageDown => Action::Move(2, -1.0),
+            Key::PageUp => Action::Move(2, 1.0),
+            Key::Tab => Action::NextNode,
+            Key::V => Action::NextView,
+            Key::Space => Action::NextScriptFrame,
+            _ => return None,
+        })
+    }
+}
+
+/// What the window shows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum View {
+    Field,
+    Mesh,
+    /// Mesh depth less field depth, red where the mesh lies behind.
+    Difference,
+}
+
+/// Moves through a model's edits one key at a time, keeping every image up to date.
+struct Viewer {
+    scene: Scene,
+    state: EditState,
+    /// The named nodes, sorted; the arrow keys move `names[selected]`.
+    names: Vec<String>,
+    selected: usize,
+    view: View,
+    /// The arrow keys' step: a fiftieth of the model's first bounding diagonal.
+    step_length: f32,
+    script: Vec<Vec<Edit>>,
+    next_script_frame: usize,
+    frames: usize,
+    /// The last frame's time and dirty fraction.
+    last: Option<(f64, f64)>,
+}
+
+impl Viewer {
+    fn new(scene: Scene, state: EditState, script: Vec<Vec<Edit>>, node: Option<&str>) -> anyhow::Result<Self> {
+        let names: Vec<String> = scene.model.names().into_iter().map(String::from).collect();
+        let selected = match node {
+            Some(n) => names
+                .iter()
+                .position(|m| m == n)
+                .with_context(|| format!("--node: no node is named {n:?} (names: {})", names.join(", ")))?,
+            None => 0,
+        };
+        let step_length = scene.model.bounds().diagonal() / 50.0;
+        Ok(Self {
+            scene,
+            state,
+            names,
+            selected,
+            view: View::Field,
+            step_length,
+            script,
+            next_script_frame: 0,
+            frames: 0,
+            last: None,
+        })
+    }
+
+    /// Carries out `action`; a move the frame's work cannot take (a node
+    /// carried too far for the mesh lattice) is taken back and reported.
+    fn act(&mut self, action: Action) -> anyhow::Result<()> {
+        match action {
+            Action::Move(axis, sign) => {
+                let Some(node) = self.names.get(self.selected).cloned() else {
+                    eprintln!("the scene names no node to move");
+                    return Ok(());
+                };
+                let mut by = Vec3::ZERO;
+                by[axis] = sign * self.step_length;
+                if let Err(e) = self.apply(&[Edit::Translate { node: node.clone(), by }]) {
+                    eprintln!("move refused: {e:#}");
+                    self.apply(&[Edit::Translate { node, by: -by }]).context("taking the refused move back")?;
+                }
+            }
+            Action::NextNode => self.selected = (self.selected + 1) % self.names.len().max(1),
+            Action::NextView => {
+                self.view = match self.view {
+                    View::Field => View::Mesh,
+                    View::Mesh => View::Difference,
+                    View::Difference => View::Field,
+                }
+            }
+            Action::NextScriptFrame => {
+                if let Some(edits) = self.script.get(self.next_script_frame).cloned() {
+                    self.apply(&edits).with_context(|| format!("script frame {}", self.next_script_frame))?;
+                    self.next_script_frame += 1;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// One incremental frame.
+    fn apply(&mut self, edits: &[Edit]) -> anyhow::Result<()> {
+        let (row, _) = step(&mut self.scene, &mut self.state, edits, self.frames)?;
+        self.frames += 1;
+        self.last = Some((row.incremental_s, row.dirty_fraction));
+        Ok(())
+    }
+
+    /// The current view, as an image of the render's size.
+    fn image(&self) -> Rgb8Image {
+        match self.view {
+            View::Field => frame_image(&self.state.field_frame),
+            View::Mesh => frame_image(&self.state.mesh_frame),
+            View::Difference => {
+                let (w, h) = (self.state.field_frame.width, self.state.field_frame.height);
+                // A lattice cell either way is the strongest colour.
+                let scale = Scale::Signed { max: self.state.polygonizer.lattice().cell };
+                let pixels = self.state.depth_diff.iter().flat_map(|&d| scale.color(d)).collect();
+                Rgb8Image { width: w, height: h, pixels }
+            }
+        }
+    }
+
+    /// The window's title: what is shown and what the last frame cost.
+    fn title(&self) -> String {
+        let view = match self.view {
+            View::Field => "field",
+            View::Mesh => "mesh",
+            View::Difference => "mesh − field depth (±1 cell)",
+        };
+        let node = self.names.get(self.selected).map_or("no named node", String::as_str);
+        let last = self.last.map_or(String::new(), |(s, dirty)| {
+            format!(" · frame {}: {:.1} ms, {:.1}% dirty", self.frames, 1e3 * s, 100.0 * dirty)
+        });
+        format!("blobtrace view · {view} · moving {node}{last}")
+    }
+}
+
+/// Runs `blobtrace view`.
+pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
+    let actions = a.keys.iter().map(|k| Action::named(k)).collect::<anyhow::Result<Vec<_>>>()?;
+    if a.headless {
+        super::check_output_file(&a.output, "png")?;
+    }
+    let mut scene = Scene::load(&a.scene)?;
+    let mode = a.field.apply(&mut scene.model)?;
+    a.polygonize.check(&scene)?;
+    let script = match &a.script {
+        Some(path) => {
+            let frames = load_script(path)?;
+            check_names(&scene, &frames).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
+            frames
+        }
+        None => vec![],
+    };
+    let size = a.size.unwrap_or(scene.size);
+    with_threads(None, || {
+        let state = initial_state(&scene, mode, size, &a.polygonize);
+        let mut viewer = Viewer::new(scene, state, script, a.node.as_deref())?;
+        if a.headless {
+            for action in actions {
+                viewer.act(action)?;
+            }
+            eprintln!("{}", viewer.title());
+            viewer.image().save_png(&a.output)
+        } else {
+            show(&mut viewer)
+        }
+    })?
+}
+
+/// The window loop: keys in, the current view out, until the window closes or Escape.
+fn show(viewer: &mut Viewer) -> anyhow::Result<()> {
+    use minifb::{Key, KeyRepeat, Window, WindowOptions};
+    let image = viewer.image();
+    let (w, h) = (image.width as usize, image.height as usize);
+    let mut window = Window::new(&viewer.title(), w, h, WindowOptions::default()).map_err(|e| {
+        anyhow::anyhow!("could not open a window ({e}); where there is no display, run with --headless --keys …")
+    })?;
+    window.set_target_fps(60);
+    let mut buffer = to_window_pixels(&image);
+    while window.is_open() && !window.is_key_down(Key::Escape) {
+        let actions: Vec<Action> =
+            window.get_keys_pressed(KeyRepeat::Yes).into_iter().filter_map(Action::of_key).collect();
+        if !actions.is_empty() {
+            for action in actions {
+                viewer.act(action)?;
+            }
+            buffer = to_window_pixels(&viewer.image());
+            window.set_title(&viewer.title());
+        }
+        window.update_with_buffer(&buffer, w, h).context("drawing the window")?;
+    }
+    Ok(())
+}
+
+/// `0RGB` words, as the window takes them.
+fn to_window_pixels(image: &Rgb8Image) -> Vec<u32> {
+    image.pixels.chunks_exact(3).map(|p| u32::from_be_bytes([0, p[0], p[1], p[2]])).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cli::mesh::{CellsArg, VertexArg};
+    use crate::field::{EvalMode, ModelField};
+    use crate::mesh::{Polygonizer, canonical_triangles, skeleton_seeds};
+    use crate::trace::render_model;
+
+    const SCENE: &str = "Scene(
+        camera: Camera(eye: (0.0, 0.5, 5.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
+        size: (48, 36),
+        model: Blend([
+            Named(\"left\", Point(center: (-0.6, 0.0, 0.0), radius: 1.0)),
+            Named(\"right\", Cache(res: 32, child: Point(center: (0.6, 0.0, 0.0), radius: 1.0))),
+        ]),
+    )";
+
+    fn viewer(mode: EvalMode) -> (Viewer, PolygonizeArgs) {
+        let scene = Scene::parse(SCENE, "inline").unwrap();
+        let polygonize = PolygonizeArgs { res: 24, cells: CellsArg::Cubes, vertex: VertexArg::Root, refine: 0 };
+        let state = initial_state(&scene, mode, scene.size, &polygonize);
+        (Viewer::new(scene, state, vec![], None).unwrap(), polygonize)
+    }
+
+    #[test]
+    fn after_moves_by_key_the_views_equal_a_render_and_a_mesh_from_scratch() {
+        for mode in [EvalMode::Indexed, EvalMode::Cached] {
+            let (mut v, polygonize) = viewer(mode);
+            let keys = ["right", "right", "up", "tab", "left", "pagedown", "tab", "down"];
+            for key in keys {
+                v.act(Action::named(key).unwrap()).unwrap();
+            }
+            assert_eq!(v.frames, 6, "every move is a frame; tab is none");
+            let full = render_model(&v.scene.model, mode, &v.state.settings, &|_| {}).0;
+            assert!(full.same_image(&v.state.field_frame), "{mode:?}: the field view differs from a full render");
+            let mut fresh = Polygonizer::new(v.state.polygonizer.lattice(), polygonize.options());
+            let field = ModelField::new(&v.scene.model, mode);
+            fresh.polygonize(&field, &skeleton_seeds(&v.scene.model, v.scene.model.root()));
+            assert_eq!(fresh.mesh().triangle_set(), canonical_triangles(v.state.dynamic.triangles()));
+            // The moves went where the keys said: `left` two steps right, one
+            // up and one down; `right` a step left and one back.
+            let centre =
+                |model: &crate::field::Model, name: &str| model.node(model.find(name).unwrap()).bounds.center();
+            let start = Scene::parse(SCENE, "inline").unwrap();
+            let moved = |name: &str| centre(&v.scene.model, name) - centre(&start.model, name);
+            let s = v.step_length;
+            assert!((moved("left") - glam::Vec3A::new(2.0 * s, 0.0, 0.0)).length() < 1e-5, "{}", moved("left"));
+            assert!((moved("right") - glam::Vec3A::new(-s, 0.0, -s)).length() < 1e-5, "{}", moved("right"));
+        }
+    }
+
+    #[test]
+    fn the_views_cycle_and_differ_and_unknown_keys_are_refused() {
+        let (mut v, _) = viewer(EvalMode::Indexed);
+        let field = v.image();
+        v.act(Action::NextView).unwrap();
+        let mesh = v.image();
+        v.act(Action::NextView).unwrap();
+        let difference = v.image();
+        v.act(Action::NextView).unwrap();
+        assert_eq!(v.image().pixels, field.pixels, "three presses come back to the field");
+        assert_ne!(mesh.pixels, field.pixels);
+        assert_ne!(difference.pixels, field.pixels);
+        for image in [&field, &mesh, &difference] {
+            assert_eq!((image.width, image.height), (48, 36));
+        }
+        let err = Action::named("F13").unwrap_err().to_string();
+        assert!(err.contains("unknown key") && err.contains("f13"), "{err}");
+    }
+}
