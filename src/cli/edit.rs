@@ -21,7 +21,9 @@ use crate::frame::Frame;
 use crate::geom::Aabb;
 use crate::mesh::{Polygonizer, canonical_triangles, skeleton_seeds};
 use crate::scene::{Scene, Size, load_script};
-use crate::trace::{PixelRect, RenderSettings, changed_space, merge_rects, render_model, rerender, screen_rect};
+use crate::trace::{
+    PixelRect, RenderSettings, changed_space, merge_rects, render, render_model, rerender, screen_rect,
+};
 
 /// Options of `blobtrace edit`.
 #[derive(Debug, Args)]
@@ -268,6 +270,16 @@ pub(super) fn initial_state(scene: &Scene, mode: EvalMode, size: Size, polygoniz
     let mesh_frame = render_mesh(&dynamic, &settings, &|_| {}).0;
     let depth_diff = differences(&mesh_frame, &field_frame, Metric::Depth);
     EditState { settings, mode, polygonizer, dynamic, field_frame, empty, mesh_frame, depth_diff }
+}
+
+/// Looks through `camera` from now on: the field, the mesh and their
+/// difference are rendered again whole (the empty space and the mesh keep).
+pub(super) fn set_camera(scene: &Scene, s: &mut EditState, camera: crate::camera::Camera) {
+    s.settings.camera = camera;
+    let field = ModelField::new(&scene.model, s.mode);
+    s.field_frame = render(&field.skipping(&s.empty), &s.settings, &|_| {}).0;
+    s.mesh_frame = render_mesh(&s.dynamic, &s.settings, &|_| {}).0;
+    s.depth_diff = differences(&s.mesh_frame, &s.field_frame, Metric::Depth);
 }
 
 /// Applies one frame's edits and updates everything incrementally.

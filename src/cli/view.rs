@@ -1,8 +1,10 @@
 //! `blobtrace view`: the interactive previewer. A window shows the field
 //! render, the mesh render or their depth difference; keys move a named node
-//! or play an edit script, and each move updates only what it changed (the
-//! `edit` command's incremental frame: dirty rectangles, local mesh cells,
-//! BVH2 triangles, the difference in those rectangles). `--headless` runs the
+//! along the screen or play an edit script, and each move updates only what
+//! it changed (the `edit` command's incremental frame: dirty rectangles,
+//! local mesh cells, BVH2 triangles, the difference in those rectangles).
+//! Other keys orbit and zoom the camera about the model, which renders the
+//! images again whole (the empty space and the mesh stay). `--headless` runs the
 //! same loop on a list of keys instead of a window and writes the last view,
 //! so the previewer runs where there is no display (and under `cargo test`).
 
@@ -12,9 +14,10 @@ use anyhow::Context;
 use clap::Args;
 use glam::Vec3;
 
-use super::edit::{EditState, check_names, initial_state, step};
+use super::edit::{EditState, check_names, initial_state, set_camera, step};
 use super::mesh::PolygonizeArgs;
 use super::{EvalOptions, with_threads};
+use crate::camera::Camera;
 use crate::compare::{Rgb8Image, Scale, frame_image};
 use crate::field::Edit;
 use crate::scene::{Scene, Size, load_script};
@@ -37,7 +40,8 @@ pub struct ViewArgs {
     #[arg(long)]
     pub headless: bool,
     /// Keys for `--headless`, comma-separated: left, right, up, down, pageup,
-    /// pagedown, tab, v, space.
+    /// pagedown (move the node), tab (next node), v (next view), space (next
+    /// script frame), a, d, w, s (orbit), z, x (zoom in, out).
     #[arg(long, value_delimiter = ',', requires = "headless")]
     pub keys: Vec<String>,
     /// The PNG `--headless` writes.
@@ -54,7 +58,8 @@ pub struct ViewArgs {
 /// The keys' meanings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Action {
-    /// Move the selected node one step along an axis (0, 1, 2) in a direction (±1).
+    /// Move the selected node one step along the screen's right (0), up (1)
+    /// or depth away from the viewer (2), in a direction (±1).
     Move(usize, f32),
     /// Select the next named node.
     NextNode,
@@ -62,7 +67,17 @@ enum Action {
     NextView,
     /// Apply the script's next frame.
     NextScriptFrame,
+    /// Turn the camera about the model's centre: degrees about the up axis
+    /// (positive: the camera moves to its right) and towards the up axis.
+    Orbit(f32, f32),
+    /// Bring the camera this factor of its distance to the model's centre.
+    Zoom(f32),
 }
+
+/// Degrees an orbit key turns the camera.
+const ORBIT_DEGREES: f32 = 10.0;
+/// The factor a zoom key moves the camera in by (its inverse, out).
+const ZOOM_FACTOR: f32 = 0.9;
 
 impl Action {
     /// The action of a key named on the command line.
@@ -77,8 +92,14 @@ impl Action {
             "tab" => Action::NextNode,
             "v" => Action::NextView,
             "space" => Action::NextScriptFrame,
+            "a" => Action::Orbit(-ORBIT_DEGREES, 0.0),
+            "d" => Action::Orbit(ORBIT_DEGREES, 0.0),
+            "w" => Action::Orbit(0.0, ORBIT_DEGREES),
+            "s" => Action::Orbit(0.0, -ORBIT_DEGREES),
+            "z" => Action::Zoom(ZOOM_FACTOR),
+            "x" => Action::Zoom(1.0 / ZOOM_FACTOR),
             other => anyhow::bail!(
-                "--keys: unknown key {other:?} (known: left, right, up, down, pageup, pagedown, tab, v, space)"
+                "--keys: unknown key {other:?} (known: left, right, up, down, pageup, pagedown, tab, v, space, a, d, w, s, z, x)"
             ),
         })
     }
@@ -96,6 +117,12 @@ impl Action {
             Key::Tab => Action::NextNode,
             Key::V => Action::NextView,
             Key::Space => Action::NextScriptFrame,
+            Key::A => Action::Orbit(-ORBIT_DEGREES, 0.0),
+            Key::D => Action::Orbit(ORBIT_DEGREES, 0.0),
+            Key::W => Action::Orbit(0.0, ORBIT_DEGREES),
+            Key::S => Action::Orbit(0.0, -ORBIT_DEGREES),
+            Key::Z => Action::Zoom(ZOOM_FACTOR),
+            Key::X => Action::Zoom(1.0 / ZOOM_FACTOR),
             _ => return None,
         })
     }
@@ -125,6 +152,45 @@ struct Viewer {
     frames: usize,
     /// The last frame's time and dirty fraction.
     last: Option<(f64, f64)>,
+    orbit: Orbit,
+}
+
+/// The camera as it orbits the model's first centre: its eye, the up axis it
+/// keeps, and its field of view.
+struct Orbit {
+    centre: Vec3,
+    eye: Vec3,
+    up: Vec3,
+    fov_y: f32,
+}
+
+/// Closest the camera's view comes to the up axis, in degrees.
+const MIN_POLE_DEGREES: f32 = 5.0;
+
+impl Orbit {
+    fn new(camera: &Camera, centre: Vec3) -> Self {
+        let fov_y = 2.0 * camera.tan_half_fov().atan().to_degrees();
+        Self { centre, eye: camera.eye.into(), up: camera.up().into(), fov_y }
+    }
+
+    /// Applies an orbit or zoom and returns the camera looking at the centre.
+    fn moved(&mut self, action: Action) -> Camera {
+        let offset = self.eye - self.centre;
+        let offset = match action {
+            Action::Orbit(yaw, pitch) => {
+                let turned = glam::Quat::from_axis_angle(self.up, yaw.to_radians()) * offset;
+                let right = turned.cross(self.up).normalize_or_zero();
+                // Stop short of the poles, where the view would flip over.
+                let from_up = turned.angle_between(self.up).to_degrees();
+                let pitch = pitch.clamp(from_up - (180.0 - MIN_POLE_DEGREES), from_up - MIN_POLE_DEGREES);
+                glam::Quat::from_axis_angle(right, pitch.to_radians()) * turned
+            }
+            Action::Zoom(factor) => offset * factor,
+            _ => offset,
+        };
+        self.eye = self.centre + offset;
+        Camera::look_at(self.eye, self.centre, self.up, self.fov_y)
+    }
 }
 
 impl Viewer {
@@ -137,7 +203,9 @@ impl Viewer {
                 .with_context(|| format!("--node: no node is named {n:?} (names: {})", names.join(", ")))?,
             None => 0,
         };
-        let step_length = scene.model.bounds().diagonal() / 50.0;
+        let bounds = scene.model.bounds();
+        let step_length = bounds.diagonal() / 50.0;
+        let orbit = Orbit::new(&state.settings.camera, bounds.center().into());
         Ok(Self {
             scene,
             state,
@@ -149,6 +217,7 @@ impl Viewer {
             next_script_frame: 0,
             frames: 0,
             last: None,
+            orbit,
         })
     }
 
@@ -161,8 +230,7 @@ impl Viewer {
                     eprintln!("the scene names no node to move");
                     return Ok(());
                 };
-                let mut by = Vec3::ZERO;
-                by[axis] = sign * self.step_length;
+                let by = Vec3::from(self.screen_axis(axis) * (sign * self.step_length));
                 if let Err(e) = self.apply(&[Edit::Translate { node: node.clone(), by }]) {
                     eprintln!("move refused: {e:#}");
                     self.apply(&[Edit::Translate { node, by: -by }]).context("taking the refused move back")?;
@@ -182,8 +250,19 @@ impl Viewer {
                     self.next_script_frame += 1;
                 }
             }
+            Action::Orbit(..) | Action::Zoom(_) => {
+                let camera = self.orbit.moved(action);
+                set_camera(&self.scene, &mut self.state, camera);
+            }
         }
         Ok(())
+    }
+
+    /// The camera's right (0), up (1) or forward (2) direction: a move is
+    /// along the screen whichever way the camera has turned.
+    fn screen_axis(&self, axis: usize) -> glam::Vec3A {
+        let camera = &self.state.settings.camera;
+        [camera.right(), camera.up(), camera.forward()][axis]
     }
 
     /// One incremental frame.
@@ -315,9 +394,15 @@ mod tests {
     fn after_moves_by_key_the_views_equal_a_render_and_a_mesh_from_scratch() {
         for mode in [EvalMode::Indexed, EvalMode::Cached] {
             let (mut v, polygonize) = viewer(mode);
-            let keys = ["right", "right", "up", "tab", "left", "pagedown", "tab", "down"];
+            let keys = ["right", "right", "a", "up", "tab", "w", "left", "z", "pagedown", "tab", "down"];
+            // Where each move should take its node: along the screen as the camera then was.
+            let mut expected = [glam::Vec3A::ZERO; 2];
             for key in keys {
-                v.act(Action::named(key).unwrap()).unwrap();
+                let action = Action::named(key).unwrap();
+                if let Action::Move(axis, sign) = action {
+                    expected[v.selected] += v.screen_axis(axis) * sign * v.step_length;
+                }
+                v.act(action).unwrap();
             }
             assert_eq!(v.frames, 6, "every move is a frame; tab is none");
             let full = render_model(&v.scene.model, mode, &v.state.settings, &|_| {}).0;
@@ -326,16 +411,35 @@ mod tests {
             let field = ModelField::new(&v.scene.model, mode);
             fresh.polygonize(&field, &skeleton_seeds(&v.scene.model, v.scene.model.root()));
             assert_eq!(fresh.mesh().triangle_set(), canonical_triangles(v.state.dynamic.triangles()));
-            // The moves went where the keys said: `left` two steps right, one
-            // up and one down; `right` a step left and one back.
+            // The moves went where the keys said.
             let centre =
                 |model: &crate::field::Model, name: &str| model.node(model.find(name).unwrap()).bounds.center();
             let start = Scene::parse(SCENE, "inline").unwrap();
-            let moved = |name: &str| centre(&v.scene.model, name) - centre(&start.model, name);
-            let s = v.step_length;
-            assert!((moved("left") - glam::Vec3A::new(2.0 * s, 0.0, 0.0)).length() < 1e-5, "{}", moved("left"));
-            assert!((moved("right") - glam::Vec3A::new(-s, 0.0, -s)).length() < 1e-5, "{}", moved("right"));
+            for (name, expected) in ["left", "right"].iter().zip(expected) {
+                let moved = centre(&v.scene.model, name) - centre(&start.model, name);
+                assert!((moved - expected).length() < 1e-5, "{name}: {moved} against {expected}");
+                assert!(expected.length() > 0.5 * v.step_length, "{name} moved");
+            }
         }
+    }
+
+    #[test]
+    fn orbit_keys_turn_the_camera_about_the_centre_and_stop_short_of_the_pole() {
+        let camera = Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
+        let mut orbit = Orbit::new(&camera, Vec3::ZERO);
+        let right = orbit.moved(Action::Orbit(ORBIT_DEGREES, 0.0));
+        assert!(right.eye.x > 0.0 && (right.eye.length() - 5.0).abs() < 1e-4, "d moves the camera to its right");
+        let up = orbit.moved(Action::Orbit(0.0, ORBIT_DEGREES));
+        assert!(up.eye.y > 0.0 && (up.eye.length() - 5.0).abs() < 1e-4, "w moves the camera up");
+        assert!((up.forward() + up.eye.normalize()).length() < 1e-5, "it keeps looking at the centre");
+        for _ in 0..30 {
+            orbit.moved(Action::Orbit(0.0, ORBIT_DEGREES));
+        }
+        let top = orbit.moved(Action::Zoom(ZOOM_FACTOR));
+        let from_up = top.eye.angle_between(glam::Vec3A::Y).to_degrees();
+        assert!((from_up - MIN_POLE_DEGREES).abs() < 1e-3, "{from_up}");
+        assert!((top.eye.length() - 5.0 * ZOOM_FACTOR).abs() < 1e-4);
+        assert!((top.tan_half_fov() - camera.tan_half_fov()).abs() < 1e-6);
     }
 
     #[test]
