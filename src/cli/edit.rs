@@ -15,7 +15,7 @@ use serde::Serialize;
 use super::mesh::{MAX_RES, PolygonizeArgs};
 use super::{EvalOptions, with_threads};
 use crate::bvh::{BvhUpdate, DynamicMesh, render_mesh, rerender_mesh};
-use crate::compare::{Metric, difference_at, differences, frame_image, line_plot};
+use crate::compare::{Metric, Rgb8Image, difference_at, differences, frame_image, line_plot};
 use crate::field::{Edit, EmptySpace, EvalMode, ModelField};
 use crate::frame::Frame;
 use crate::geom::Aabb;
@@ -401,6 +401,12 @@ fn image_mismatch(full: &Frame, kept: &Frame) -> Option<String> {
 
 fn save_frame(dir: &std::path::Path, i: usize, frame: &Frame, rects: &[PixelRect]) -> anyhow::Result<()> {
     let mut img = frame_image(frame);
+    outline(&mut img, rects);
+    img.save_png(&dir.join(format!("frame-{i:04}.png")))
+}
+
+/// Draws the edges of `rects` on `img`, in yellow.
+pub(super) fn outline(img: &mut Rgb8Image, rects: &[PixelRect]) {
     for r in rects {
         for x in r.x0..r.x1 {
             img.put(i64::from(x), i64::from(r.y0), [255, 220, 0]);
@@ -411,7 +417,6 @@ fn save_frame(dir: &std::path::Path, i: usize, frame: &Frame, rects: &[PixelRect
             img.put(i64::from(r.x1) - 1, i64::from(y), [255, 220, 0]);
         }
     }
-    img.save_png(&dir.join(format!("frame-{i:04}.png")))
 }
 
 fn summarize(rows: Vec<FrameRow>, verified: usize, mode: EvalMode) -> EditReport {

@@ -14,13 +14,14 @@ use anyhow::Context;
 use clap::Args;
 use glam::Vec3;
 
-use super::edit::{EditState, check_names, initial_state, set_camera, step};
+use super::edit::{EditState, check_names, initial_state, outline, set_camera, step};
 use super::mesh::PolygonizeArgs;
 use super::{EvalOptions, with_threads};
 use crate::camera::Camera;
 use crate::compare::{Rgb8Image, Scale, frame_image};
 use crate::field::Edit;
 use crate::scene::{Scene, Size, load_script};
+use crate::trace::PixelRect;
 
 /// Options of `blobtrace view`.
 #[derive(Debug, Args)]
@@ -41,7 +42,8 @@ pub struct ViewArgs {
     pub headless: bool,
     /// Keys for `--headless`, comma-separated: left, right, up, down, pageup,
     /// pagedown (move the node), tab (next node), v (next view), space (next
-    /// script frame), a, d, w, s (orbit), z, x (zoom in, out).
+    /// script frame), r (outline the dirty rectangles), a, d, w, s (orbit),
+    /// z, x (zoom in, out).
     #[arg(long, value_delimiter = ',', requires = "headless")]
     pub keys: Vec<String>,
     /// The PNG `--headless` writes.
@@ -67,6 +69,8 @@ enum Action {
     NextView,
     /// Apply the script's next frame.
     NextScriptFrame,
+    /// Outline the last frame's dirty rectangles, or stop.
+    ToggleRectangles,
     /// Turn the camera about the model's centre: degrees about the up axis
     /// (positive: the camera moves to its right) and towards the up axis.
     Orbit(f32, f32),
@@ -92,6 +96,7 @@ impl Action {
             "tab" => Action::NextNode,
             "v" => Action::NextView,
             "space" => Action::NextScriptFrame,
+            "r" => Action::ToggleRectangles,
             "a" => Action::Orbit(-ORBIT_DEGREES, 0.0),
             "d" => Action::Orbit(ORBIT_DEGREES, 0.0),
             "w" => Action::Orbit(0.0, ORBIT_DEGREES),
@@ -99,7 +104,7 @@ impl Action {
             "z" => Action::Zoom(ZOOM_FACTOR),
             "x" => Action::Zoom(1.0 / ZOOM_FACTOR),
             other => anyhow::bail!(
-                "--keys: unknown key {other:?} (known: left, right, up, down, pageup, pagedown, tab, v, space, a, d, w, s, z, x)"
+                "--keys: unknown key {other:?} (known: left, right, up, down, pageup, pagedown, tab, v, space, r, a, d, w, s, z, x)"
             ),
         })
     }
@@ -117,6 +122,7 @@ impl Action {
             Key::Tab => Action::NextNode,
             Key::V => Action::NextView,
             Key::Space => Action::NextScriptFrame,
+            Key::R => Action::ToggleRectangles,
             Key::A => Action::Orbit(-ORBIT_DEGREES, 0.0),
             Key::D => Action::Orbit(ORBIT_DEGREES, 0.0),
             Key::W => Action::Orbit(0.0, ORBIT_DEGREES),
@@ -152,6 +158,8 @@ struct Viewer {
     frames: usize,
     /// The last frame's time and dirty fraction.
     last: Option<(f64, f64)>,
+    /// The last frame's dirty rectangles, and whether the view outlines them.
+    dirty: (Vec<PixelRect>, bool),
     orbit: Orbit,
 }
 
@@ -217,6 +225,7 @@ impl Viewer {
             next_script_frame: 0,
             frames: 0,
             last: None,
+            dirty: (vec![], false),
             orbit,
         })
     }
@@ -250,9 +259,11 @@ impl Viewer {
                     self.next_script_frame += 1;
                 }
             }
+            Action::ToggleRectangles => self.dirty.1 = !self.dirty.1,
             Action::Orbit(..) | Action::Zoom(_) => {
                 let camera = self.orbit.moved(action);
                 set_camera(&self.scene, &mut self.state, camera);
+                self.dirty.0.clear();
             }
         }
         Ok(())
@@ -267,7 +278,8 @@ impl Viewer {
 
     /// One incremental frame.
     fn apply(&mut self, edits: &[Edit]) -> anyhow::Result<()> {
-        let (row, _) = step(&mut self.scene, &mut self.state, edits, self.frames)?;
+        let (row, rects) = step(&mut self.scene, &mut self.state, edits, self.frames)?;
+        self.dirty.0 = rects;
         self.frames += 1;
         self.last = Some((row.incremental_s, row.dirty_fraction));
         Ok(())
@@ -275,6 +287,14 @@ impl Viewer {
 
     /// The current view, as an image of the render's size.
     fn image(&self) -> Rgb8Image {
+        let mut image = self.view_image();
+        if self.dirty.1 {
+            outline(&mut image, &self.dirty.0);
+        }
+        image
+    }
+
+    fn view_image(&self) -> Rgb8Image {
         match self.view {
             View::Field => frame_image(&self.state.field_frame),
             View::Mesh => frame_image(&self.state.mesh_frame),
@@ -457,6 +477,12 @@ mod tests {
         for image in [&field, &mesh, &difference] {
             assert_eq!((image.width, image.height), (48, 36));
         }
+        v.act(Action::Move(0, 1.0)).unwrap();
+        let moved = v.image();
+        v.act(Action::ToggleRectangles).unwrap();
+        let outlined = v.image();
+        let yellow = |img: &Rgb8Image| img.pixels.chunks(3).filter(|p| p == &[255, 220, 0]).count();
+        assert!(yellow(&outlined) > yellow(&moved), "r outlines the move's dirty rectangles");
         let err = Action::named("F13").unwrap_err().to_string();
         assert!(err.contains("unknown key") && err.contains("f13"), "{err}");
     }
