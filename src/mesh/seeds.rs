@@ -139,8 +139,10 @@ pub(super) struct SeedStarts {
     sorted: Vec<Start>,
 }
 
-/// Seeds that moved, per seed, past which all are sorted afresh.
-const MAX_MOVED_SHARE: f64 = 1.0 / 16.0;
+/// Most moved seeds whose starts are moved one by one: each move shifts the
+/// list's tail (tens of kilobytes on Medusa's hair), and past a few dozen a
+/// fresh sort costs less.
+const MAX_MOVED_SEEDS: usize = 32;
 
 impl SeedStarts {
     /// Brings the starts up to date with `seeds` on `lattice` (the same lattice
@@ -149,9 +151,7 @@ impl SeedStarts {
         let start = |s: &Seed| (lattice.nearest_corner(s.point), (s.reach / lattice.cell).ceil() as i32 + 1);
         if self.seeds.len() == seeds.len() {
             let moved: Vec<usize> = (0..seeds.len()).filter(|&i| self.seeds[i] != seeds[i]).collect();
-            if moved.len() as f64 <= MAX_MOVED_SHARE * seeds.len() as f64
-                && moved.iter().all(|&i| self.remove(start(&self.seeds[i])))
-            {
+            if moved.len() <= MAX_MOVED_SEEDS && moved.iter().all(|&i| self.remove(start(&self.seeds[i]))) {
                 for i in moved {
                     self.insert(start(&seeds[i]));
                     self.seeds[i] = seeds[i];
@@ -470,13 +470,19 @@ mod tests {
         let mut current = seeds(0.0);
         kept.update(lattice, &current);
         let moved = seeds(0.23);
-        // Moves of one seed at a time, onto other seeds' corners and back.
-        for i in [3, 17, 17, 150, 3, 199, 0] {
-            current[i] = if current[i] == moved[i] { seeds(0.0)[i] } else { moved[i] };
+        // Moves of one seed at a time, onto other seeds' corners and back,
+        // then of more than are moved one by one.
+        for i in [3, 17, 17, 150, 3, 199, 0, 1000] {
+            if i == 1000 {
+                current = moved.clone();
+            } else {
+                current[i] = if current[i] == moved[i] { seeds(0.0)[i] } else { moved[i] };
+            }
             kept.update(lattice, &current);
             let mut fresh = SeedStarts::default();
             fresh.update(lattice, &current);
             assert_eq!(kept.sorted, fresh.sorted, "after moving seed {i}");
+            assert_eq!(kept.seeds, current);
             assert_eq!(kept.kept(|_| true), fresh.kept(|_| true));
         }
         // One start per corner, the longest reach.
