@@ -83,54 +83,42 @@ const ORBIT_DEGREES: f32 = 10.0;
 /// The factor a zoom key moves the camera in by (its inverse, out).
 const ZOOM_FACTOR: f32 = 0.9;
 
+/// Every key: its name for `--keys`, the window's key, and what it does.
+const KEYS: [(&str, minifb::Key, Action); 16] = {
+    use minifb::Key;
+    [
+        ("left", Key::Left, Action::Move(0, -1.0)),
+        ("right", Key::Right, Action::Move(0, 1.0)),
+        ("down", Key::Down, Action::Move(1, -1.0)),
+        ("up", Key::Up, Action::Move(1, 1.0)),
+        ("pagedown", Key::PageDown, Action::Move(2, -1.0)),
+        ("pageup", Key::PageUp, Action::Move(2, 1.0)),
+        ("tab", Key::Tab, Action::NextNode),
+        ("v", Key::V, Action::NextView),
+        ("space", Key::Space, Action::NextScriptFrame),
+        ("r", Key::R, Action::ToggleRectangles),
+        ("a", Key::A, Action::Orbit(-ORBIT_DEGREES, 0.0)),
+        ("d", Key::D, Action::Orbit(ORBIT_DEGREES, 0.0)),
+        ("w", Key::W, Action::Orbit(0.0, ORBIT_DEGREES)),
+        ("s", Key::S, Action::Orbit(0.0, -ORBIT_DEGREES)),
+        ("z", Key::Z, Action::Zoom(ZOOM_FACTOR)),
+        ("x", Key::X, Action::Zoom(1.0 / ZOOM_FACTOR)),
+    ]
+};
+
 impl Action {
     /// The action of a key named on the command line.
     fn named(key: &str) -> anyhow::Result<Self> {
-        Ok(match key.trim().to_lowercase().as_str() {
-            "left" => Action::Move(0, -1.0),
-            "right" => Action::Move(0, 1.0),
-            "down" => Action::Move(1, -1.0),
-            "up" => Action::Move(1, 1.0),
-            "pagedown" => Action::Move(2, -1.0),
-            "pageup" => Action::Move(2, 1.0),
-            "tab" => Action::NextNode,
-            "v" => Action::NextView,
-            "space" => Action::NextScriptFrame,
-            "r" => Action::ToggleRectangles,
-            "a" => Action::Orbit(-ORBIT_DEGREES, 0.0),
-            "d" => Action::Orbit(ORBIT_DEGREES, 0.0),
-            "w" => Action::Orbit(0.0, ORBIT_DEGREES),
-            "s" => Action::Orbit(0.0, -ORBIT_DEGREES),
-            "z" => Action::Zoom(ZOOM_FACTOR),
-            "x" => Action::Zoom(1.0 / ZOOM_FACTOR),
-            other => anyhow::bail!(
-                "--keys: unknown key {other:?} (known: left, right, up, down, pageup, pagedown, tab, v, space, r, a, d, w, s, z, x)"
-            ),
+        let key = key.trim().to_lowercase();
+        KEYS.iter().find(|(name, ..)| *name == key).map(|&(.., action)| action).with_context(|| {
+            let names: Vec<&str> = KEYS.iter().map(|(name, ..)| *name).collect();
+            format!("--keys: unknown key {key:?} (known: {})", names.join(", "))
         })
     }
 
     /// The action of a key pressed in the window.
     fn of_key(key: minifb::Key) -> Option<Self> {
-        use minifb::Key;
-        Some(match key {
-            Key::Left => Action::Move(0, -1.0),
-            Key::Right => Action::Move(0, 1.0),
-            Key::Down => Action::Move(1, -1.0),
-            Key::Up => Action::Move(1, 1.0),
-            Key::PageDown => Action::Move(2, -1.0),
-            Key::PageUp => Action::Move(2, 1.0),
-            Key::Tab => Action::NextNode,
-            Key::V => Action::NextView,
-            Key::Space => Action::NextScriptFrame,
-            Key::R => Action::ToggleRectangles,
-            Key::A => Action::Orbit(-ORBIT_DEGREES, 0.0),
-            Key::D => Action::Orbit(ORBIT_DEGREES, 0.0),
-            Key::W => Action::Orbit(0.0, ORBIT_DEGREES),
-            Key::S => Action::Orbit(0.0, -ORBIT_DEGREES),
-            Key::Z => Action::Zoom(ZOOM_FACTOR),
-            Key::X => Action::Zoom(1.0 / ZOOM_FACTOR),
-            _ => return None,
-        })
+        KEYS.iter().find(|(_, k, _)| *k == key).map(|&(.., action)| action)
     }
 }
 
@@ -240,9 +228,14 @@ impl Viewer {
                     return Ok(());
                 };
                 let by = Vec3::from(self.screen_axis(axis) * (sign * self.step_length));
+                let bounds = |v: &Self| v.scene.model.find(&node).map(|id| v.scene.model.node(id).bounds);
+                let before = bounds(self);
                 if let Err(e) = self.apply(&[Edit::Translate { node: node.clone(), by }]) {
                     eprintln!("move refused: {e:#}");
-                    self.apply(&[Edit::Translate { node, by: -by }]).context("taking the refused move back")?;
+                    // Refused after the model moved (by the frame's checks): move it back.
+                    if bounds(self) != before {
+                        self.apply(&[Edit::Translate { node, by: -by }]).context("taking the refused move back")?;
+                    }
                 }
             }
             Action::NextNode => self.selected = (self.selected + 1) % self.names.len().max(1),
@@ -441,6 +434,19 @@ mod tests {
                 assert!(expected.length() > 0.5 * v.step_length, "{name} moved");
             }
         }
+    }
+
+    #[test]
+    fn a_move_too_far_is_refused_and_leaves_the_views_consistent() {
+        let (mut v, _) = viewer(EvalMode::Cached);
+        let start = v.scene.model.node(v.scene.model.find("left").unwrap()).bounds;
+        // Far past where a model may reach (a thousand times its size).
+        v.step_length = 1.0e5;
+        v.act(Action::Move(0, 1.0)).unwrap();
+        let now = v.scene.model.node(v.scene.model.find("left").unwrap()).bounds;
+        assert!((now.center() - start.center()).length() < 0.02, "{start:?} -> {now:?}");
+        let full = render_model(&v.scene.model, EvalMode::Cached, &v.state.settings, &|_| {}).0;
+        assert!(full.same_image(&v.state.field_frame));
     }
 
     #[test]
