@@ -829,6 +829,26 @@ fn view_runs_headless_on_keys_and_explains_a_missing_display() {
         blobtrace(&["view", "scenes/hair_point.ron", "--node", "tail", "--headless", "-o", png.to_str().unwrap()]);
     let bad_node_err = String::from_utf8_lossy(&bad_node.stderr);
     assert!(!bad_node.status.success() && bad_node_err.contains("no node is named \"tail\""), "{bad_node_err}");
+    // Local updates run on the --res lattice alone: --refine is refused, not ignored.
+    let out_dir = dir.join("edit");
+    let commands: [&[&str]; 2] = [
+        &["view", "scenes/hair_point.ron", "--refine", "1", "--headless", "-o", png.to_str().unwrap()],
+        &[
+            "edit",
+            "scenes/hair_point.ron",
+            "--script",
+            "scenes/hair-probe.ron",
+            "--refine",
+            "1",
+            "--out-dir",
+            out_dir.to_str().unwrap(),
+        ],
+    ];
+    for args in commands {
+        let refined = blobtrace(&args);
+        let refined_err = String::from_utf8_lossy(&refined.stderr);
+        assert!(!refined.status.success() && refined_err.contains("--refine does not apply"), "{refined_err}");
+    }
     let no_display = Command::new(env!("CARGO_BIN_EXE_blobtrace"))
         .args(["view", "scenes/sphere.ron", "--res", "16", "--size", "32x24"])
         .current_dir(env!("CARGO_MANIFEST_DIR"))

@@ -141,7 +141,7 @@ pub fn run(a: &EditArgs) -> anyhow::Result<()> {
     check_names(&scene, &frames).map_err(|m| anyhow::anyhow!("{}: {m}", a.script.display()))?;
     let size = a.size.unwrap_or(scene.size);
     let report = with_threads(a.threads, || -> anyhow::Result<EditReport> {
-        a.polygonize.check(&scene)?;
+        a.polygonize.check_unrefined(&scene, "edit")?;
         std::fs::create_dir_all(&a.out_dir).with_context(|| format!("creating {}", a.out_dir.display()))?;
         let (rows, verified) = replay(&mut scene, mode, &frames, &a.polygonize, size, a.verify, |i, frame, rects| {
             if a.save_frames { save_frame(&a.out_dir, i, frame, rects) } else { Ok(()) }

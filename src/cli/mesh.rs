@@ -82,6 +82,17 @@ impl PolygonizeArgs {
         }
     }
 
+    /// [`Self::check`] for commands that update a mesh locally after edits,
+    /// which they do on the lattice of `--res` alone: `--refine` is refused
+    /// rather than ignored.
+    pub fn check_unrefined(&self, scene: &Scene, command: &str) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            self.refine == 0,
+            "--refine does not apply to `{command}`, whose local updates run on the --res lattice (use `mesh` or `render --mesh`)"
+        );
+        self.check(scene)
+    }
+
     /// Checks the resolution before any work: in range, and the mesh it would
     /// make (sized by a coarse probe polygonization, exact so that no cache is
     /// warmed) fits in memory.

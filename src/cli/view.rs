@@ -324,7 +324,7 @@ pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
     }
     let mut scene = Scene::load(&a.scene)?;
     let mode = a.field.apply(&mut scene.model)?;
-    a.polygonize.check(&scene)?;
+    a.polygonize.check_unrefined(&scene, "view")?;
     let script = match &a.script {
         Some(path) => {
             let frames = load_script(path)?;
