@@ -845,7 +845,7 @@ fn view_runs_headless_on_keys_and_explains_a_missing_display() {
         ],
     ];
     for args in commands {
-        let refined = blobtrace(&args);
+        let refined = blobtrace(args);
         let refined_err = String::from_utf8_lossy(&refined.stderr);
         assert!(!refined.status.success() && refined_err.contains("--refine does not apply"), "{refined_err}");
     }
