@@ -193,10 +193,10 @@ impl Viewer {
     fn new(scene: Scene, state: EditState, script: Vec<Vec<Edit>>, node: Option<&str>) -> anyhow::Result<Self> {
         let names: Vec<String> = scene.model.names().into_iter().map(String::from).collect();
         let selected = match node {
-            Some(n) => names
-                .iter()
-                .position(|m| m == n)
-                .with_context(|| format!("--node: no node is named {n:?} (names: {})", names.join(", ")))?,
+            Some(n) => names.iter().position(|m| m == n).with_context(|| match names.is_empty() {
+                true => format!("--node: no node is named {n:?} (the scene names none)"),
+                false => format!("--node: no node is named {n:?} (names: {})", names.join(", ")),
+            })?,
             None => 0,
         };
         let bounds = scene.model.bounds();
