@@ -43,11 +43,12 @@ pub struct ViewArgs {
     /// Keys for `--headless`, comma-separated: left, right, up, down, pageup,
     /// pagedown (move the node), tab (next node), v (next view), space (next
     /// script frame), r (outline the dirty rectangles), a, d, w, s (orbit),
-    /// z, x (zoom in, out).
+    /// z, x (zoom in, out), p (snapshot).
     #[arg(long, value_delimiter = ',', requires = "headless")]
     pub keys: Vec<String>,
-    /// The PNG `--headless` writes.
-    #[arg(short, long, default_value = "view.png", requires = "headless")]
+    /// The PNG `--headless` writes at the end; P writes snapshots beside it
+    /// (`view-0001.png`, …).
+    #[arg(short, long, default_value = "view.png")]
     pub output: PathBuf,
     /// Polygonizer options.
     #[command(flatten)]
@@ -76,6 +77,8 @@ enum Action {
     Orbit(f32, f32),
     /// Bring the camera this factor of its distance to the model's centre.
     Zoom(f32),
+    /// Write the view to the next numbered file beside `--output`.
+    Snapshot,
 }
 
 /// Degrees an orbit key turns the camera.
@@ -84,7 +87,7 @@ const ORBIT_DEGREES: f32 = 10.0;
 const ZOOM_FACTOR: f32 = 0.9;
 
 /// Every key: its name for `--keys`, the window's key, and what it does.
-const KEYS: [(&str, minifb::Key, Action); 16] = {
+const KEYS: [(&str, minifb::Key, Action); 17] = {
     use minifb::Key;
     [
         ("left", Key::Left, Action::Move(0, -1.0)),
@@ -103,6 +106,7 @@ const KEYS: [(&str, minifb::Key, Action); 16] = {
         ("s", Key::S, Action::Orbit(0.0, -ORBIT_DEGREES)),
         ("z", Key::Z, Action::Zoom(ZOOM_FACTOR)),
         ("x", Key::X, Action::Zoom(1.0 / ZOOM_FACTOR)),
+        ("p", Key::P, Action::Snapshot),
     ]
 };
 
@@ -149,6 +153,8 @@ struct Viewer {
     /// The last frame's dirty rectangles, and whether the view outlines them.
     dirty: (Vec<PixelRect>, bool),
     orbit: Orbit,
+    /// Where snapshots go (numbered from this name), and how many were taken.
+    snapshots: (PathBuf, usize),
 }
 
 /// The camera as it orbits the model's first centre: its eye, the up axis it
@@ -190,7 +196,13 @@ impl Orbit {
 }
 
 impl Viewer {
-    fn new(scene: Scene, state: EditState, script: Vec<Vec<Edit>>, node: Option<&str>) -> anyhow::Result<Self> {
+    fn new(
+        scene: Scene,
+        state: EditState,
+        script: Vec<Vec<Edit>>,
+        node: Option<&str>,
+        snapshot_path: PathBuf,
+    ) -> anyhow::Result<Self> {
         let names: Vec<String> = scene.model.names().into_iter().map(String::from).collect();
         let selected = match node {
             Some(n) => names.iter().position(|m| m == n).with_context(|| match names.is_empty() {
@@ -215,6 +227,7 @@ impl Viewer {
             last: None,
             dirty: (vec![], false),
             orbit,
+            snapshots: (snapshot_path, 0),
         })
     }
 
@@ -253,6 +266,12 @@ impl Viewer {
                 }
             }
             Action::ToggleRectangles => self.dirty.1 = !self.dirty.1,
+            Action::Snapshot => {
+                self.snapshots.1 += 1;
+                let path = numbered(&self.snapshots.0, self.snapshots.1);
+                self.image().save_png(&path)?;
+                eprintln!("wrote {}", path.display());
+            }
             Action::Orbit(..) | Action::Zoom(_) => {
                 let camera = self.orbit.moved(action);
                 set_camera(&self.scene, &mut self.state, camera);
@@ -319,9 +338,7 @@ impl Viewer {
 /// Runs `blobtrace view`.
 pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
     let actions = a.keys.iter().map(|k| Action::named(k)).collect::<anyhow::Result<Vec<_>>>()?;
-    if a.headless {
-        super::check_output_file(&a.output, "png")?;
-    }
+    super::check_output_file(&a.output, "png")?;
     let mut scene = Scene::load(&a.scene)?;
     let mode = a.field.apply(&mut scene.model)?;
     a.polygonize.check_unrefined(&scene, "view")?;
@@ -336,7 +353,7 @@ pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
     let size = a.size.unwrap_or(scene.size);
     with_threads(None, || {
         let state = initial_state(&scene, mode, size, &a.polygonize);
-        let mut viewer = Viewer::new(scene, state, script, a.node.as_deref())?;
+        let mut viewer = Viewer::new(scene, state, script, a.node.as_deref(), a.output.clone())?;
         if a.headless {
             for action in actions {
                 viewer.act(action)?;
@@ -347,6 +364,13 @@ pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
             show(&mut viewer)
         }
     })?
+}
+
+/// `dir/stem-NNNN.ext` for `dir/stem.ext`.
+fn numbered(path: &std::path::Path, n: usize) -> PathBuf {
+    let stem = path.file_stem().map_or("view".into(), |s| s.to_string_lossy());
+    let extension = path.extension().map_or("png".into(), |e| e.to_string_lossy());
+    path.with_file_name(format!("{stem}-{n:04}.{extension}"))
 }
 
 /// The window loop: keys in, the current view out, until the window closes or Escape.
@@ -400,7 +424,8 @@ mod tests {
         let scene = Scene::parse(SCENE, "inline").unwrap();
         let polygonize = PolygonizeArgs { res: 24, cells: CellsArg::Cubes, vertex: VertexArg::Root, refine: 0 };
         let state = initial_state(&scene, mode, scene.size, &polygonize);
-        (Viewer::new(scene, state, vec![], None).unwrap(), polygonize)
+        let snapshots = std::env::temp_dir().join(format!("blobtrace-view-test-{}.png", std::process::id()));
+        (Viewer::new(scene, state, vec![], None, snapshots).unwrap(), polygonize)
     }
 
     #[test]
@@ -489,6 +514,11 @@ mod tests {
         let outlined = v.image();
         let yellow = |img: &Rgb8Image| img.pixels.chunks(3).filter(|p| p == &[255, 220, 0]).count();
         assert!(yellow(&outlined) > yellow(&moved), "r outlines the move's dirty rectangles");
+        v.act(Action::Snapshot).unwrap();
+        let snapshot = numbered(&v.snapshots.0, 1);
+        let written = image::open(&snapshot).expect("p writes a snapshot").to_rgb8();
+        assert_eq!(written.as_raw(), &outlined.pixels, "the snapshot is the view");
+        std::fs::remove_file(snapshot).unwrap();
         let err = Action::named("F13").unwrap_err().to_string();
         assert!(err.contains("unknown key") && err.contains("f13"), "{err}");
     }
