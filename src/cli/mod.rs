@@ -61,7 +61,7 @@ pub enum Command {
     /// Preview a scene in a window: arrow keys move its named nodes along the
     /// screen (Space steps an edit script), each move updating only what it
     /// changed; V switches between the field render, the mesh render and their
-    /// depth difference, R outlines the dirty rectangles, A/D/W/S orbit, Z/X
+    /// depth difference, R outlines the dirty rectangles, P snapshots, A/D/W/S orbit, Z/X
     /// zoom. --headless takes the keys from --keys and writes the last view.
     View(view::ViewArgs),
     /// Measure performance figures in one process, as ratios against a baseline.
