@@ -8,7 +8,6 @@
 use std::time::{Duration, Instant};
 
 use blobtrace::field::{Edit, EvalMode, ModelField};
-use blobtrace::geom::Aabb;
 use blobtrace::mesh::{Lattice, PolygonizeOptions, Polygonizer, skeleton_seeds};
 use blobtrace::scene::Scene;
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
@@ -43,7 +42,7 @@ fn table_1(c: &mut Criterion) {
 /// Moves the probe by `by` and re-polygonizes; returns the re-polygonization's time.
 fn move_probe(scene: &mut Scene, p: &mut Polygonizer, mode: EvalMode, by: Vec3) -> Duration {
     let change = scene.model.apply(&Edit::Translate { node: "probe".into(), by }).expect("the probe moves");
-    let region: Aabb = scene.model.change_region(&change, mode == EvalMode::Cached);
+    let region = scene.model.change_region(&change, mode == EvalMode::Cached);
     let field = ModelField::new(&scene.model, mode);
     let seeds = skeleton_seeds(&scene.model, scene.model.root());
     let clock = Instant::now();

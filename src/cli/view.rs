@@ -366,11 +366,10 @@ pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
     })?
 }
 
-/// `dir/stem-NNNN.ext` for `dir/stem.ext`.
+/// `dir/stem-NNNN.png` for `dir/stem.png` (checked to end in `.png`).
 fn numbered(path: &std::path::Path, n: usize) -> PathBuf {
-    let stem = path.file_stem().map_or("view".into(), |s| s.to_string_lossy());
-    let extension = path.extension().map_or("png".into(), |e| e.to_string_lossy());
-    path.with_file_name(format!("{stem}-{n:04}.{extension}"))
+    let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+    path.with_file_name(format!("{stem}-{n:04}.png"))
 }
 
 /// The window loop: keys in, the current view out, until the window closes or Escape.
