@@ -130,7 +130,18 @@ pub fn run(a: &MeshBenchArgs) -> anyhow::Result<()> {
     if let Some(bad) = a.res.iter().chain([&a.detail_res]).find(|r| !(1..=max).contains(*r)) {
         anyhow::bail!("--res and --detail-res must be between 1 and {max}, got {bad}");
     }
-    let mut scene = Scene::load(&a.scene)?;
+    let scene = Scene::load(&a.scene)?;
+    let report = with_threads(None, || measure(a, scene))??;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
+    } else {
+        print_report(a, &report);
+    }
+    Ok(())
+}
+
+/// Every figure of the report, on the calling pool's threads.
+fn measure(a: &MeshBenchArgs, mut scene: Scene) -> anyhow::Result<MeshBenchReport> {
     let mut table1 = vec![];
     let mut skipped_res = vec![];
     for &res in &a.res {
@@ -160,13 +171,7 @@ pub fn run(a: &MeshBenchArgs) -> anyhow::Result<()> {
         bvh_build_s: render.bvh_build_seconds,
         rays_per_second: render.rays_per_second,
     };
-    let report = MeshBenchReport { table1, skipped_res, evals_per_triangle, sphere, ray_casting };
-    if a.json {
-        println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
-    } else {
-        print_report(a, &report);
-    }
-    Ok(())
+    Ok(MeshBenchReport { table1, skipped_res, evals_per_triangle, sphere, ray_casting })
 }
 
 fn table_row(scene: &mut Scene, args: &PolygonizeArgs) -> TableRow {

@@ -178,19 +178,25 @@ const MAX_THREADS: usize = 1024;
 
 /// Runs `f` on a rayon pool of `threads` threads (all cores when `None`).
 fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> anyhow::Result<T> {
+    Ok(worker_pool(threads)?.install(f))
+}
+
+/// A rayon pool of `threads` threads (all cores when `None`), to run work on.
+///
+/// Work installed in the pool runs on one of its threads: each parallel step
+/// it takes then joins in and wakes only the others, where a step taken from
+/// outside the pool puts the caller to sleep until the step is done. A local
+/// update is hundreds of small parallel steps.
+fn worker_pool(threads: Option<usize>) -> anyhow::Result<rayon::ThreadPool> {
+    let mut pool = rayon::ThreadPoolBuilder::new();
     match threads {
-        None => Ok(f()),
+        None => {}
         Some(n) if !(1..=MAX_THREADS).contains(&n) => {
             anyhow::bail!("--threads must be between 1 and {MAX_THREADS}, got {n}")
         }
-        Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build()
-                .map_err(|e| anyhow::anyhow!("starting {n} threads for --threads: {e}"))?;
-            Ok(pool.install(f))
-        }
+        Some(n) => pool = pool.num_threads(n),
     }
+    pool.build().map_err(|e| anyhow::anyhow!("starting the worker threads: {e}"))
 }
 
 /// The file stem of a scene path, for default output names.

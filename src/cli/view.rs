@@ -16,7 +16,7 @@ use glam::Vec3;
 
 use super::edit::{EditState, check_names, initial_state, outline, set_camera, step};
 use super::mesh::PolygonizeArgs;
-use super::{EvalOptions, with_threads};
+use super::{EvalOptions, worker_pool};
 use crate::camera::Camera;
 use crate::compare::{Rgb8Image, Scale, frame_image};
 use crate::field::Edit;
@@ -351,19 +351,20 @@ pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
         None => vec![],
     };
     let size = a.size.unwrap_or(scene.size);
-    with_threads(None, || {
-        let state = initial_state(&scene, mode, size, &a.polygonize);
-        let mut viewer = Viewer::new(scene, state, script, a.node.as_deref(), a.output.clone())?;
-        if a.headless {
-            for action in actions {
-                viewer.act(action)?;
-            }
-            eprintln!("{}", viewer.title());
-            viewer.image().save_png(&a.output)
-        } else {
-            show(&mut viewer)
+    // The window stays on this thread (some systems draw windows from the
+    // main thread alone); the frames' work runs on the pool.
+    let pool = worker_pool(None)?;
+    let state = pool.install(|| initial_state(&scene, mode, size, &a.polygonize));
+    let mut viewer = Viewer::new(scene, state, script, a.node.as_deref(), a.output.clone())?;
+    if a.headless {
+        for action in actions {
+            pool.install(|| viewer.act(action))?;
         }
-    })?
+        eprintln!("{}", viewer.title());
+        viewer.image().save_png(&a.output)
+    } else {
+        show(&mut viewer, &pool)
+    }
 }
 
 /// `dir/stem-NNNN.png` for `dir/stem.png` (checked to end in `.png`).
@@ -373,7 +374,7 @@ fn numbered(path: &std::path::Path, n: usize) -> PathBuf {
 }
 
 /// The window loop: keys in, the current view out, until the window closes or Escape.
-fn show(viewer: &mut Viewer) -> anyhow::Result<()> {
+fn show(viewer: &mut Viewer, pool: &rayon::ThreadPool) -> anyhow::Result<()> {
     use minifb::{Key, KeyRepeat, Window, WindowOptions};
     let image = viewer.image();
     let (w, h) = (image.width as usize, image.height as usize);
@@ -387,7 +388,7 @@ fn show(viewer: &mut Viewer) -> anyhow::Result<()> {
             window.get_keys_pressed(KeyRepeat::Yes).into_iter().filter_map(Action::of_key).collect();
         if !actions.is_empty() {
             for action in actions {
-                viewer.act(action)?;
+                pool.install(|| viewer.act(action))?;
             }
             buffer = to_window_pixels(&viewer.image());
             window.set_title(&viewer.title());
