@@ -36,53 +36,61 @@ pub struct Seed {
 #[must_use]
 pub fn skeleton_seeds(model: &Model, id: NodeId) -> Vec<Seed> {
     let mut out = vec![];
-    collect(model, id, Affine3A::IDENTITY, &mut out);
+    collect(model, id, Placed::at(Affine3A::IDENTITY), &mut out);
     out
 }
 
-fn collect(model: &Model, id: NodeId, to_world: Affine3A, out: &mut Vec<Seed>) {
-    match &model.node(id).kind {
-        NodeKind::Primitive(p) => {
-            // The Frobenius norm bounds how far the map stretches any length.
-            let m = to_world.matrix3;
-            let stretch = (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt();
-            let reach = p.radius * stretch;
-            out.extend(skeleton_samples(&p.skeleton).map(|x| Seed { point: to_world.transform_point3a(x), reach }));
-        }
-        NodeKind::Transform { placement, child } => collect(model, *child, to_world * placement.to_world, out),
-        kind => {
-            for c in kind.children() {
-                collect(model, c, to_world, out);
-            }
-        }
+/// A subtree's map to world space, and a bound on how far it stretches any
+/// length: the Frobenius norm of its linear part, computed once per
+/// transform rather than once per primitive (seeds are listed again for
+/// every local update, and a dense model has thousands of primitives).
+#[derive(Clone, Copy)]
+struct Placed {
+    to_world: Affine3A,
+    stretch: f32,
+}
+
+impl Placed {
+    fn at(to_world: Affine3A) -> Self {
+        let m = to_world.matrix3;
+        let stretch = (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt();
+        Self { to_world, stretch }
+    }
+
+    fn then(self, placement: Affine3A) -> Self {
+        Self::at(self.to_world * placement)
     }
 }
 
-/// A few points on a skeleton: the point, a segment's ends and middle, eight on a circle.
-fn skeleton_samples(s: &Skeleton) -> impl Iterator<Item = Vec3A> {
-    // A fixed array: seeds are listed again for every local update, and a
-    // dense model has thousands of primitives.
-    let mut points = [Vec3A::ZERO; 8];
-    let count = match *s {
-        Skeleton::Point { center } => {
-            points[0] = center;
-            1
-        }
-        Skeleton::Segment { a, b } => {
-            points[..3].copy_from_slice(&[a, (a + b) * 0.5, b]);
-            3
-        }
-        Skeleton::Circle { center, normal, ring } => {
-            let u = normal.any_orthonormal_vector();
-            let v = normal.cross(u);
-            for (i, point) in points.iter_mut().enumerate() {
-                let a = i as f32 * std::f32::consts::FRAC_PI_4;
-                *point = center + (u * a.cos() + v * a.sin()) * ring;
+fn collect(model: &Model, id: NodeId, placed: Placed, out: &mut Vec<Seed>) {
+    match &model.node(id).kind {
+        NodeKind::Primitive(p) => {
+            let reach = p.radius * placed.stretch;
+            let mut seed = |x: Vec3A| out.push(Seed { point: placed.to_world.transform_point3a(x), reach });
+            // The point, a segment's ends and middle, eight on a circle.
+            match p.skeleton {
+                Skeleton::Point { center } => seed(center),
+                Skeleton::Segment { a, b } => [a, (a + b) * 0.5, b].into_iter().for_each(seed),
+                Skeleton::Circle { center, normal, ring } => circle_samples(center, normal, ring).for_each(seed),
             }
-            8
         }
-    };
-    points.into_iter().take(count)
+        NodeKind::Transform { placement, child } => collect(model, *child, placed.then(placement.to_world), out),
+        NodeKind::Blend { children, .. }
+        | NodeKind::Union(children)
+        | NodeKind::Intersection(children)
+        | NodeKind::Ricci { children, .. } => children.iter().for_each(|&c| collect(model, c, placed, out)),
+        kind => kind.children().into_iter().for_each(|c| collect(model, c, placed, out)),
+    }
+}
+
+/// Eight points on a circle skeleton.
+fn circle_samples(center: Vec3A, normal: Vec3A, ring: f32) -> impl Iterator<Item = Vec3A> {
+    let u = normal.any_orthonormal_vector();
+    let v = normal.cross(u);
+    (0..8).map(move |i| {
+        let a = i as f32 * std::f32::consts::FRAC_PI_4;
+        center + (u * a.cos() + v * a.sin()) * ring
+    })
 }
 
 /// Lattice points evaluated on a walk, with their values.
