@@ -225,3 +225,18 @@ fn check_output_file(path: &std::path::Path, extension: &str) -> anyhow::Result<
     );
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn work_runs_on_a_pool_thread_of_the_size_asked() {
+        // On the caller's thread, every parallel step would put it to sleep
+        // and wake it: a local update's hundreds of steps paid for that.
+        assert!(with_threads(None, || rayon::current_thread_index().is_some()).unwrap());
+        assert_eq!(with_threads(Some(3), rayon::current_num_threads).unwrap(), 3);
+        let refused = with_threads(Some(0), || ()).unwrap_err().to_string();
+        assert!(refused.contains("--threads must be between 1 and"), "{refused}");
+    }
+}
