@@ -26,8 +26,8 @@ fn random_edit(rng: &mut Rng, node: &str, primitive: bool) -> Edit {
 
 /// The space the change reached and its dirty rectangles.
 /// Re-renders `frame` after `change` as `blobtrace edit` does: the empty
-/// space marked again over the changed boxes, then the rays through them
-/// re-traced. Returns the dirty rectangles.
+/// space over the changed boxes forgotten (marked again where rays reach
+/// it), then the rays through them re-traced. Returns the dirty rectangles.
 fn rerender_after(
     model: &Model,
     change: &blobtrace::field::Change,
@@ -38,7 +38,7 @@ fn rerender_after(
 ) -> Vec<PixelRect> {
     let field = ModelField::new(model, mode);
     let supports = model.change_supports(change, mode == EvalMode::Cached);
-    empty.update(&field, &supports);
+    empty.update(&supports);
     let space = changed_space(&field, settings, &supports);
     rerender(&field.skipping(empty), settings, frame, &space);
     space.screen_rect(&settings.camera, settings.width, settings.height).into_iter().collect()

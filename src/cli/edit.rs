@@ -305,7 +305,7 @@ pub(super) fn step(
     let (w, h) = (s.settings.width, s.settings.height);
     let field = ModelField::new(&scene.model, s.mode);
     let clock = Instant::now();
-    s.empty.update(&field, &supports);
+    s.empty.update(&supports);
     let changed = changed_space(&field, &s.settings, &supports);
     let rects: Vec<PixelRect> = changed.screen_rect(&s.settings.camera, w, h).into_iter().collect();
     row.dirty_fraction = rects.iter().map(PixelRect::area).sum::<u64>() as f64 / f64::from(w * h);

@@ -6,7 +6,11 @@
 //!
 //! The marks are a function of the field alone, so a march that jumps over
 //! empty cells finds the same snapped hit as one that steps through them.
-//! After an edit, only the cells over the changed boxes are marked again.
+//! After an edit, the blocks of cells over the changed boxes are marked
+//! again, each when a ray first reaches it: the rays traced again after an
+//! edit reach the front of what changed, not all of its boxes.
+
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 
 use glam::{UVec3, Vec3A};
 use rayon::prelude::*;
@@ -22,11 +26,23 @@ const CELLS_ALONG_LONGEST_SIDE: f32 = 64.0;
 /// Cells per block edge in the first, coarse pass of marking.
 const BLOCK: u32 = 4;
 
+/// A cell's mark: the field's range over it is below the threshold.
+const EMPTY: u8 = 1;
+/// A cell's mark: the surface may be in it.
+const OCCUPIED: u8 = 0;
+
 /// The empty cells of a field, over the field's bounds when built.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct EmptySpace {
     grid: UniformGrid,
-    empty: Vec<bool>,
+    /// Blocks of `BLOCK³` cells, the unit of marking.
+    blocks: UniformGrid,
+    /// [`EMPTY`] or [`OCCUPIED`] per cell. Rays mark blocks concurrently: two
+    /// that mark one block at once write marks of the same field.
+    marks: Vec<AtomicU8>,
+    /// Per block: an edit changed the field there since its cells were
+    /// marked, so their marks must be made again before they are read.
+    stale: Vec<AtomicBool>,
 }
 
 impl EmptySpace {
@@ -38,71 +54,79 @@ impl EmptySpace {
         let extent = bounds.size().max(Vec3A::splat(1e-6));
         let cell = extent.max_element() / CELLS_ALONG_LONGEST_SIDE;
         let grid = UniformGrid::new(bounds.min, cell, (extent / cell).ceil().as_uvec3());
-        let mut space = Self { empty: vec![false; grid.cell_count()], grid };
+        let blocks =
+            UniformGrid::new(grid.origin, grid.cell * BLOCK as f32, (grid.dims + UVec3::splat(BLOCK - 1)) / BLOCK);
+        let space = Self {
+            marks: (0..grid.cell_count()).map(|_| AtomicU8::new(OCCUPIED)).collect(),
+            stale: (0..blocks.cell_count()).map(|_| AtomicBool::new(false)).collect(),
+            grid,
+            blocks,
+        };
         // Before a first render, point values at the coarse cells' corners
         // would fill cache samples that no ray reads (a cold cached render of
         // Medusa took ~5% longer with them).
         let order = if field.fills_caches_on_read() { Order::RangesOnly } else { Order::ValuesFirst };
-        space.mark(field, order, |_| true);
+        (0..space.blocks.cell_count()).into_par_iter().for_each(|b| space.mark_block(field, b, order));
         space
     }
 
-    /// Marks again the cells overlapping `changed`, after the field changed
-    /// inside those boxes only. Space the grid does not cover is never skipped.
-    pub fn update<F: Field + ?Sized>(&mut self, field: &F, changed: &[Aabb]) {
-        // An edit's boxes overlap (one per primitive moved): mark each cell once.
-        let mut touched = vec![false; self.empty.len()];
+    /// Forgets the marks of the blocks overlapping `changed`, after the field
+    /// changed inside those boxes only: [`Self::skip`] marks each again when a
+    /// ray first reaches it. Space the grid does not cover is never skipped.
+    pub fn update(&mut self, changed: &[Aabb]) {
         for b in changed {
-            self.grid.for_each_row(b, |row| touched[row].fill(true));
-        }
-        // The samples around an edit are read again by the rays re-traced
-        // there; most cells keep their marks, so the old ones pick the order.
-        let before = self.empty.clone();
-        self.mark(field, Order::Guided(&before), |c| touched[c]);
-    }
-
-    /// Marks the cells `chosen` picks, a block of cells at a time, in `order`.
-    fn mark<F: Field + ?Sized>(&mut self, field: &F, order: Order, chosen: impl Fn(usize) -> bool + Sync) {
-        let grid = &self.grid;
-        let blocks =
-            UniformGrid::new(grid.origin, grid.cell * BLOCK as f32, (grid.dims + UVec3::splat(BLOCK - 1)) / BLOCK);
-        let marks: Vec<(usize, bool)> = (0..blocks.cell_count())
-            .into_par_iter()
-            .flat_map_iter(|b| {
-                let first = blocks.coords(b) * BLOCK;
-                let mut marker = BlockMarker::new(field, grid, &chosen, first, order);
-                marker.descend(first, (first + UVec3::splat(BLOCK)).min(grid.dims));
-                marker.marks
-            })
-            .collect();
-        for (c, e) in marks {
-            self.empty[c] = e;
+            self.blocks.for_each_row(b, |row| self.stale[row].iter().for_each(|s| s.store(true, Ordering::Relaxed)));
         }
     }
 
-    /// Fraction of the cells marked empty.
+    /// Marks the cells of block `b`, in `order`.
+    fn mark_block<F: Field + ?Sized>(&self, field: &F, b: usize, order: Order) {
+        let first = self.blocks.coords(b) * BLOCK;
+        let mut marker = BlockMarker::new(field, &self.grid, first, order);
+        marker.descend(first, (first + UVec3::splat(BLOCK)).min(self.grid.dims));
+        for (c, e) in marker.marks {
+            self.marks[c].store(if e { EMPTY } else { OCCUPIED }, Ordering::Relaxed);
+        }
+        // Whoever sees the block fresh sees its marks.
+        self.stale[b].store(false, Ordering::Release);
+    }
+
+    /// Whether cell `c` is empty, marking its block first if an edit left it stale.
+    fn is_empty<F: Field + ?Sized>(&self, field: &F, c: usize) -> bool {
+        let b = self.blocks.linear(self.grid.coords(c) / BLOCK);
+        if self.stale[b].load(Ordering::Acquire) {
+            // The samples around an edit are read again by the rays traced
+            // there; most cells keep their marks, so the old ones pick the order.
+            self.mark_block(field, b, Order::Guided(&self.marks));
+        }
+        self.marks[c].load(Ordering::Relaxed) == EMPTY
+    }
+
+    /// Fraction of the cells marked empty (as last marked, where an edit left
+    /// blocks stale).
     #[must_use]
     pub fn empty_fraction(&self) -> f64 {
-        self.empty.iter().filter(|&&e| e).count() as f64 / self.empty.len() as f64
+        self.marks.iter().filter(|m| m.load(Ordering::Relaxed) == EMPTY).count() as f64 / self.marks.len() as f64
     }
 
-    /// Where the run of empty cells holding `ray.at(t)` ends along the ray,
-    /// at most `t_end`; `None` when the point is not in an empty cell. The
-    /// field is below the threshold on the whole of `[t, returned]`, up to
-    /// the rounding of the cell faces' crossings.
+    /// Where the run of empty cells of `field` holding `ray.at(t)` ends along
+    /// the ray, at most `t_end`; `None` when the point is not in an empty
+    /// cell. The field is below the threshold on the whole of `[t, returned]`,
+    /// up to the rounding of the cell faces' crossings.
     #[must_use]
-    pub fn skip(&self, ray: &Ray, t: f32, t_end: f32) -> Option<f32> {
+    pub fn skip<F: Field + ?Sized>(&self, field: &F, ray: &Ray, t: f32, t_end: f32) -> Option<f32> {
         let (a, b) = (ray.at(t), ray.at(t_end));
         // Most steps start in an occupied cell: answer those without a walk.
-        if !self.grid.cell_of(a).is_some_and(|c| self.empty[c]) {
+        if !self.grid.cell_of(a).is_some_and(|c| self.is_empty(field, c)) {
             return None;
         }
         let mut end = None;
         self.grid.walk_segment_while(a, b, |c, exit| {
-            if self.empty[c] {
+            let empty = self.is_empty(field, c);
+            if empty {
                 end = Some(exit);
             }
-            self.empty[c]
+            empty
         });
         Some(t + end? * (t_end - t))
     }
@@ -121,10 +145,10 @@ enum Order<'a> {
     /// After an edit, by the marks before it (indexed by cell): a part all
     /// empty before asks its range first, and a block not all empty before
     /// goes straight to its parts, whose values settle most of it.
-    Guided(&'a [bool]),
+    Guided(&'a [AtomicU8]),
 }
 
-/// Marks the chosen cells of one block, from the whole block down to single
+/// Marks the cells of one block, from the whole block down to single
 /// cells. Most of a model's bounds (and of an edit's boxes) is whole blocks
 /// whose range stays below the threshold, answered by one range query. Below
 /// a block, the field's values at the corners and centres of the cells
@@ -132,10 +156,9 @@ enum Order<'a> {
 /// point at or above the threshold cannot be empty, and point values cost a
 /// small fraction of a range query over a box near many leaves. The marks
 /// are still each cell's range against the threshold, whatever the order.
-struct BlockMarker<'a, F: ?Sized, C> {
+struct BlockMarker<'a, F: ?Sized> {
     field: &'a F,
     grid: &'a UniformGrid,
-    chosen: &'a C,
     /// Ranges below this leave a cell empty: the threshold less [`super::outside_margin`].
     level: f32,
     /// Which questions to ask first.
@@ -152,20 +175,16 @@ struct BlockMarker<'a, F: ?Sized, C> {
 /// Points per axis of a block's doubled lattice.
 const PROBES: usize = 2 * BLOCK as usize + 1;
 
-impl<'a, F: Field + ?Sized, C: Fn(usize) -> bool> BlockMarker<'a, F, C> {
-    fn new(field: &'a F, grid: &'a UniformGrid, chosen: &'a C, first: UVec3, order: Order<'a>) -> Self {
+impl<'a, F: Field + ?Sized> BlockMarker<'a, F> {
+    fn new(field: &'a F, grid: &'a UniformGrid, first: UVec3, order: Order<'a>) -> Self {
         let iso = field.threshold();
         let level = iso - super::outside_margin(iso);
-        Self { field, grid, chosen, level, order, first, reached: [None; PROBES * PROBES * PROBES], marks: vec![] }
+        Self { field, grid, level, order, first, reached: [None; PROBES * PROBES * PROBES], marks: vec![] }
     }
 
-    /// Marks the chosen cells in `lo..hi`.
+    /// Marks the cells in `lo..hi`.
     fn descend(&mut self, lo: UVec3, hi: UVec3) {
-        let cells: Vec<usize> =
-            cells_between(lo, hi).map(|i| self.grid.linear(i)).filter(|&c| (self.chosen)(c)).collect();
-        if cells.is_empty() {
-            return;
-        }
+        let cells: Vec<usize> = cells_between(lo, hi).map(|i| self.grid.linear(i)).collect();
         let whole_block = hi - lo == UVec3::splat(BLOCK);
         let single = hi - lo == UVec3::ONE;
         let (values_first, straight_down) = match self.order {
@@ -173,7 +192,7 @@ impl<'a, F: Field + ?Sized, C: Fn(usize) -> bool> BlockMarker<'a, F, C> {
             // A whole block is mostly empty space: ask its range first.
             Order::ValuesFirst => (!whole_block, false),
             Order::Guided(before) => {
-                let was_empty = cells.iter().all(|&c| before[c]);
+                let was_empty = cells.iter().all(|&c| before[c].load(Ordering::Relaxed) == EMPTY);
                 (!whole_block && !was_empty, whole_block && !was_empty)
             }
         };
@@ -289,6 +308,27 @@ mod tests {
         }
     }
 
+    impl EmptySpace {
+        /// Every cell's mark as it stands.
+        fn marked(&self) -> Vec<bool> {
+            self.marks.iter().map(|m| m.load(Ordering::Relaxed) == EMPTY).collect()
+        }
+
+        /// Every cell's mark, marking the stale blocks first.
+        fn resolved<F: Field>(&self, field: &F) -> Vec<bool> {
+            (0..self.marks.len()).map(|c| self.is_empty(field, c)).collect()
+        }
+
+        fn stale_blocks(&self) -> usize {
+            self.stale.iter().filter(|s| s.load(Ordering::Relaxed)).count()
+        }
+    }
+
+    /// Each cell's range against the threshold, one query per cell.
+    fn direct<F: Field>(space: &EmptySpace, field: &F) -> Vec<bool> {
+        (0..space.grid.cell_count()).map(|c| field.interval(&space.grid.cell_box(c)).hi < 0.5).collect()
+    }
+
     #[test]
     fn a_skip_stops_before_the_surface_and_never_starts_inside_it() {
         let space = EmptySpace::build(&BALL);
@@ -296,14 +336,14 @@ mod tests {
         for k in 0..50 {
             let y = -0.9 + 1.8 * k as f32 / 49.0;
             let ray = Ray::new(Vec3A::new(-3.0, y, 0.1), Vec3A::X);
-            let Some(t) = space.skip(&ray, 1.0, 5.0) else { panic!("ray at y = {y} starts in empty space") };
+            let Some(t) = space.skip(&BALL, &ray, 1.0, 5.0) else { panic!("ray at y = {y} starts in empty space") };
             let to_surface = (surface * surface - y * y - 0.01).max(0.0).sqrt();
             if y.abs() < surface - 0.05 {
                 assert!(t < 3.0 - to_surface, "ray at y = {y} skipped to {t}, past the surface");
                 assert!(t > 3.0 - to_surface - 0.3, "ray at y = {y} stopped at {t}, far before the surface");
             }
         }
-        assert!(space.skip(&Ray::new(Vec3A::ZERO, Vec3A::X), 0.0, 1.0).is_none(), "skipped inside");
+        assert!(space.skip(&BALL, &Ray::new(Vec3A::ZERO, Vec3A::X), 0.0, 1.0).is_none(), "skipped inside");
     }
 
     #[test]
@@ -311,26 +351,33 @@ mod tests {
         // Whole blocks only, then bounds cutting the ball and the last blocks short.
         let cut = Ball { bounds: Aabb::new(Vec3A::new(-2.0, -1.3, -0.9), Vec3A::new(1.7, 1.1, 0.35)), ..BALL };
         for (ball, empty_at_least) in [(BALL, 0.9), (cut, 0.3)] {
-            let mut space = EmptySpace::build(&ball);
-            let direct: Vec<bool> =
-                (0..space.grid.cell_count()).map(|c| ball.interval(&space.grid.cell_box(c)).hi < 0.5).collect();
-            assert_eq!(space.empty, direct, "bounds {:?}, point values first", ball.bounds);
+            let space = EmptySpace::build(&ball);
+            let direct = direct(&space, &ball);
+            assert_eq!(space.marked(), direct, "bounds {:?}, point values first", ball.bounds);
             assert!(space.empty_fraction() > empty_at_least && space.empty_fraction() < 1.0);
-            space.empty.fill(false);
-            space.mark(&ball, Order::RangesOnly, |_| true);
-            assert_eq!(space.empty, direct, "bounds {:?}, ranges only", ball.bounds);
+            space.marks.iter().for_each(|m| m.store(OCCUPIED, Ordering::Relaxed));
+            (0..space.blocks.cell_count()).for_each(|b| space.mark_block(&ball, b, Order::RangesOnly));
+            assert_eq!(space.marked(), direct, "bounds {:?}, ranges only", ball.bounds);
         }
     }
 
     #[test]
-    fn an_update_guided_by_the_old_marks_equals_marking_every_cell() {
+    fn an_update_marks_the_changed_blocks_when_reached_as_marking_every_cell_would() {
         let mut space = EmptySpace::build(&BALL);
         let moved = Ball { centre: Vec3A::new(0.3, -0.25, 0.1), ..BALL };
-        space.update(&moved, &[Aabb::around(Vec3A::ZERO, 1.0), Aabb::around(moved.centre, 1.0)]);
-        let direct: Vec<bool> =
-            (0..space.grid.cell_count()).map(|c| moved.interval(&space.grid.cell_box(c)).hi < 0.5).collect();
-        assert_eq!(space.empty, direct);
-        let was_empty = EmptySpace::build(&BALL).empty;
+        space.update(&[Aabb::around(Vec3A::ZERO, 1.0), Aabb::around(moved.centre, 1.0)]);
+        let stale = space.stale_blocks();
+        assert!(stale > 0 && stale < space.blocks.cell_count(), "{stale} stale blocks");
+        // A ray through the changed space (above the moved ball, so all of it
+        // empty) marks the blocks it reaches, and no others.
+        let ray = Ray::new(Vec3A::new(-1.9, 0.9, 0.0), Vec3A::X);
+        assert!(space.skip(&moved, &ray, 0.0, 3.8).is_some_and(|t| t > 3.7), "the ray skips to its end");
+        let after_ray = space.stale_blocks();
+        assert!(after_ray < stale && after_ray > 0, "{stale} stale blocks, {after_ray} after the ray");
+        let direct = direct(&space, &moved);
+        assert_eq!(space.resolved(&moved), direct);
+        assert_eq!(space.stale_blocks(), 0);
+        let was_empty = EmptySpace::build(&BALL).marked();
         let changed = direct.iter().zip(&was_empty).filter(|(a, b)| a != b).count();
         assert!(changed > 100, "the move changed {changed} marks");
     }
@@ -340,9 +387,9 @@ mod tests {
         let mut space = EmptySpace::build(&BALL);
         let before = space.empty_fraction();
         let centre = space.grid.cell_of(Vec3A::ZERO).unwrap();
-        space.empty[centre] = true;
-        space.update(&BALL, &[Aabb::around(Vec3A::ZERO, 0.01)]);
-        assert!(!space.empty[centre], "the centre cell holds the surface's inside");
+        space.marks[centre].store(EMPTY, Ordering::Relaxed);
+        space.update(&[Aabb::around(Vec3A::ZERO, 0.01)]);
+        assert!(!space.is_empty(&BALL, centre), "the centre cell holds the surface's inside");
         assert_eq!(space.empty_fraction(), before);
     }
 }

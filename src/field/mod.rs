@@ -206,7 +206,7 @@ impl Field for ModelField<'_> {
         self.model.threshold()
     }
     fn skip_empty(&self, ray: &Ray, t: f32, t_end: f32) -> Option<f32> {
-        self.empty?.skip(ray, t, t_end)
+        self.empty?.skip(self, ray, t, t_end)
     }
 }
 
