@@ -109,10 +109,12 @@ impl EmptySpace {
         self.marks.iter().filter(|m| m.load(Ordering::Relaxed) == EMPTY).count() as f64 / self.marks.len() as f64
     }
 
-    /// Where the run of empty cells of `field` holding `ray.at(t)` ends along
-    /// the ray, at most `t_end`; `None` when the point is not in an empty
-    /// cell. The field is below the threshold on the whole of `[t, returned]`,
-    /// up to the rounding of the cell faces' crossings.
+    /// Where the run of empty cells holding `ray.at(t)` ends along the ray,
+    /// at most `t_end`; `None` when the point is not in an empty cell. The
+    /// field is below the threshold on the whole of `[t, returned]`, up to
+    /// the rounding of the cell faces' crossings. Stale blocks the walk
+    /// reaches are marked first, from `field`: the field this space was built
+    /// from, with every edit since told to [`Self::update`].
     #[must_use]
     pub fn skip<F: Field + ?Sized>(&self, field: &F, ray: &Ray, t: f32, t_end: f32) -> Option<f32> {
         let (a, b) = (ray.at(t), ray.at(t_end));
