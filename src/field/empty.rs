@@ -10,7 +10,7 @@
 //! again, each when a ray first reaches it: the rays traced again after an
 //! edit reach the front of what changed, not all of its boxes.
 
-use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
+use std::sync::atomic::{AtomicU8, Ordering};
 
 use glam::{UVec3, Vec3A};
 use rayon::prelude::*;
@@ -30,6 +30,10 @@ const BLOCK: u32 = 4;
 const EMPTY: u8 = 1;
 /// A cell's mark: the surface may be in it.
 const OCCUPIED: u8 = 0;
+/// A flag on a cell's mark: an edit changed the field over the cell's block
+/// since it was marked, so the block is marked again before the mark is
+/// read. The mark under it still guides that marking.
+const STALE: u8 = 2;
 
 /// The empty cells of a field, over the field's bounds when built.
 #[derive(Debug)]
@@ -37,12 +41,10 @@ pub struct EmptySpace {
     grid: UniformGrid,
     /// Blocks of `BLOCK³` cells, the unit of marking.
     blocks: UniformGrid,
-    /// [`EMPTY`] or [`OCCUPIED`] per cell. Rays mark blocks concurrently: two
-    /// that mark one block at once write marks of the same field.
+    /// [`EMPTY`] or [`OCCUPIED`] per cell, maybe flagged [`STALE`]. Rays
+    /// mark blocks concurrently: two that mark one block at once write
+    /// marks of the same field, each cell's in one store.
     marks: Vec<AtomicU8>,
-    /// Per block: an edit changed the field there since its cells were
-    /// marked, so their marks must be made again before they are read.
-    stale: Vec<AtomicBool>,
 }
 
 impl EmptySpace {
@@ -56,12 +58,7 @@ impl EmptySpace {
         let grid = UniformGrid::new(bounds.min, cell, (extent / cell).ceil().as_uvec3());
         let blocks =
             UniformGrid::new(grid.origin, grid.cell * BLOCK as f32, (grid.dims + UVec3::splat(BLOCK - 1)) / BLOCK);
-        let space = Self {
-            marks: (0..grid.cell_count()).map(|_| AtomicU8::new(OCCUPIED)).collect(),
-            stale: (0..blocks.cell_count()).map(|_| AtomicBool::new(false)).collect(),
-            grid,
-            blocks,
-        };
+        let space = Self { marks: (0..grid.cell_count()).map(|_| AtomicU8::new(OCCUPIED)).collect(), grid, blocks };
         // Before a first render, point values at the coarse cells' corners
         // would fill cache samples that no ray reads (a cold cached render of
         // Medusa took ~5% longer with them).
@@ -70,12 +67,22 @@ impl EmptySpace {
         space
     }
 
-    /// Forgets the marks of the blocks overlapping `changed`, after the field
-    /// changed inside those boxes only: [`Self::skip`] marks each again when a
-    /// ray first reaches it. Space the grid does not cover is never skipped.
+    /// Flags stale the marks of the blocks overlapping `changed`, after the
+    /// field changed inside those boxes only: [`Self::skip`] marks such a
+    /// block again when a ray first reaches it. Space the grid does not cover
+    /// is never skipped.
     pub fn update(&mut self, changed: &[Aabb]) {
+        // Boxes go onto the blocks first: an edit's boxes (one per primitive
+        // moved) overlap by the thousand.
+        let mut touched = vec![false; self.blocks.cell_count()];
         for b in changed {
-            self.blocks.for_each_row(b, |row| self.stale[row].iter().for_each(|s| s.store(true, Ordering::Relaxed)));
+            self.blocks.for_each_row(b, |row| touched[row].fill(true));
+        }
+        for block in (0..touched.len()).filter(|&b| touched[b]) {
+            let first = self.blocks.coords(block) * BLOCK;
+            for i in cells_between(first, (first + UVec3::splat(BLOCK)).min(self.grid.dims)) {
+                *self.marks[self.grid.linear(i)].get_mut() |= STALE;
+            }
         }
     }
 
@@ -87,26 +94,25 @@ impl EmptySpace {
         for (c, e) in marker.marks {
             self.marks[c].store(if e { EMPTY } else { OCCUPIED }, Ordering::Relaxed);
         }
-        // Whoever sees the block fresh sees its marks.
-        self.stale[b].store(false, Ordering::Release);
     }
 
     /// Whether cell `c` is empty, marking its block first if an edit left it stale.
     fn is_empty<F: Field + ?Sized>(&self, field: &F, c: usize) -> bool {
-        let b = self.blocks.linear(self.grid.coords(c) / BLOCK);
-        if self.stale[b].load(Ordering::Acquire) {
-            // The samples around an edit are read again by the rays traced
-            // there; most cells keep their marks, so the old ones pick the order.
-            self.mark_block(field, b, Order::Guided(&self.marks));
+        let mark = self.marks[c].load(Ordering::Relaxed);
+        if mark & STALE == 0 {
+            return mark == EMPTY;
         }
+        // The samples around an edit are read again by the rays traced
+        // there; most cells keep their marks, so the old ones pick the order.
+        self.mark_block(field, self.blocks.linear(self.grid.coords(c) / BLOCK), Order::Guided(&self.marks));
         self.marks[c].load(Ordering::Relaxed) == EMPTY
     }
 
     /// Fraction of the cells marked empty (as last marked, where an edit left
-    /// blocks stale).
+    /// cells stale).
     #[must_use]
     pub fn empty_fraction(&self) -> f64 {
-        self.marks.iter().filter(|m| m.load(Ordering::Relaxed) == EMPTY).count() as f64 / self.marks.len() as f64
+        self.marks.iter().filter(|m| m.load(Ordering::Relaxed) & EMPTY != 0).count() as f64 / self.marks.len() as f64
     }
 
     /// Where the run of empty cells holding `ray.at(t)` ends along the ray,
@@ -194,7 +200,7 @@ impl<'a, F: Field + ?Sized> BlockMarker<'a, F> {
             // A whole block is mostly empty space: ask its range first.
             Order::ValuesFirst => (!whole_block, false),
             Order::Guided(before) => {
-                let was_empty = cells.iter().all(|&c| before[c].load(Ordering::Relaxed) == EMPTY);
+                let was_empty = cells.iter().all(|&c| before[c].load(Ordering::Relaxed) & EMPTY != 0);
                 (!whole_block && !was_empty, whole_block && !was_empty)
             }
         };
@@ -313,7 +319,7 @@ mod tests {
     impl EmptySpace {
         /// Every cell's mark as it stands.
         fn marked(&self) -> Vec<bool> {
-            self.marks.iter().map(|m| m.load(Ordering::Relaxed) == EMPTY).collect()
+            self.marks.iter().map(|m| m.load(Ordering::Relaxed) & EMPTY != 0).collect()
         }
 
         /// Every cell's mark, marking the stale blocks first.
@@ -321,8 +327,8 @@ mod tests {
             (0..self.marks.len()).map(|c| self.is_empty(field, c)).collect()
         }
 
-        fn stale_blocks(&self) -> usize {
-            self.stale.iter().filter(|s| s.load(Ordering::Relaxed)).count()
+        fn stale_cells(&self) -> usize {
+            self.marks.iter().filter(|m| m.load(Ordering::Relaxed) & STALE != 0).count()
         }
     }
 
@@ -368,17 +374,17 @@ mod tests {
         let mut space = EmptySpace::build(&BALL);
         let moved = Ball { centre: Vec3A::new(0.3, -0.25, 0.1), ..BALL };
         space.update(&[Aabb::around(Vec3A::ZERO, 1.0), Aabb::around(moved.centre, 1.0)]);
-        let stale = space.stale_blocks();
-        assert!(stale > 0 && stale < space.blocks.cell_count(), "{stale} stale blocks");
+        let stale = space.stale_cells();
+        assert!(stale > 0 && stale < space.grid.cell_count(), "{stale} stale cells");
         // A ray through the changed space (above the moved ball, so all of it
         // empty) marks the blocks it reaches, and no others.
         let ray = Ray::new(Vec3A::new(-1.9, 0.9, 0.0), Vec3A::X);
         assert!(space.skip(&moved, &ray, 0.0, 3.8).is_some_and(|t| t > 3.7), "the ray skips to its end");
-        let after_ray = space.stale_blocks();
-        assert!(after_ray < stale && after_ray > 0, "{stale} stale blocks, {after_ray} after the ray");
+        let after_ray = space.stale_cells();
+        assert!(after_ray < stale && after_ray > 0, "{stale} stale cells, {after_ray} after the ray");
         let direct = direct(&space, &moved);
         assert_eq!(space.resolved(&moved), direct);
-        assert_eq!(space.stale_blocks(), 0);
+        assert_eq!(space.stale_cells(), 0);
         let was_empty = EmptySpace::build(&BALL).marked();
         let changed = direct.iter().zip(&was_empty).filter(|(a, b)| a != b).count();
         assert!(changed > 100, "the move changed {changed} marks");
