@@ -139,18 +139,14 @@ pub(super) type Start = (LatticePoint, i32);
 /// Every seed's start, in the order rows are marched (by `z`, `y`, then `x`,
 /// the longest reach first), kept from one call to the next with the seeds
 /// it came from. A local update's seeds differ from the last call's in the
-/// few primitives an edit moved: those starts move alone, instead of
-/// thousands being sorted again each frame.
+/// primitives an edit moved (one point, or a head of hundreds): those starts
+/// are taken out in one pass and merged back in, instead of thousands being
+/// sorted again each frame.
 #[derive(Clone, Debug, Default)]
 pub(super) struct SeedStarts {
     seeds: Vec<Seed>,
     sorted: Vec<Start>,
 }
-
-/// Most moved seeds whose starts are moved one by one: each move shifts the
-/// list's tail (tens of kilobytes on Medusa's hair), and past a few dozen a
-/// fresh sort costs less.
-const MAX_MOVED_SEEDS: usize = 32;
 
 impl SeedStarts {
     /// Brings the starts up to date with `seeds` on `lattice` (the same lattice
@@ -159,9 +155,17 @@ impl SeedStarts {
         let start = |s: &Seed| (lattice.nearest_corner(s.point), (s.reach / lattice.cell).ceil() as i32 + 1);
         if self.seeds.len() == seeds.len() {
             let moved: Vec<usize> = (0..seeds.len()).filter(|&i| self.seeds[i] != seeds[i]).collect();
-            if moved.len() <= MAX_MOVED_SEEDS && moved.iter().all(|&i| self.remove(start(&self.seeds[i]))) {
+            if moved.is_empty() {
+                return;
+            }
+            let mut gone: Vec<Start> = moved.iter().map(|&i| start(&self.seeds[i])).collect();
+            gone.sort_unstable_by_key(march_order);
+            if let Some(mut kept) = without(&self.sorted, &gone) {
+                kept.extend(moved.iter().map(|&i| start(&seeds[i])));
+                // A stable sort finds the kept run and merges the moved starts into it.
+                kept.sort_by_key(march_order);
+                self.sorted = kept;
                 for i in moved {
-                    self.insert(start(&seeds[i]));
                     self.seeds[i] = seeds[i];
                 }
                 return;
@@ -179,23 +183,21 @@ impl SeedStarts {
     pub fn kept(&self, keep: impl Fn(Start) -> bool) -> Vec<Start> {
         self.sorted.chunk_by(|a, b| a.0 == b.0).map(|same_corner| same_corner[0]).filter(|&s| keep(s)).collect()
     }
+}
 
-    /// Removes one copy of `start`; false if there is none.
-    fn remove(&mut self, start: Start) -> bool {
-        let key = march_order(&start);
-        let at = self.sorted.partition_point(|s| march_order(s) < key);
-        let found = self.sorted.get(at) == Some(&start);
-        if found {
-            self.sorted.remove(at);
+/// `sorted` without one copy of each start of `gone` (both in march order);
+/// `None` if one is missing.
+fn without(sorted: &[Start], gone: &[Start]) -> Option<Vec<Start>> {
+    let mut kept = Vec::with_capacity(sorted.len());
+    let mut gone = gone.iter().peekable();
+    for s in sorted {
+        match gone.peek() {
+            Some(g) if march_order(g) < march_order(s) => return None,
+            Some(g) if *g == s => _ = gone.next(),
+            _ => kept.push(*s),
         }
-        found
     }
-
-    fn insert(&mut self, start: Start) {
-        let key = march_order(&start);
-        let at = self.sorted.partition_point(|s| march_order(s) < key);
-        self.sorted.insert(at, start);
-    }
+    gone.peek().is_none().then_some(kept)
 }
 
 /// Rows of equal `(z, y)` by `x`; at one corner, the longest reach first.
@@ -472,19 +474,22 @@ mod tests {
     }
 
     #[test]
-    fn starts_kept_after_a_few_seeds_move_equal_starts_sorted_afresh() {
+    fn starts_kept_after_seeds_move_equal_starts_sorted_afresh() {
         let lattice = Lattice { cell: 0.1 };
         let mut kept = SeedStarts::default();
         let mut current = seeds(0.0);
         kept.update(lattice, &current);
         let moved = seeds(0.23);
         // Moves of one seed at a time, onto other seeds' corners and back,
-        // then of more than are moved one by one.
-        for i in [3, 17, 17, 150, 3, 199, 0, 1000] {
-            if i == 1000 {
-                current = moved.clone();
-            } else {
-                current[i] = if current[i] == moved[i] { seeds(0.0)[i] } else { moved[i] };
+        // of a run of fifty (a component), and of all of them.
+        for i in [3, 17, 17, 150, 3, 199, 0, 1000, 1000, 2000] {
+            match i {
+                1000 => {
+                    let shift = if current[40] == moved[40] { 0.0 } else { 0.23 };
+                    current[40..90].copy_from_slice(&seeds(shift)[40..90]);
+                }
+                2000 => current = moved.clone(),
+                _ => current[i] = if current[i] == moved[i] { seeds(0.0)[i] } else { moved[i] },
             }
             kept.update(lattice, &current);
             let mut fresh = SeedStarts::default();
@@ -499,5 +504,15 @@ mod tests {
         for &(q, reach) in &all {
             assert!(kept.sorted.iter().all(|&(p, r)| p != q || r <= reach));
         }
+    }
+
+    #[test]
+    fn taking_starts_out_takes_one_copy_of_each_and_refuses_a_missing_one() {
+        let q = |x: i32| IVec3::new(x, 0, 0);
+        let sorted = [(q(0), 3), (q(2), 5), (q(2), 5), (q(2), 1), (q(4), 2)];
+        assert_eq!(without(&sorted, &[(q(2), 5), (q(4), 2)]), Some(vec![(q(0), 3), (q(2), 5), (q(2), 1)]));
+        assert_eq!(without(&sorted, &[]), Some(sorted.to_vec()));
+        assert_eq!(without(&sorted, &[(q(2), 4)]), None);
+        assert_eq!(without(&sorted, &[(q(6), 1)]), None);
     }
 }
