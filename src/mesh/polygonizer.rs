@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, ordered_edge, sort_key};
-use super::seeds::{Evaluated, Marched, Rejoin, RowSpans, RowStarts, Seed, SeedMarch, SeedStarts, row_passes};
+use super::seeds::{Evaluated, Marched, Rejoin, RowSpans, RowStarts, Seed, SeedMarch, SeedStarts, Start, row_passes};
 use super::vertex::{VertexPlacement, place_on_edge};
 use super::{Mesh, bcc, cubes};
 use crate::field::{DEFAULT_COLOR, Field};
@@ -380,7 +380,7 @@ impl Polygonizer {
         // passes for a shorter one.
         self.starts.update(lattice, seeds);
         let starts = self.starts.kept(|(q, reach)| in_row(q) || walks_near_hole(q, reach));
-        let along_x: Vec<(LatticePoint, i32)> = starts.iter().copied().filter(|&(q, _)| in_row(q)).collect();
+        let along_x: Vec<Start> = starts.iter().copied().filter(|&(q, _)| in_row(q)).collect();
         let rows: Vec<(&RowStarts, Option<Rejoin>)> = along_x
             .chunk_by(|a, b| (a.0.y, a.0.z) == (b.0.y, b.0.z))
             .filter_map(|row| match near_hole {
@@ -774,7 +774,7 @@ mod tests {
         let mut polygonizer = Polygonizer::new(lattice, PolygonizeOptions::default());
         let seeds = skeleton_seeds(&scene.model, scene.model.root());
         polygonizer.polygonize(&field, &seeds);
-        let mut row: Vec<(LatticePoint, i32)> = seeds.iter().map(|s| (lattice.nearest_corner(s.point), 9)).collect();
+        let mut row: Vec<Start> = seeds.iter().map(|s| (lattice.nearest_corner(s.point), 9)).collect();
         row.sort_by_key(|(q, _)| q.x);
         let around = |x: f32| Aabb::around(Vec3A::new(x, 0.0, 0.0), 0.3);
         let part = |x: f32| polygonizer.changed_part(&row, &around(x)).map(|(part, _)| part);

@@ -75,10 +75,6 @@ fn collect(model: &Model, id: NodeId, placed: Placed, out: &mut Vec<Seed>) {
             }
         }
         NodeKind::Transform { placement, child } => collect(model, *child, placed.then(placement.to_world), out),
-        NodeKind::Blend { children, .. }
-        | NodeKind::Union(children)
-        | NodeKind::Intersection(children)
-        | NodeKind::Ricci { children, .. } => children.iter().for_each(|&c| collect(model, c, placed, out)),
         kind => kind.children().into_iter().for_each(|c| collect(model, c, placed, out)),
     }
 }
@@ -129,12 +125,11 @@ pub(super) struct RowSpans {
     pub kept_from: Option<i32>,
 }
 
-/// The starts of seed marches along one lattice row, by `x`, each with its
-/// reach in lattice steps.
-pub(super) type RowStarts = [(LatticePoint, i32)];
-
 /// A seed's start: its nearest lattice corner and its reach in lattice steps.
 pub(super) type Start = (LatticePoint, i32);
+
+/// The starts of seed marches along one lattice row, by `x`.
+pub(super) type RowStarts = [Start];
 
 /// Every seed's start, in the order rows are marched (by `z`, `y`, then `x`,
 /// the longest reach first), kept from one call to the next with the seeds
