@@ -77,14 +77,22 @@ impl Filter {
     /// The reconstructed value at lattice coordinate `u` from `samples`, the
     /// footprint's samples in x-fastest order (`taps³` of them).
     #[must_use]
+    #[inline]
     pub fn value(self, u: Vec3A, samples: &[f32]) -> f32 {
+        // One loop per tap count, so each unrolls: the same sums in the same order.
+        match self {
+            Filter::Trilinear => self.value_with_taps::<2>(u, samples),
+            Filter::Triquadratic => self.value_with_taps::<3>(u, samples),
+        }
+    }
+
+    fn value_with_taps<const N: usize>(self, u: Vec3A, samples: &[f32]) -> f32 {
         let (ax, ay, az) = (self.axis(u.x), self.axis(u.y), self.axis(u.z));
-        let n = self.taps();
         let mut sum = 0.0;
-        for k in 0..n {
-            for j in 0..n {
+        for k in 0..N {
+            for j in 0..N {
                 let wyz = ay.w[j] * az.w[k];
-                let row = &samples[(k * n + j) * n..][..n];
+                let row = &samples[(k * N + j) * N..][..N];
                 let along_x: f32 = row.iter().zip(&ax.w).map(|(s, w)| s * w).sum();
                 sum += wyz * along_x;
             }
@@ -95,13 +103,20 @@ impl Filter {
     /// The gradient of the reconstruction at `u`, per lattice unit (divide by
     /// the cell size for world units), from the footprint's samples.
     #[must_use]
+    #[inline]
     pub fn gradient(self, u: Vec3A, samples: &[f32]) -> Vec3A {
+        match self {
+            Filter::Trilinear => self.gradient_with_taps::<2>(u, samples),
+            Filter::Triquadratic => self.gradient_with_taps::<3>(u, samples),
+        }
+    }
+
+    fn gradient_with_taps<const N: usize>(self, u: Vec3A, samples: &[f32]) -> Vec3A {
         let (ax, ay, az) = (self.axis(u.x), self.axis(u.y), self.axis(u.z));
-        let n = self.taps();
         let mut g = Vec3A::ZERO;
-        for k in 0..n {
-            for j in 0..n {
-                let row = &samples[(k * n + j) * n..][..n];
+        for k in 0..N {
+            for j in 0..N {
+                let row = &samples[(k * N + j) * N..][..N];
                 let (mut s_w, mut s_dw) = (0.0, 0.0);
                 for (i, s) in row.iter().enumerate() {
                     s_w += s * ax.w[i];

@@ -340,8 +340,11 @@ impl CacheGrid {
             return;
         }
         let (b0, b1) = (self.block_of(first), self.block_of(last));
-        if b0 == b1 && n == 2 && self.spec.storage == Storage::F32 {
-            return self.gather_corners(b0, first, out, pool, eval);
+        if b0 == b1 && self.spec.storage == Storage::F32 {
+            return match n {
+                2 => self.gather_in_block::<2, 8>(b0, first, out, pool, eval),
+                _ => self.gather_in_block::<3, 27>(b0, first, out, pool, eval),
+            };
         }
         let block_cells = self.block_cells();
         for bz in b0.z..=b1.z {
@@ -402,9 +405,10 @@ impl CacheGrid {
         }
     }
 
-    /// The hot case of [`Self::gather_cube`]: the eight corners of one
-    /// lattice cell inside one block of 32-bit samples, at fixed offsets.
-    fn gather_corners(
+    /// The hot case of [`Self::gather_cube`]: the `N³ = M` samples (a
+    /// tri-linear cell's corners, a tri-quadratic footprint) inside one block
+    /// of 32-bit samples, at fixed offsets.
+    fn gather_in_block<const N: usize, const M: usize>(
         &self,
         block: IVec3,
         first: IVec3,
@@ -412,18 +416,19 @@ impl CacheGrid {
         pool: &SamplePool,
         eval: &impl Fn(Vec3A) -> f32,
     ) {
-        // Word offsets of the corners (x fastest) within a block.
-        const ROW: u16 = 1 << BLOCK_SHIFT;
-        const PLANE: u16 = 1 << (2 * BLOCK_SHIFT);
-        const CORNERS: [u16; 8] = [0, 1, ROW, ROW + 1, PLANE, PLANE + 1, PLANE + ROW, PLANE + ROW + 1];
+        // Word offsets of the samples (x fastest) within a block.
+        let offsets: [u16; M] = std::array::from_fn(|m| {
+            let (x, y, z) = (m % N, (m / N) % N, m / (N * N));
+            (x | y << BLOCK_SHIFT | z << (2 * BLOCK_SHIFT)) as u16
+        });
         let base = self.word_of(first).0 as u16;
-        let at = CORNERS.map(|o| base + o);
-        let mut words = [UNSET; 8];
+        let at = offsets.map(|o| base + o);
+        let mut words = [UNSET; M];
         let read = self.read_block(block, &at, &mut words, pool);
         for (m, &word) in words.iter().enumerate() {
             out[m] = match Storage::F32.decode(word, 0) {
                 Some(v) if read => v,
-                _ => self.sample_at_offset(first, m, 2, pool, eval),
+                _ => self.sample_at_offset(first, m, N, pool, eval),
             };
         }
     }
