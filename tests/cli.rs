@@ -696,12 +696,19 @@ fn edit_scripts_are_checked_where_they_are_written_and_edits_that_overreach_are_
     assert!(err.contains("s.ron:2:") && err.contains("at least 1"), "{err}");
     let err = run("EditScript(frames: [(edits: [Radius(node: \"probe\", radius: 0.1, spin: 1.0)])])");
     assert!(err.contains("spin"), "{err}");
-    // Within range, but growing the model past what the mesh lattice may hold.
-    let err = run("EditScript(frames: [(edits: [Radius(node: \"probe\", radius: 5e5)])])");
-    assert!(err.contains("frame 0") && err.contains("cells of the mesh lattice"), "{err}");
+    // Within range, but growing the model past what the mesh lattice may hold:
+    // found when the frame is applied, and named where the frame is written.
+    let err =
+        run("EditScript(frames: [\n  (repeat: 2, edits: []),\n  (edits: [Radius(node: \"probe\", radius: 5e5)])])");
+    assert!(err.contains("s.ron:3:3: frame 2") && err.contains("cells of the mesh lattice"), "{err}");
     // The wrong kind of node is named by its name.
     let err = run("EditScript(frames: [(edits: [Radius(node: \"hair\", radius: 0.5)])])");
-    assert!(err.contains("the node under \"hair\" is a"), "{err}");
+    assert!(err.contains("s.ron:1:21: frame 0") && err.contains("the node under \"hair\" is a"), "{err}");
+    // A name an earlier frame removed.
+    let err = run(
+        "EditScript(frames: [(edits: [Remove(node: \"probe\")]),\n (edits: [Radius(node: \"probe\", radius: 0.5)])])",
+    );
+    assert!(err.contains("s.ron:2:2: frame 1: no node is named \"probe\""), "{err}");
     std::fs::remove_dir_all(dir).unwrap();
 }
 

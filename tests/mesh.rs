@@ -262,7 +262,8 @@ fn local_repolygonization_after_a_move_equals_a_full_polygonization() {
 fn re_polygonizing_the_head_translation_equals_fresh_polygonizations() {
     let mut scene = bundled("medusa.ron");
     let script = load_script(&std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/medusa-head.ron")))
-        .expect("the head script loads");
+        .expect("the head script loads")
+        .frames;
     let options = PolygonizeOptions::default();
     let (mut local, _) = polygonize(&scene.model, EvalMode::Indexed, 48, options);
     for (frame, edits) in script.iter().take(6).enumerate() {

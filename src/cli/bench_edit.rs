@@ -73,7 +73,7 @@ pub struct EditBenchReport {
 /// Runs `blobtrace bench edit`.
 pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
     super::check_output_file(&a.output, "png")?;
-    let frames = load_script(&a.script)?;
+    let script = load_script(&a.script)?;
     let polygonize = PolygonizeArgs { res: a.res, cells: CellsArg::Cubes, vertex: VertexArg::Root, refine: 0 };
     let mut runs = vec![];
     for mode in [EvalMode::Cached, EvalMode::Naive] {
@@ -83,8 +83,8 @@ pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
             Ok(scene)
         };
         let (local, _) =
-            with_threads(None, || replay(&mut load()?, mode, &frames, &polygonize, a.size, false, |_, _, _| Ok(())))??;
-        let scratch = with_threads(None, || replay_from_scratch(&mut load()?, mode, &frames, &polygonize, a.size))??;
+            with_threads(None, || replay(&mut load()?, mode, &script, &polygonize, a.size, false, |_, _, _| Ok(())))??;
+        let scratch = with_threads(None, || replay_from_scratch(&mut load()?, mode, &script, &polygonize, a.size))??;
         runs.push((local, scratch));
     }
     let totals = |(local, scratch): &(Vec<FrameRow>, Vec<ScratchFrame>)| ModeTotals {
@@ -95,7 +95,7 @@ pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
     };
     let (cached, naive) = (totals(&runs[0]), totals(&runs[1]));
     let report = EditBenchReport {
-        frames: frames.len(),
+        frames: script.frames.len(),
         res: a.res,
         local_polygonize_ratio: naive.local_polygonize_s / cached.local_polygonize_s.max(1e-9),
         dirty_render_speedup: cached.full_render_s / cached.dirty_render_s.max(1e-9),

@@ -20,7 +20,7 @@ use crate::field::{Edit, EmptySpace, EvalMode, ModelField};
 use crate::frame::Frame;
 use crate::geom::Aabb;
 use crate::mesh::{Polygonizer, canonical_triangles, skeleton_seeds};
-use crate::scene::{Scene, Size, load_script};
+use crate::scene::{Scene, Script, Size, load_script};
 use crate::trace::{
     PixelRect, RenderSettings, changed_space, merge_rects, render, render_model, rerender, screen_rect,
 };
@@ -137,13 +137,13 @@ pub(super) struct EditState {
 pub fn run(a: &EditArgs) -> anyhow::Result<()> {
     let mut scene = Scene::load(&a.scene)?;
     let mode = a.field.apply(&mut scene.model)?;
-    let frames = load_script(&a.script)?;
-    check_names(&scene, &frames).map_err(|m| anyhow::anyhow!("{}: {m}", a.script.display()))?;
+    let script = load_script(&a.script)?;
+    check_names(&scene, &script)?;
     let size = a.size.unwrap_or(scene.size);
     let report = with_threads(a.threads, || -> anyhow::Result<EditReport> {
         a.polygonize.check_unrefined(&scene, "edit")?;
         std::fs::create_dir_all(&a.out_dir).with_context(|| format!("creating {}", a.out_dir.display()))?;
-        let (rows, verified) = replay(&mut scene, mode, &frames, &a.polygonize, size, a.verify, |i, frame, rects| {
+        let (rows, verified) = replay(&mut scene, mode, &script, &a.polygonize, size, a.verify, |i, frame, rects| {
             if a.save_frames { save_frame(&a.out_dir, i, frame, rects) } else { Ok(()) }
         })?;
         Ok(summarize(rows, verified, mode))
@@ -170,12 +170,12 @@ pub fn run(a: &EditArgs) -> anyhow::Result<()> {
 
 /// Checks before any work that every edit names a node that exists by then
 /// (names added and removed by earlier edits of the script count).
-pub(super) fn check_names(scene: &Scene, frames: &[Vec<Edit>]) -> Result<(), String> {
+pub(super) fn check_names(scene: &Scene, script: &Script) -> anyhow::Result<()> {
     let mut known: std::collections::HashSet<String> = scene.model.names().into_iter().map(String::from).collect();
-    for (i, edits) in frames.iter().enumerate() {
+    for (i, edits) in script.frames.iter().enumerate() {
         for e in edits {
             if !known.contains(e.node()) {
-                return Err(format!("frame {i}: no node is named {:?}", e.node()));
+                anyhow::bail!("{}: no node is named {:?}", script.frame_label(i), e.node());
             }
             match e {
                 Edit::AddPoint { name, .. } => known.insert(name.clone()),
@@ -196,23 +196,23 @@ pub struct ScratchFrame {
     pub polygonize_s: f64,
 }
 
-/// Replays `frames` of edits on `scene`, rendering and polygonizing every frame
+/// Replays the frames of `script` on `scene`, rendering and polygonizing every frame
 /// from scratch: the baseline of the incremental updates, with caches that only
 /// its own work has filled (a from-scratch frame run after an incremental one
 /// would find the samples that frame filled).
 pub fn replay_from_scratch(
     scene: &mut Scene,
     mode: EvalMode,
-    frames: &[Vec<Edit>],
+    script: &Script,
     polygonize: &PolygonizeArgs,
     size: Size,
 ) -> anyhow::Result<Vec<ScratchFrame>> {
     let settings = RenderSettings::for_scene(scene, size);
     let lattice = crate::mesh::Lattice::across(&scene.model.bounds(), polygonize.res);
     let mut rows = vec![];
-    for (i, edits) in frames.iter().enumerate() {
+    for (i, edits) in script.frames.iter().enumerate() {
         for edit in edits {
-            scene.model.apply(edit).with_context(|| format!("frame {i}"))?;
+            scene.model.apply(edit).with_context(|| script.frame_label(i))?;
         }
         let clock = Instant::now();
         render_model(&scene.model, mode, &settings, &|_| {});
@@ -226,14 +226,14 @@ pub fn replay_from_scratch(
     Ok(rows)
 }
 
-/// Replays `frames` of edits on `scene`, updating incrementally and timing each
+/// Replays the frames of `script` on `scene`, updating incrementally and timing each
 /// frame; with `verify`, checks each frame against from-scratch results.
 /// `after_frame` sees each frame's field image and dirty rectangles. Returns
 /// the rows and the number of verified frames.
 pub fn replay(
     scene: &mut Scene,
     mode: EvalMode,
-    frames: &[Vec<Edit>],
+    script: &Script,
     polygonize: &PolygonizeArgs,
     size: Size,
     verify_frames: bool,
@@ -242,12 +242,12 @@ pub fn replay(
     let mut state = initial_state(scene, mode, size, polygonize);
     let mut rows = vec![];
     let mut verified = 0;
-    for (i, edits) in frames.iter().enumerate() {
-        let (mut row, rects) = step(scene, &mut state, edits, i).with_context(|| format!("frame {i}"))?;
+    for (i, edits) in script.frames.iter().enumerate() {
+        let (mut row, rects) = step(scene, &mut state, edits, i).with_context(|| script.frame_label(i))?;
         if verify_frames {
             let (render_s, full_s, mismatch) = verify(scene, &state, polygonize);
             if let Some(what) = mismatch {
-                anyhow::bail!("frame {i}: the incremental result differs from the full one: {what}");
+                anyhow::bail!("{}: the incremental result differs from the full one: {what}", script.frame_label(i));
             }
             row.full_s = Some(full_s);
             row.full_render_s = Some(render_s);

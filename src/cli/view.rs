@@ -20,7 +20,7 @@ use super::{EvalOptions, worker_pool};
 use crate::camera::Camera;
 use crate::compare::{Rgb8Image, Scale, frame_image};
 use crate::field::Edit;
-use crate::scene::{Scene, Size, load_script};
+use crate::scene::{Scene, Script, Size, load_script};
 use crate::trace::PixelRect;
 
 /// Options of `blobtrace view`.
@@ -145,7 +145,7 @@ struct Viewer {
     view: View,
     /// The arrow keys' step: a fiftieth of the model's first bounding diagonal.
     step_length: f32,
-    script: Vec<Vec<Edit>>,
+    script: Script,
     next_script_frame: usize,
     frames: usize,
     /// The last frame's time and dirty fraction.
@@ -199,7 +199,7 @@ impl Viewer {
     fn new(
         scene: Scene,
         state: EditState,
-        script: Vec<Vec<Edit>>,
+        script: Script,
         node: Option<&str>,
         snapshot_path: PathBuf,
     ) -> anyhow::Result<Self> {
@@ -260,8 +260,8 @@ impl Viewer {
                 }
             }
             Action::NextScriptFrame => {
-                if let Some(edits) = self.script.get(self.next_script_frame).cloned() {
-                    self.apply(&edits).with_context(|| format!("script frame {}", self.next_script_frame))?;
+                if let Some(edits) = self.script.frames.get(self.next_script_frame).cloned() {
+                    self.apply(&edits).with_context(|| self.script.frame_label(self.next_script_frame))?;
                     self.next_script_frame += 1;
                 }
             }
@@ -344,11 +344,11 @@ pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
     a.polygonize.check_unrefined(&scene, "view")?;
     let script = match &a.script {
         Some(path) => {
-            let frames = load_script(path)?;
-            check_names(&scene, &frames).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
-            frames
+            let script = load_script(path)?;
+            check_names(&scene, &script)?;
+            script
         }
-        None => vec![],
+        None => Script::default(),
     };
     let size = a.size.unwrap_or(scene.size);
     // The window stays on this thread (some systems draw windows from the
@@ -425,7 +425,7 @@ mod tests {
         let polygonize = PolygonizeArgs { res: 24, cells: CellsArg::Cubes, vertex: VertexArg::Root, refine: 0 };
         let state = initial_state(&scene, mode, scene.size, &polygonize);
         let snapshots = std::env::temp_dir().join(format!("blobtrace-view-test-{}.png", std::process::id()));
-        (Viewer::new(scene, state, vec![], None, snapshots).unwrap(), polygonize)
+        (Viewer::new(scene, state, Script::default(), None, snapshots).unwrap(), polygonize)
     }
 
     #[test]

@@ -13,7 +13,7 @@ use std::path::Path;
 use glam::Vec3;
 
 pub use desc::{CameraDesc, NodeDesc, SceneDesc};
-pub use script::{load_script, parse_script};
+pub use script::{Script, load_script, parse_script};
 pub use values::{Color, Finite, Positive, Size, V3};
 
 use crate::camera::Camera;
