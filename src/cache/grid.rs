@@ -343,6 +343,7 @@ impl CacheGrid {
         if b0 == b1 && self.spec.storage == Storage::F32 {
             return match n {
                 2 => self.gather_in_block::<2, 8>(b0, first, out, pool, eval),
+                // The quadratic filter's three taps.
                 _ => self.gather_in_block::<3, 27>(b0, first, out, pool, eval),
             };
         }

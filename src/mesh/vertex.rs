@@ -41,7 +41,7 @@ const MAX_ROOT_EVALS: u32 = 24;
 /// in two or three on smooth edges, but next to a kink it can creep
 /// in from one end a sliver at a time; bisecting for the rest of the
 /// evaluations holds the root to `2^-(MAX - this)` of whatever bracket is left.
-const ILLINOIS_EVALS: u32 = 8;
+const INTERPOLATING_EVALS: u32 = 8;
 
 /// The point on `a → b` where the field crosses the threshold, given the
 /// corner values, and the evaluations spent.
@@ -97,15 +97,15 @@ pub fn place_on_edge<F: Field + ?Sized>(
             }
             kept = -1;
         }
-        let illinois = evals < ILLINOIS_EVALS;
-        t = if illinois {
+        let interpolating = evals < INTERPOLATING_EVALS;
+        t = if interpolating {
             inverse_quadratic((lo, vlo), (hi, vhi), dropped)
                 .filter(|&s| s > lo && s < hi)
                 .unwrap_or_else(|| secant(lo, glo, hi, ghi))
         } else {
             0.5 * (lo + hi)
         };
-        if converged && illinois {
+        if converged && interpolating {
             break;
         }
     }
