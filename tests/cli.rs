@@ -665,6 +665,36 @@ fn edit_replays_a_script_incrementally_and_verifies_every_frame() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// An intersection of parts that do not meet has an empty support: its mesh
+/// lattice spans the parts themselves, so edits that make them meet polygonize.
+#[test]
+fn parts_that_meet_only_after_an_edit_polygonize_on_the_parts_lattice() {
+    let dir = scratch("apart");
+    let scene = dir.join("apart.ron");
+    std::fs::write(
+        &scene,
+        "Scene(camera: Camera(eye: (0.0, 0.5, 6.0), target: (0.0, 0.0, 0.0), fov_y: 40.0), size: (32, 24), \
+         model: Intersection([Point(center: (-0.6, 0.0, 0.0), radius: 1.0), \
+         Named(\"b\", Point(center: (1.6, 0.0, 0.0), radius: 1.0))]))",
+    )
+    .unwrap();
+    let mesh = dir.join("apart.ply");
+    let out = blobtrace(&["mesh", scene.to_str().unwrap(), "--res", "16", "-o", mesh.to_str().unwrap(), "--json"]);
+    let report = json(&out);
+    let cell = report["cell_size"].as_f64().unwrap();
+    // Sixteen cells across the two balls' extent, from -1.6 to 2.6.
+    assert!((cell - 4.2 / 16.0).abs() < 1e-4 && report["triangles"] == 0, "{report}");
+    let script = dir.join("meet.ron");
+    std::fs::write(&script, "EditScript(frames: [(repeat: 2, edits: [Translate(node: \"b\", by: (-0.9, 0.0, 0.0))])])")
+        .unwrap();
+    let args = ["edit", scene.to_str().unwrap(), "--script", script.to_str().unwrap(), "--res", "16"];
+    let out = blobtrace(&[&args[..], &["--verify", "--json", "--out-dir", dir.to_str().unwrap()]].concat());
+    let report = json(&out);
+    assert_eq!(report["verified_frames"], 2, "{report}");
+    assert!(report["per_frame"][1]["triangles"].as_u64().unwrap() > 0, "{report}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 #[test]
 fn edit_scripts_are_checked_where_they_are_written_and_edits_that_overreach_are_refused() {
     let dir = scratch("edit-bad");

@@ -208,7 +208,7 @@ pub fn replay_from_scratch(
     size: Size,
 ) -> anyhow::Result<Vec<ScratchFrame>> {
     let settings = RenderSettings::for_scene(scene, size);
-    let lattice = crate::mesh::Lattice::across(&scene.model.bounds(), polygonize.res);
+    let lattice = crate::mesh::Lattice::for_model(&scene.model, polygonize.res);
     let mut rows = vec![];
     for (i, edits) in script.frames.iter().enumerate() {
         for edit in edits {
@@ -263,7 +263,7 @@ pub(super) fn initial_state(scene: &Scene, mode: EvalMode, size: Size, polygoniz
     let settings = RenderSettings::for_scene(scene, size);
     let (field_frame, _, empty) = render_model(&scene.model, mode, &settings, &|_| {});
     let field = ModelField::new(&scene.model, mode);
-    let lattice = crate::mesh::Lattice::across(&scene.model.bounds(), polygonize.res);
+    let lattice = crate::mesh::Lattice::for_model(&scene.model, polygonize.res);
     let mut polygonizer = Polygonizer::new(lattice, polygonize.options());
     polygonizer.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
     let dynamic = DynamicMesh::build(&polygonizer);

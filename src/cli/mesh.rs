@@ -108,7 +108,7 @@ impl PolygonizeArgs {
         );
         let probe_res = self.res.min(PROBE_RES);
         let probe_options = PolygonizeOptions { vertex: VertexPlacement::Linear, ..self.options() };
-        let probe = Lattice::across(&scene.model.bounds(), probe_res);
+        let probe = Lattice::for_model(&scene.model, probe_res);
         let crossed = run_polygonizer(scene, EvalMode::Indexed, probe, probe_options, 0).1.crossed_cells as f64;
         let scale = (fine_res as f64 / f64::from(probe_res)).powi(2);
         let needed = crossed * scale * BYTES_PER_CROSSED_CELL;
@@ -290,7 +290,7 @@ pub fn run(a: &MeshArgs) -> anyhow::Result<()> {
 /// they are), and reports what it took.
 #[must_use]
 pub fn polygonize_scene(scene: &Scene, mode: EvalMode, args: &PolygonizeArgs) -> (Mesh, MeshReport) {
-    let coarse = Lattice::across(&scene.model.bounds(), args.res);
+    let coarse = Lattice::for_model(&scene.model, args.res);
     let lattice = coarse.refined(args.refine);
     let start = Instant::now();
     let (mesh, counts) = run_polygonizer(scene, mode, coarse, args.options(), args.refine);

@@ -214,6 +214,22 @@ impl Model {
         self.node(self.root).bounds
     }
 
+    /// The bounds of every primitive as placed, whatever the operators above
+    /// them make of their supports: where the model lies even when its
+    /// support is empty (an intersection of parts that do not meet).
+    #[must_use]
+    pub fn extent(&self) -> Aabb {
+        self.extent_of(self.root)
+    }
+
+    fn extent_of(&self, id: NodeId) -> Aabb {
+        match &self.node(id).kind {
+            NodeKind::Primitive(p) => p.bounds(),
+            NodeKind::Transform { placement, child } => self.extent_of(*child).transformed(&placement.to_world),
+            kind => kind.children().iter().fold(Aabb::EMPTY, |a, &c| a.union(&self.extent_of(c))),
+        }
+    }
+
     /// Checks that the model lies near enough the origin for its size (see
     /// [`MAX_OFFSET_IN_SIZES`] and [`MAX_REACH`]); an empty model passes.
     pub fn check_reach(&self) -> Result<(), ModelError> {

@@ -10,6 +10,7 @@
 
 use glam::{IVec3, Vec3A};
 
+use crate::field::Model;
 use crate::geom::Aabb;
 
 /// A lattice point in half-cell integer coordinates.
@@ -30,6 +31,16 @@ impl Lattice {
     #[must_use]
     pub fn across(bounds: &Aabb, res: u32) -> Self {
         Self { cell: bounds.size().max_element() / res.max(1) as f32 }
+    }
+
+    /// The lattice with `res` cubes along the longest side of `model`'s
+    /// bounds, or, where its support is empty, of its primitives' extent (a
+    /// later edit may make the parts meet: the lattice stays).
+    #[must_use]
+    pub fn for_model(model: &Model, res: u32) -> Self {
+        let bounds = model.bounds();
+        let spanned = if bounds.is_empty() { model.extent() } else { bounds };
+        Self::across(&spanned, res)
     }
 
     /// The lattice `2^k` times finer: its corners include every corner of this one.

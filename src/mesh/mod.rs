@@ -13,7 +13,7 @@
 //!     "inline",
 //! )?;
 //! let field = ModelField::new(&scene.model, EvalMode::Indexed);
-//! let mut polygonizer = Polygonizer::new(Lattice::across(&scene.model.bounds(), 16), PolygonizeOptions::default());
+//! let mut polygonizer = Polygonizer::new(Lattice::for_model(&scene.model, 16), PolygonizeOptions::default());
 //! polygonizer.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
 //! let mesh = polygonizer.mesh();
 //! assert!(mesh.topology().is_closed_manifold());
