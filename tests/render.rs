@@ -306,3 +306,36 @@ fn skipping_empty_space_changes_no_pixel() {
         assert!(skipping_stats.steps < plain_stats.steps, "{name}: skipping saved no steps");
     }
 }
+
+/// Parts that do not meet leave the model's support empty; the hit lattice is
+/// then sized by the parts, so that once an edit makes them meet, the render
+/// after the edit (with the first frame's settings) finds what a render of the
+/// edited scene finds.
+#[test]
+fn the_hit_lattice_of_parts_that_do_not_meet_is_sized_by_the_parts() {
+    let text = |b: f32| {
+        format!(
+            "Scene(camera: Camera(eye: (0.0, 0.5, 6.0), target: (0.0, 0.0, 0.0), fov_y: 40.0), size: (48, 36), \
+             model: Intersection([Point(center: (-0.6, 0.0, 0.0), radius: 1.0), \
+             Named(\"b\", Point(center: ({b}, 0.0, 0.0), radius: 1.0))]))"
+        )
+    };
+    let mut apart = Scene::parse(&text(1.6), "apart").unwrap();
+    assert!(apart.model.bounds().is_empty());
+    let first = settings(&apart, 48, 36);
+    let quantum = first.trace.quantum.expect("snapped hits");
+    // The parts span x from -1.6 to 2.6, y and z from -1 to 1.
+    let diagonal = (4.2f32 * 4.2 + 2.0 * 2.0 * 2.0).sqrt();
+    assert!((quantum - first.trace.tolerance * diagonal).abs() < 1e-9, "{quantum}");
+    apart
+        .model
+        .apply(&blobtrace::field::Edit::Translate { node: "b".into(), by: glam::Vec3::new(-1.8, 0.0, 0.0) })
+        .unwrap();
+    let met = Scene::parse(&text(-0.2), "met").unwrap();
+    let hits = |s: &Scene, settings: &RenderSettings| {
+        let (frame, _) = render(&ModelField::new(&s.model, EvalMode::Indexed), settings, &|_| {});
+        frame.depth.iter().filter(|d| d.is_finite()).count()
+    };
+    let found = hits(&apart, &first);
+    assert!(found > 0 && found == hits(&met, &settings(&met, 48, 36)), "{found}");
+}

@@ -214,12 +214,15 @@ impl Model {
         self.node(self.root).bounds
     }
 
-    /// The bounds of every primitive as placed, whatever the operators above
-    /// them make of their supports: where the model lies even when its
-    /// support is empty (an intersection of parts that do not meet).
+    /// The box that sizes the lattices fixed by a model's first frame (the
+    /// mesh lattice, the tracer's hit lattice): its support's bounds, or,
+    /// where the support is empty (an intersection of parts that do not
+    /// meet), the bounds of every primitive as placed, since a later edit
+    /// may make the parts meet.
     #[must_use]
-    pub fn extent(&self) -> Aabb {
-        self.extent_of(self.root)
+    pub fn sizing_bounds(&self) -> Aabb {
+        let bounds = self.bounds();
+        if bounds.is_empty() { self.extent_of(self.root) } else { bounds }
     }
 
     fn extent_of(&self, id: NodeId) -> Aabb {

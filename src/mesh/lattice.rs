@@ -34,13 +34,10 @@ impl Lattice {
     }
 
     /// The lattice with `res` cubes along the longest side of `model`'s
-    /// bounds, or, where its support is empty, of its primitives' extent (a
-    /// later edit may make the parts meet: the lattice stays).
+    /// sizing bounds (its support's, or its parts' where that is empty).
     #[must_use]
     pub fn for_model(model: &Model, res: u32) -> Self {
-        let bounds = model.bounds();
-        let spanned = if bounds.is_empty() { model.extent() } else { bounds };
-        Self::across(&spanned, res)
+        Self::across(&model.sizing_bounds(), res)
     }
 
     /// The lattice `2^k` times finer: its corners include every corner of this one.

@@ -43,7 +43,7 @@ impl RenderSettings {
             height: size.1,
             background: scene.background,
             lighting: Lighting::default(),
-            trace: TraceOptions::for_bounds(&scene.model.bounds()),
+            trace: TraceOptions::for_bounds(&scene.model.sizing_bounds()),
         }
     }
 }
