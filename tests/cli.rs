@@ -218,6 +218,10 @@ fn cached_render_reports_cache_statistics_and_exact_mode_omits_them() {
     }
     assert_eq!(caches["per_cache"].as_array().map(Vec::len), Some(7));
     assert!(caches["samples_evaluated"].as_u64() > Some(0));
+    // Every lookup is counted, on however many threads.
+    let one_thread = run(&["--threads", "1"]);
+    assert!(caches["lookups"].as_u64() > Some(0));
+    assert_eq!(one_thread["caches"]["lookups"], caches["lookups"]);
     let budgeted = run(&["--cache-budget", "0.5"]);
     assert!(budgeted["caches"]["bytes"].as_u64() <= Some(512 * 1024), "{}", budgeted["caches"]);
     assert_eq!(budgeted["hits"], cached["hits"]);

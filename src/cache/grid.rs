@@ -463,7 +463,7 @@ impl CacheGrid {
 
     /// The reconstructed value at `p` (cache frame), with the value filter.
     pub fn value(&self, p: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
-        self.lookups.add(1);
+        self.lookups.add_one_unsynchronized();
         let u = p * self.inv_cell;
         let filter = self.spec.value;
         filter.value(u, &self.gather(filter, u, pool, eval))
@@ -471,7 +471,7 @@ impl CacheGrid {
 
     /// The reconstructed gradient at `p` (cache frame), with the gradient filter.
     pub fn gradient(&self, p: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> Vec3A {
-        self.lookups.add(1);
+        self.lookups.add_one_unsynchronized();
         let u = p * self.inv_cell;
         let filter = self.spec.gradient;
         filter.gradient(u, &self.gather(filter, u, pool, eval)) * self.inv_cell
@@ -890,8 +890,22 @@ struct PaddedCounter(AtomicU64);
 impl ShardedCounter {
     #[inline]
     fn add(&self, n: u64) {
-        let shard = rayon::current_thread_index().unwrap_or(0) % self.shards.len();
-        self.shards[shard].0.fetch_add(n, Ordering::Relaxed);
+        self.shard().fetch_add(n, Ordering::Relaxed);
+    }
+
+    /// Counts one, by a plain load and store: a tenth of a warm lookup's
+    /// time less than [`Self::add`]. Each thread of a pool has a shard of its
+    /// own; a thread outside the pool shares the first, and an increment it
+    /// races there may be lost, which only a statistic would show.
+    #[inline]
+    fn add_one_unsynchronized(&self) {
+        let shard = self.shard();
+        shard.store(shard.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
+    }
+
+    #[inline]
+    fn shard(&self) -> &AtomicU64 {
+        &self.shards[rayon::current_thread_index().unwrap_or(0) % self.shards.len()].0
     }
 
     fn total(&self) -> u64 {
