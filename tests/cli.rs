@@ -250,7 +250,7 @@ fn conflicting_or_bad_cache_options_are_refused() {
 
 #[test]
 fn bench_cache_reports_its_keys() {
-    let v = json(&blobtrace(&["bench", "cache", "--size", "32x24", "--json"]));
+    let v = json(&blobtrace(&["bench", "cache", "--size", "32x24", "--repeat", "2", "--json"]));
     for key in [
         "exact_naive_s",
         "exact_s",
@@ -265,6 +265,26 @@ fn bench_cache_reports_its_keys() {
     }
     assert!(v["mismatch_px"].as_u64() < Some(32 * 24 / 20), "{}", v["mismatch_px"]);
     assert_eq!(v["lookups"].as_array().map(Vec::len), Some(7));
+    // Two rounds of each render, and the fastest counts.
+    for (key, best) in
+        [("exact_naive", "exact_naive_s"), ("cached_cold", "cached_cold_s"), ("cached_warm", "cached_warm_s")]
+    {
+        let runs: Vec<f64> = v["runs_s"][key].as_array().unwrap().iter().map(|s| s.as_f64().unwrap()).collect();
+        assert_eq!(runs.len(), 2, "{key}: {runs:?}");
+        assert_eq!(Some(runs.iter().copied().fold(f64::MAX, f64::min)), v[best].as_f64(), "{key}");
+    }
+}
+
+#[test]
+fn bench_eval_counts_the_fastest_of_its_rounds() {
+    let v = json(&blobtrace(&["bench", "eval", "scenes/pair.ron", "--size", "24x16", "--repeat", "3", "--json"]));
+    for (runs, best) in [("naive_runs_s", "naive"), ("indexed_runs_s", "indexed")] {
+        let runs: Vec<f64> = v[runs].as_array().unwrap().iter().map(|s| s.as_f64().unwrap()).collect();
+        assert_eq!(runs.len(), 3);
+        assert_eq!(Some(runs.iter().copied().fold(f64::MAX, f64::min)), v[best]["seconds"].as_f64());
+    }
+    let out = blobtrace(&["bench", "eval", "scenes/pair.ron", "--repeat", "0"]);
+    assert!(!out.status.success());
 }
 
 #[test]
