@@ -205,6 +205,37 @@ fn value_and_gradient_together_equal_them_apart_to_the_bit() {
     }
 }
 
+/// Shading and vertex colouring take the gradient and the colour together:
+/// they must be the very values taken apart, or images would change with it.
+#[test]
+fn gradient_and_color_together_equal_them_apart_to_the_bit() {
+    for scene in [medusa(), every_node(), nested()] {
+        let m = &scene.model;
+        let b = m.bounds();
+        let mut rng = Rng(23);
+        for mode in [EvalMode::Indexed, EvalMode::Naive, EvalMode::Cached] {
+            let field = ModelField::new(m, mode);
+            let mut coloured = 0;
+            for _ in 0..5_000 {
+                let p = rng.point_in(b.min, b.max);
+                let (g, c) = field.gradient_and_color(p);
+                assert_eq!(
+                    g.to_array().map(f32::to_bits),
+                    field.gradient(p).to_array().map(f32::to_bits),
+                    "gradient at {p} ({mode:?})"
+                );
+                assert_eq!(
+                    c.to_array().map(f32::to_bits),
+                    field.color(p).to_array().map(f32::to_bits),
+                    "colour at {p}"
+                );
+                coloured += usize::from(field.value(p) > 0.0 && c != blobtrace::field::DEFAULT_COLOR);
+            }
+            assert!(coloured > 100, "too few samples with a colour of their own: {coloured}");
+        }
+    }
+}
+
 #[test]
 fn wide_blends_are_indexed() {
     let c = medusa().model.counts();

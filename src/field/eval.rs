@@ -137,9 +137,9 @@ impl Model {
         }
         match &node.kind {
             NodeKind::Blend { index: Some(ix), .. } if mode.indexed() => {
-                if let Some((v, g)) = ix.point_sum_and_gradient(p) {
-                    return (v as f32, g);
-                }
+                let (v, g) =
+                    ix.point_sum_and_gradient(p).unwrap_or_else(|| self.leaves_value_and_gradient(ix, p, mode));
+                return (v as f32, g);
             }
             NodeKind::Blend { children, index } if index.is_none() || !mode.indexed() => {
                 let (v, g) = self.nested_blend_value_and_gradient(children, p, mode);
@@ -156,6 +156,20 @@ impl Model {
             _ => {}
         }
         (self.node_value(id, p, mode), self.node_gradient(id, p, mode))
+    }
+
+    /// The sum of the values and of the gradients of the leaves listed around
+    /// `p`, in the order (and so to the bits) of [`Self::node_value`] and
+    /// [`Self::node_gradient`] apart, each leaf visited once: a leaf that is a
+    /// blend of points sums its values and gradients in one pass.
+    fn leaves_value_and_gradient(&self, ix: &BlendIndex, p: Vec3A, mode: EvalMode) -> (f64, Vec3A) {
+        ix.candidates(p).iter().fold((0.0f64, Vec3A::ZERO), |(sum, gradient), &i| {
+            let (v, g) = match &ix.leaves[i as usize].leaf {
+                Leaf::Primitive(prim) => (prim.value(p), prim.gradient(p)),
+                Leaf::Node(id) => self.node_value_and_gradient(*id, p, mode),
+            };
+            (sum + f64::from(v), gradient + g)
+        })
     }
 
     /// [`Self::nested_blend_sum`] with the children's gradients summed as
@@ -287,6 +301,47 @@ impl Model {
             NodeKind::Transform { placement, child } => self.node_color(*child, placement.local(p), mode),
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_color(*child, p, mode),
         }
+    }
+
+    /// [`Self::node_gradient`] and [`Self::node_color`] at `p` together, to the
+    /// same bits. A blend weighs its children's colours by their values, so
+    /// where it sums their gradients too each child is evaluated once for both
+    /// (a blend of points in one pass over them): a shaded hit or a coloured
+    /// vertex costs one evaluation of the model instead of two.
+    pub fn node_gradient_and_color(&self, id: NodeId, p: Vec3A, mode: EvalMode) -> (Vec3A, Vec3) {
+        let node = self.node(id);
+        if node.color.is_none() && node.bounds.contains(p) {
+            match &node.kind {
+                NodeKind::Blend { children, index } if index.is_none() || !mode.indexed() => {
+                    return self.blend_gradient_and_color(children, p, mode);
+                }
+                NodeKind::Transform { placement, child } => {
+                    let (g, color) = self.node_gradient_and_color(*child, placement.local(p), mode);
+                    return (placement.gradient_map * g, color);
+                }
+                NodeKind::Cache { .. } if mode == EvalMode::Cached => {}
+                NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => {
+                    return self.node_gradient_and_color(*child, p, mode);
+                }
+                _ => {}
+            }
+        }
+        (self.node_gradient(id, p, mode), self.node_color(id, p, mode))
+    }
+
+    /// The gradient of a blend without an index and its colour (see
+    /// [`mix`]), each child's value and gradient taken together.
+    fn blend_gradient_and_color(&self, children: &[NodeId], p: Vec3A, mode: EvalMode) -> (Vec3A, Vec3) {
+        let (mut gradient, mut acc, mut total) = (Vec3A::ZERO, Vec3::ZERO, 0.0f32);
+        for &c in children {
+            let (v, g) = self.node_value_and_gradient(c, p, mode);
+            gradient += g;
+            if v > 0.0 {
+                acc += self.node_color(c, p, mode) * v;
+                total += v;
+            }
+        }
+        (gradient, if total > 0.0 { acc / total } else { DEFAULT_COLOR })
     }
 
     fn leaf_color(&self, leaf: &IndexedLeaf, p: Vec3A, mode: EvalMode) -> Vec3 {

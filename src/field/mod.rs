@@ -78,6 +78,12 @@ pub trait Field: Sync {
     }
     /// Surface colour at `p` (linear RGB).
     fn color(&self, p: Vec3A) -> Vec3;
+    /// [`Field::gradient`] and [`Field::color`] at `p` together, the same
+    /// values, where computing both at once is cheaper (a shaded hit, a
+    /// coloured vertex).
+    fn gradient_and_color(&self, p: Vec3A) -> (Vec3A, Vec3) {
+        (self.gradient(p), self.color(p))
+    }
     /// Conservative bounds of the value over a box.
     fn interval(&self, b: &Aabb) -> Interval;
     /// A bound on `|∇f|` over a region: `|f(x) - f(y)| <= L |x - y|` for x, y in it.
@@ -176,6 +182,9 @@ impl Field for ModelField<'_> {
     }
     fn color(&self, p: Vec3A) -> Vec3 {
         self.model.node_color(self.model.root(), p, self.mode)
+    }
+    fn gradient_and_color(&self, p: Vec3A) -> (Vec3A, Vec3) {
+        self.model.node_gradient_and_color(self.model.root(), p, self.mode)
     }
     fn interval(&self, b: &Aabb) -> Interval {
         self.model.node_interval(self.model.root(), b, self.mode)

@@ -12,7 +12,7 @@
 //! grow again from the boundary of the hole, and end with exactly the cells,
 //! corners and vertices a fresh polygonization of the edited field would have.
 
-use glam::{IVec3, Vec3};
+use glam::{IVec3, Vec3, Vec3A};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
@@ -569,12 +569,14 @@ impl Polygonizer {
             .map(|&[a, b]| {
                 let ends = |q: LatticePoint| (lattice.position(q), corners[&q]);
                 let (p, evals) = place_on_edge(field, ends(a), ends(b), placement);
-                // A preview spends nothing on normals: the mesh's face normals stand in.
-                let normal = match placement {
-                    VertexPlacement::Linear => Vec3::ZERO,
-                    VertexPlacement::Root { .. } => Vec3::from(-field.gradient(p)).normalize_or_zero(),
+                let (gradient, color) = match (placement, with_colors) {
+                    // A preview spends nothing on normals: the mesh's face normals stand in.
+                    (VertexPlacement::Linear, true) => (Vec3A::ZERO, field.color(p)),
+                    (VertexPlacement::Linear, false) => (Vec3A::ZERO, DEFAULT_COLOR),
+                    (VertexPlacement::Root { .. }, true) => field.gradient_and_color(p),
+                    (VertexPlacement::Root { .. }, false) => (field.gradient(p), DEFAULT_COLOR),
                 };
-                let color = if with_colors { field.color(p) } else { DEFAULT_COLOR };
+                let normal = Vec3::from(-gradient).normalize_or_zero();
                 (edge_key(a, b), EdgeVertex { position: p.into(), normal, color }, evals)
             })
             .collect();

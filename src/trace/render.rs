@@ -270,8 +270,8 @@ fn trace_pixel<F: Field + ?Sized>(field: &F, s: &RenderSettings, x: u32, y: u32)
 /// evaluations) spent finding it.
 fn shade_hit<F: Field + ?Sized>(field: &F, s: &RenderSettings, ray: &Ray, t: f32, work: [u32; 2]) -> PixelSample {
     let p = ray.at(t);
-    let normal = outward_normal(field.gradient(p), ray.dir);
-    let albedo = field.color(p);
+    let (gradient, albedo) = field.gradient_and_color(p);
+    let normal = outward_normal(gradient, ray.dir);
     PixelSample {
         color: s.lighting.shade(&s.camera, ray.dir, normal, albedo),
         depth: t,
