@@ -71,6 +71,26 @@ fn trilinear_reproduces_the_samples_at_lattice_points() {
     }
 }
 
+/// Hits and vertices take a cache's value and gradient from one gather: the
+/// very bits of the two lookups apart, whichever filter reads more samples.
+#[test]
+fn value_and_gradient_together_equal_them_apart_for_every_pair_of_filters() {
+    for (value, gradient, storage) in [
+        ("Trilinear", "Triquadratic", "F32"),
+        ("Triquadratic", "Trilinear", "F32"),
+        ("Trilinear", "Trilinear", "F16"),
+        ("Triquadratic", "Triquadratic", "F32"),
+    ] {
+        let scene = cached_scene(20, value, gradient, storage);
+        let field = ModelField::new(&scene.model, EvalMode::Cached);
+        for p in random_points(&scene.model, 2_000, 5) {
+            let (v, g) = field.value_and_gradient(p);
+            assert_eq!(v.to_bits(), field.value(p).to_bits(), "{value}/{gradient} value at {p}");
+            assert_eq!(g.to_array().map(f32::to_bits), field.gradient(p).to_array().map(f32::to_bits), "at {p}");
+        }
+    }
+}
+
 #[test]
 fn gradients_match_central_differences_of_the_reconstruction() {
     for filter in ["Trilinear", "Triquadratic"] {

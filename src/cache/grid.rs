@@ -477,6 +477,32 @@ impl CacheGrid {
         filter.gradient(u, &self.gather(filter, u, pool, eval)) * self.inv_cell
     }
 
+    /// [`Self::value`] and [`Self::gradient`] at `p` together, to the same
+    /// bits, from one gather where one filter's samples hold the other's (the
+    /// tri-linear cube always lies in the tri-quadratic one around the same
+    /// point): a shaded hit or a coloured vertex weighs a cache's colour by
+    /// its value and takes its gradient there.
+    pub fn value_and_gradient(&self, p: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> (f32, Vec3A) {
+        let u = p * self.inv_cell;
+        let (value, gradient) = (self.spec.value, self.spec.gradient);
+        let (wide, narrow) = if gradient.taps() >= value.taps() { (gradient, value) } else { (value, gradient) };
+        let ((first, n), (inner, m)) = (wide.footprint(u), narrow.footprint(u));
+        let offset = inner - first;
+        if offset.min_element() < 0 || (offset + IVec3::splat(m as i32)).max_element() > n as i32 {
+            return (self.value(p, pool, eval), self.gradient(p, pool, eval));
+        }
+        self.lookups.add_one_unsynchronized();
+        self.lookups.add_one_unsynchronized();
+        let outer = self.gather(wide, u, pool, eval);
+        let mut sub = [0.0f32; 27];
+        for (k, s) in sub.iter_mut().enumerate().take(m * m * m) {
+            let at = offset + IVec3::new((k % m) as i32, ((k / m) % m) as i32, (k / (m * m)) as i32);
+            *s = outer[(at.z as usize * n + at.y as usize) * n + at.x as usize];
+        }
+        let (value_samples, gradient_samples) = if wide == gradient { (&sub, &outer) } else { (&outer, &sub) };
+        (value.value(u, value_samples), gradient.gradient(u, gradient_samples) * self.inv_cell)
+    }
+
     /// A box holding every sample either filter may read for points of `b`:
     /// where an edit inside `b` can change the reconstruction or its gradient.
     #[must_use]

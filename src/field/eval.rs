@@ -149,7 +149,9 @@ impl Model {
                 let (v, g) = self.node_value_and_gradient(*child, placement.local(p), mode);
                 return (v, placement.gradient_map * g);
             }
-            NodeKind::Cache { .. } if mode == EvalMode::Cached => {}
+            NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
+                return self.cache(*grid).value_and_gradient(p, self.pool(), &|q| self.node_value(*child, q, mode));
+            }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => {
                 return self.node_value_and_gradient(*child, p, mode);
             }
