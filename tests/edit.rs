@@ -277,3 +277,38 @@ fn an_intersection_with_a_negative_child_updates_like_any_other() {
         assert!(frame.same_image(&full), "{mode:?}");
     }
 }
+
+/// Rays that meet a change in front of their hit are traced again over the
+/// changed stretch even where nothing they show changes: they count as
+/// re-traced (the work `edit` reports), and their pixels stand.
+#[test]
+fn rays_traced_again_count_whether_or_not_their_pixels_change() {
+    // A ball, and in front of it a point too weak to reach the threshold alone.
+    let mut scene = Scene::parse(
+        r#"Scene(
+    camera: Camera(eye: (0.0, 0.0, 6.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
+    size: (64, 48),
+    model: Blend([
+        Point(center: (0.0, 0.0, 0.0), radius: 1.5),
+        Named("faint", Point(center: (0.0, 0.0, 2.5), radius: 0.4, weight: 0.3)),
+    ]),
+)"#,
+        "faint",
+    )
+    .unwrap();
+    let settings = RenderSettings::for_scene(&scene, Size(64, 48));
+    let mode = EvalMode::Indexed;
+    let (mut frame, _, mut empty) = render_model(&scene.model, mode, &settings, &|_| {});
+    let before = frame.clone();
+    let change = scene.model.apply(&Edit::Translate { node: "faint".into(), by: Vec3::new(0.1, 0.0, 0.0) }).unwrap();
+    let field = ModelField::new(&scene.model, mode);
+    let supports = scene.model.change_supports(&change, false);
+    empty.update(&supports);
+    let space = changed_space(&field, &settings, &supports);
+    let stats = rerender(&field.skipping(&empty), &settings, &mut frame, &space);
+    assert!(frame.same_image(&before), "the faint point shows nowhere, before or after");
+    assert!(stats.rays > 20, "{} rays traced again through the faint point's support", stats.rays);
+    // Those through the middle still hit the ball behind; the others still miss it.
+    assert!(stats.hits > 0 && stats.hits < stats.rays, "{} hits of {}", stats.hits, stats.rays);
+    assert!(stats.field_evals >= stats.rays, "each spent evaluations");
+}

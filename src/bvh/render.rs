@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3, Vec3A};
 use super::RayTarget;
 use crate::field::DEFAULT_COLOR;
 use crate::frame::Frame;
-use crate::trace::{PixelRect, PixelSample, RenderSettings, assemble, render_pixels, rerender_pixels};
+use crate::trace::{PixelRect, PixelSample, RenderSettings, Retrace, assemble, render_pixels, rerender_pixels};
 
 /// Totals over a mesh render.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -54,8 +54,9 @@ pub fn rerender_mesh(
     frame: &mut Frame,
     rects: &[PixelRect],
 ) -> MeshRenderStats {
-    let samples = rerender_pixels(frame, rects, MESH_COUNTERS, |x, y, _| Some(shade_pixel(target, settings, x, y)));
-    MeshRenderStats::of(&samples)
+    let done =
+        rerender_pixels(frame, rects, MESH_COUNTERS, |x, y, _| Retrace::Changed(shade_pixel(target, settings, x, y)));
+    MeshRenderStats::of(&done.changed)
 }
 
 fn shade_pixel(target: &impl RayTarget, s: &RenderSettings, x: u32, y: u32) -> PixelSample {

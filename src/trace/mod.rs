@@ -10,8 +10,8 @@ mod shade;
 pub use changed::ChangedSpace;
 pub use dirty::{PixelRect, merge_rects, screen_rect};
 pub use render::{
-    PixelSample, RenderSettings, RenderStats, assemble, changed_space, outward_normal, render, render_model,
-    render_pixels, rerender, rerender_pixels,
+    KeptPixel, PixelSample, RenderSettings, RenderStats, Rerendered, Retrace, assemble, changed_space, outward_normal,
+    render, render_model, render_pixels, rerender, rerender_pixels,
 };
 pub use segment::{Crossing, TraceOptions, TraceResult, march, trace_ray};
 pub use shade::Lighting;

@@ -147,14 +147,41 @@ pub fn rerender<F: Field + ?Sized>(
     changed: &ChangedSpace,
 ) -> RenderStats {
     let rect = changed.screen_rect(&settings.camera, settings.width, settings.height);
-    let samples = rerender_pixels(frame, rect.as_slice(), FIELD_COUNTERS, |x, y, depth| {
+    let done = rerender_pixels(frame, rect.as_slice(), FIELD_COUNTERS, |x, y, depth| {
         retrace_pixel(field, settings, x, y, depth, changed)
     });
-    RenderStats::of(&samples)
+    let mut stats = RenderStats::of(&done.changed);
+    for kept in &done.kept {
+        stats.rays += 1;
+        stats.hits += u64::from(kept.hit);
+        stats.steps += u64::from(kept.counts[0]);
+        stats.field_evals += u64::from(kept.counts[1]);
+    }
+    stats
+}
+
+/// What re-rendering a pixel did.
+#[derive(Clone, Copy, Debug)]
+pub enum Retrace {
+    /// Nothing: its ray cannot meet the change.
+    Untouched,
+    /// Its ray was traced again, whole or in part, and the pixel stands.
+    Kept(KeptPixel),
+    /// The pixel now shows this.
+    Changed(PixelSample),
+}
+
+/// A pixel traced again that stands as it was.
+#[derive(Clone, Copy, Debug)]
+pub struct KeptPixel {
+    /// Whether it shows a hit.
+    pub hit: bool,
+    /// The work counters of tracing it again.
+    pub counts: [u32; 2],
 }
 
 /// What pixel (`x`, `y`) shows after the field changed inside `changed`,
-/// given the hit distance `before` it had; `None` when it cannot have changed.
+/// given the hit distance `before` it had.
 fn retrace_pixel<F: Field + ?Sized>(
     field: &F,
     s: &RenderSettings,
@@ -162,38 +189,38 @@ fn retrace_pixel<F: Field + ?Sized>(
     y: u32,
     before: f32,
     changed: &ChangedSpace,
-) -> Option<PixelSample> {
+) -> Retrace {
     let ray = s.camera.ray(x, y, s.width, s.height);
-    let (t_in, t_out) = changed.span(&ray)?;
+    let Some((t_in, t_out)) = changed.span(&ray) else { return Retrace::Untouched };
     if before < t_in {
         // The old hit lies in front of the change.
-        return None;
+        return Retrace::Untouched;
     }
     let Some((t_start, t_end)) = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY) else {
-        return Some(PixelSample::miss(s.background, [0, 0]));
+        return Retrace::Changed(PixelSample::miss(s.background, [0, 0]));
     };
     if t_in <= t_start {
-        return Some(trace_pixel(field, s, x, y));
+        return Retrace::Changed(trace_pixel(field, s, x, y));
     }
     let (found, inside) = march(field, &ray, &s.trace, (t_in, t_out.min(t_end)));
     let mut work = [inside.steps, inside.evals];
     let hit = match found {
         Crossing::At(t) => Some(t),
         // Entering the surface exactly where the stretch starts: trace it whole.
-        Crossing::InsideAtStart => return Some(trace_pixel(field, s, x, y)),
-        Crossing::None if before > t_out => return None,
+        Crossing::InsideAtStart => return Retrace::Changed(trace_pixel(field, s, x, y)),
+        Crossing::None if before > t_out => return Retrace::Kept(KeptPixel { hit: before.is_finite(), counts: work }),
         Crossing::None => {
             // The old hit lay in the stretch and is gone: go on past it.
             let (found, after) = march(field, &ray, &s.trace, (t_out, t_end));
             work = [work[0] + after.steps, work[1] + after.evals];
             match found {
                 Crossing::At(t) => Some(t),
-                Crossing::InsideAtStart => return Some(trace_pixel(field, s, x, y)),
+                Crossing::InsideAtStart => return Retrace::Changed(trace_pixel(field, s, x, y)),
                 Crossing::None => None,
             }
         }
     };
-    Some(match hit {
+    Retrace::Changed(match hit {
         Some(t) => shade_hit(field, s, &ray, t, work),
         None => PixelSample::miss(s.background, work),
     })
@@ -206,29 +233,49 @@ pub fn rerender_pixels(
     frame: &mut Frame,
     rects: &[super::PixelRect],
     counters: [&str; 2],
-    pixel: impl Fn(u32, u32, f32) -> Option<PixelSample> + Sync,
-) -> Vec<PixelSample> {
+    pixel: impl Fn(u32, u32, f32) -> Retrace + Sync,
+) -> Rerendered {
     let pixels: Vec<(u32, u32)> =
         rects.iter().flat_map(|r| (r.y0..r.y1).flat_map(move |y| (r.x0..r.x1).map(move |x| (x, y)))).collect();
     let depth = &frame.depth;
     let width = frame.width;
-    let samples: Vec<(usize, PixelSample)> = pixels
+    let done: Vec<(usize, Retrace)> = pixels
         .par_iter()
         .filter_map(|&(x, y)| {
             let i = (y * width + x) as usize;
-            pixel(x, y, depth[i]).map(|p| (i, p))
+            let r = pixel(x, y, depth[i]);
+            (!matches!(r, Retrace::Untouched)).then_some((i, r))
         })
         .collect();
     let channels = counters.map(|name| frame.extra.iter().position(|(n, _)| n == name));
-    for &(i, ref p) in &samples {
-        write_sample(frame, i, p);
+    let mut out = Rerendered { changed: vec![], kept: vec![] };
+    for (i, r) in done {
+        let p = match r {
+            Retrace::Changed(p) => p,
+            Retrace::Kept(k) => {
+                out.kept.push(k);
+                continue;
+            }
+            Retrace::Untouched => continue,
+        };
+        write_sample(frame, i, &p);
         for (k, channel) in channels.iter().enumerate() {
             if let Some(c) = *channel {
                 frame.extra[c].1[i] = p.counts[k] as f32;
             }
         }
+        out.changed.push(p);
     }
-    samples.into_iter().map(|(_, p)| p).collect()
+    out
+}
+
+/// The pixels [`rerender_pixels`] traced again.
+#[derive(Debug, Default)]
+pub struct Rerendered {
+    /// Those that show something new (or the same, drawn again).
+    pub changed: Vec<PixelSample>,
+    /// Those traced again that stand as they were.
+    pub kept: Vec<KeptPixel>,
 }
 
 /// Stores what pixel `i` shows: colour, depth, normal, and coverage from the depth.
