@@ -312,3 +312,34 @@ fn rays_traced_again_count_whether_or_not_their_pixels_change() {
     assert!(stats.hits > 0 && stats.hits < stats.rays, "{} hits of {}", stats.hits, stats.rays);
     assert!(stats.field_evals >= stats.rays, "each spent evaluations");
 }
+
+/// Rotating or scaling a part whose support is empty (an intersection of
+/// parts that do not meet) turns it about its parts' centre. Its support has
+/// no centre, and such edits were refused as making a scale factor zero.
+#[test]
+fn a_part_without_support_turns_and_scales_about_its_parts() {
+    let mut scene = Scene::parse(
+        r#"Scene(
+    camera: Camera(eye: (0.0, 0.0, 6.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
+    size: (8, 8),
+    model: Blend([
+        Point(center: (0.0, 3.0, 0.0), radius: 1.0),
+        Named("apart", Intersection([
+            Point(center: (-1.0, 0.0, 0.0), radius: 0.5),
+            Point(center: (1.0, 0.0, 0.0), radius: 0.5),
+        ])),
+    ]),
+)"#,
+        "apart",
+    )
+    .unwrap();
+    let apart = scene.model.find("apart").unwrap();
+    assert!(scene.model.node(apart).bounds.is_empty(), "the parts do not meet");
+    scene.model.apply(&Edit::Rotate { node: "apart".into(), degrees: Vec3::new(0.0, 0.0, 90.0) }).unwrap();
+    let b = scene.model.sizing_bounds_of(apart);
+    assert!(b.center().length() < 1e-5, "turned about the parts' centre: {b:?}");
+    assert!((b.size().y - 3.0).abs() < 1e-4 && (b.size().x - 1.0).abs() < 1e-4, "now along y: {b:?}");
+    scene.model.apply(&Edit::Scale { node: "apart".into(), by: Vec3::new(1.0, 0.5, 1.0) }).unwrap();
+    let b = scene.model.sizing_bounds_of(apart);
+    assert!(b.center().length() < 1e-5 && (b.size().y - 1.5).abs() < 1e-4, "halved along y: {b:?}");
+}

@@ -76,7 +76,7 @@ fn a_hollow_ball_gives_both_its_surfaces() {
 /// intersection, a crescent a difference leaves, and the same bowl, lens and
 /// crescent off every axis of the lattice; and the bowl beside a capsule that
 /// a march along +x from its skeletons meets first.
-const OFF_SKELETON: [(&str, &str); 7] = [
+const OFF_SKELETON: [(&str, &str); 8] = [
     (
         "bowl",
         "Blend([Point(center: (0.0, 0.0, 0.0), radius: 1.5), Point(center: (0.0, 0.45, 0.0), radius: 1.2, weight: -1.5)])",
@@ -104,6 +104,11 @@ const OFF_SKELETON: [(&str, &str); 7] = [
     (
         "bowl behind a capsule",
         "Union([Blend([Point(center: (0.0, 0.0, 0.0), radius: 1.5), Point(center: (0.0, 0.45, 0.0), radius: 1.2, weight: -1.5)]), Segment(a: (1.3, 0.0, 0.0), b: (1.3, 0.45, 0.0), radius: 0.5)])",
+    ),
+    (
+        // Two of the four pieces hold neither an end nor the middle of the skeleton.
+        "capsule cut in four",
+        "Difference(Segment(a: (0.0, -3.0, 0.0), b: (0.0, 3.0, 0.0), radius: 0.6), Blend([Point(center: (0.0, -1.5, 0.0), radius: 0.8), Point(center: (0.0, 0.0, 0.0), radius: 0.8), Point(center: (0.0, 1.5, 0.0), radius: 0.8)]))",
     ),
 ];
 

@@ -260,7 +260,9 @@ impl Model {
                 });
             }
         };
-        let m = motion(self.node(transform).bounds.center()) * placement.to_world;
+        // About the subtree's centre; a subtree whose parts do not meet (an
+        // empty intersection) has no support to centre on, but its parts do.
+        let m = motion(self.sizing_bounds_of(transform).center()) * placement.to_world;
         self.set_placement(transform, Placement::from_affine(m).ok_or(ModelError::ZeroScale)?)
     }
 

@@ -221,8 +221,15 @@ impl Model {
     /// may make the parts meet.
     #[must_use]
     pub fn sizing_bounds(&self) -> Aabb {
-        let bounds = self.bounds();
-        if bounds.is_empty() { self.extent_of(self.root) } else { bounds }
+        self.sizing_bounds_of(self.root)
+    }
+
+    /// [`Self::sizing_bounds`] of node `id`, in the frame it is evaluated in:
+    /// its support's bounds, or where that is empty every primitive's under it.
+    #[must_use]
+    pub fn sizing_bounds_of(&self, id: NodeId) -> Aabb {
+        let bounds = self.node(id).bounds;
+        if bounds.is_empty() { self.extent_of(id) } else { bounds }
     }
 
     fn extent_of(&self, id: NodeId) -> Aabb {

@@ -67,11 +67,17 @@ fn collect(model: &Model, id: NodeId, placed: Placed, out: &mut Vec<Seed>) {
         NodeKind::Primitive(p) => {
             let reach = p.radius * placed.stretch;
             let mut seed = |x: Vec3A| out.push(Seed { point: placed.to_world.transform_point3a(x), reach });
-            // The point, a segment's ends and middle, eight on a circle.
+            // The point; along a segment or around a circle, starts no farther
+            // apart than half the radius (at least a segment's ends and
+            // middle, eight on a circle), so that each piece a carving or an
+            // intersection leaves of the tube around the skeleton holds one.
+            let spacing = 0.5 * p.radius;
             match p.skeleton {
                 Skeleton::Point { center } => seed(center),
-                Skeleton::Segment { a, b } => [a, (a + b) * 0.5, b].into_iter().for_each(seed),
-                Skeleton::Circle { center, normal, ring } => circle_samples(center, normal, ring).for_each(seed),
+                Skeleton::Segment { a, b } => segment_samples(a, b, spacing).for_each(seed),
+                Skeleton::Circle { center, normal, ring } => {
+                    circle_samples(center, normal, ring, spacing).for_each(seed)
+                }
             }
         }
         NodeKind::Transform { placement, child } => collect(model, *child, placed.then(placement.to_world), out),
@@ -79,15 +85,29 @@ fn collect(model: &Model, id: NodeId, placed: Placed, out: &mut Vec<Seed>) {
     }
 }
 
-/// Eight points on a circle skeleton.
-fn circle_samples(center: Vec3A, normal: Vec3A, ring: f32) -> impl Iterator<Item = Vec3A> {
+/// Evenly spaced points from `a` to `b`, both ends and the middle among
+/// them, no farther apart than `spacing`.
+fn segment_samples(a: Vec3A, b: Vec3A, spacing: f32) -> impl Iterator<Item = Vec3A> {
+    let halves = (((b - a).length() / (2.0 * spacing)).ceil() as usize).clamp(1, MAX_SKELETON_STARTS / 2);
+    let n = 2 * halves;
+    (0..=n).map(move |i| a.lerp(b, i as f32 / n as f32))
+}
+
+/// Evenly spaced points on a circle skeleton, at least eight, no farther
+/// apart than `spacing` along it.
+fn circle_samples(center: Vec3A, normal: Vec3A, ring: f32, spacing: f32) -> impl Iterator<Item = Vec3A> {
     let u = normal.any_orthonormal_vector();
     let v = normal.cross(u);
-    (0..8).map(move |i| {
-        let a = i as f32 * std::f32::consts::FRAC_PI_4;
+    let n = ((std::f32::consts::TAU * ring / spacing).ceil() as usize).clamp(8, MAX_SKELETON_STARTS);
+    (0..n).map(move |i| {
+        let a = i as f32 * std::f32::consts::TAU / n as f32;
         center + (u * a.cos() + v * a.sin()) * ring
     })
 }
+
+/// The most starts one segment or circle gets: a skeleton hundreds of radii
+/// long is a modelling slip, not a reason to march ten thousand times.
+const MAX_SKELETON_STARTS: usize = 64;
 
 /// Lattice points evaluated on a walk, with their values.
 pub(super) type Evaluated = Vec<(LatticePoint, f32)>;
