@@ -129,6 +129,11 @@ fn bad_edits_are_refused_and_change_nothing() {
     }
     let after = render(&ModelField::new(&scene.model, EvalMode::Cached), &settings, &|_| {}).0;
     assert!(before.same_image(&after));
+    // A move puts a transform over the probe: a refusal names what lies under it.
+    scene.model.apply(&Edit::Translate { node: "probe".into(), by: Vec3::X * 0.1 }).unwrap();
+    let add = Edit::AddPoint { to: "probe".into(), name: "q".into(), center: Vec3::ZERO, radius: 0.2, weight: 1.0 };
+    let err = scene.model.apply(&add).expect_err("refused").to_string();
+    assert!(err.contains("is a Point, not a Blend"), "{err}");
 }
 
 #[test]

@@ -184,9 +184,9 @@ impl Model {
     fn apply_found(&mut self, edit: &Edit, named: NodeId, child: NodeId) -> Result<Change, ModelError> {
         let operator = || {
             self.operator_under(named).ok_or_else(|| ModelError::WrongKind {
-                node: format!("the node under {:?}", edit.node()),
+                node: format!("the node under {:?} (through its transforms and caches)", edit.node()),
                 expected: "Blend, Union, Intersection or Ricci",
-                found: self.node(child).kind.type_name(),
+                found: self.node(self.under_frames(child)).kind.type_name(),
             })
         };
         match edit {

@@ -449,15 +449,19 @@ impl Model {
 
     /// The n-ary operator under `Named` node `named`, looking through transforms and caches.
     pub(super) fn operator_under(&self, named: NodeId) -> Option<NodeId> {
-        let NodeKind::Named { mut child, .. } = self.nodes[named as usize].kind else {
+        let NodeKind::Named { child, .. } = self.nodes[named as usize].kind else {
             return None;
         };
-        while let NodeKind::Transform { child: c, .. } | NodeKind::Cache { child: c, .. } =
-            self.nodes[child as usize].kind
-        {
-            child = c;
-        }
+        let child = self.under_frames(child);
         is_operator(&self.nodes[child as usize].kind).then_some(child)
+    }
+
+    /// The first node at or under `id` that is neither a Transform nor a Cache.
+    pub(super) fn under_frames(&self, mut id: NodeId) -> NodeId {
+        while let NodeKind::Transform { child, .. } | NodeKind::Cache { child, .. } = self.nodes[id as usize].kind {
+            id = child;
+        }
+        id
     }
 
     /// Adds `Named(name, primitive)` as the last child of operator `op`; returns
