@@ -178,62 +178,46 @@ fn indexed_and_naive_evaluation_agree() {
     }
 }
 
+/// Calls `check` at 5 000 random points of Medusa, every node kind and
+/// nested blends, in each evaluation mode; `check` says whether the point
+/// was telling (inside a support, say), and at least a hundred must be.
+fn at_random_points_in_every_mode(seed: u64, mut check: impl FnMut(&ModelField, EvalMode, glam::Vec3A) -> bool) {
+    for scene in [medusa(), every_node(), nested()] {
+        let m = &scene.model;
+        let b = m.bounds();
+        let mut rng = Rng(seed);
+        for mode in [EvalMode::Indexed, EvalMode::Naive, EvalMode::Cached] {
+            let field = ModelField::new(m, mode);
+            let telling = (0..5_000).filter(|_| check(&field, mode, rng.point_in(b.min, b.max))).count();
+            assert!(telling > 100, "too few telling samples ({mode:?}): {telling}");
+        }
+    }
+}
+
 /// The tracer takes value and gradient together after curvature steps: they
 /// must be the very values it would get apart, or steps and hits would move.
 #[test]
 fn value_and_gradient_together_equal_them_apart_to_the_bit() {
-    for scene in [medusa(), every_node(), nested()] {
-        let m = &scene.model;
-        let b = m.bounds();
-        let mut rng = Rng(17);
-        for mode in [EvalMode::Indexed, EvalMode::Naive, EvalMode::Cached] {
-            let field = ModelField::new(m, mode);
-            let mut inside_support = 0;
-            for _ in 0..5_000 {
-                let p = rng.point_in(b.min, b.max);
-                let (v, g) = field.value_and_gradient(p);
-                assert_eq!(v.to_bits(), field.value(p).to_bits(), "value at {p} ({mode:?})");
-                assert_eq!(
-                    g.to_array().map(f32::to_bits),
-                    field.gradient(p).to_array().map(f32::to_bits),
-                    "gradient at {p} ({mode:?})"
-                );
-                inside_support += usize::from(v > 0.0);
-            }
-            assert!(inside_support > 100, "too few samples inside the supports: {inside_support}");
-        }
-    }
+    at_random_points_in_every_mode(17, |field, mode, p| {
+        let (v, g) = field.value_and_gradient(p);
+        assert_eq!(v.to_bits(), field.value(p).to_bits(), "value at {p} ({mode:?})");
+        let apart = field.gradient(p);
+        assert_eq!(g.to_array().map(f32::to_bits), apart.to_array().map(f32::to_bits), "gradient at {p} ({mode:?})");
+        v > 0.0
+    });
 }
 
 /// Shading and vertex colouring take the gradient and the colour together:
 /// they must be the very values taken apart, or images would change with it.
 #[test]
 fn gradient_and_color_together_equal_them_apart_to_the_bit() {
-    for scene in [medusa(), every_node(), nested()] {
-        let m = &scene.model;
-        let b = m.bounds();
-        let mut rng = Rng(23);
-        for mode in [EvalMode::Indexed, EvalMode::Naive, EvalMode::Cached] {
-            let field = ModelField::new(m, mode);
-            let mut coloured = 0;
-            for _ in 0..5_000 {
-                let p = rng.point_in(b.min, b.max);
-                let (g, c) = field.gradient_and_color(p);
-                assert_eq!(
-                    g.to_array().map(f32::to_bits),
-                    field.gradient(p).to_array().map(f32::to_bits),
-                    "gradient at {p} ({mode:?})"
-                );
-                assert_eq!(
-                    c.to_array().map(f32::to_bits),
-                    field.color(p).to_array().map(f32::to_bits),
-                    "colour at {p}"
-                );
-                coloured += usize::from(field.value(p) > 0.0 && c != blobtrace::field::DEFAULT_COLOR);
-            }
-            assert!(coloured > 100, "too few samples with a colour of their own: {coloured}");
-        }
-    }
+    at_random_points_in_every_mode(23, |field, mode, p| {
+        let (g, c) = field.gradient_and_color(p);
+        let apart = field.gradient(p);
+        assert_eq!(g.to_array().map(f32::to_bits), apart.to_array().map(f32::to_bits), "gradient at {p} ({mode:?})");
+        assert_eq!(c.to_array().map(f32::to_bits), field.color(p).to_array().map(f32::to_bits), "colour at {p}");
+        field.value(p) > 0.0 && c != blobtrace::field::DEFAULT_COLOR
+    });
 }
 
 #[test]
