@@ -227,8 +227,8 @@ fn retrace_pixel<F: Field + ?Sized>(
 }
 
 /// Calls `pixel` with the hit distance each pixel inside `rects` had (in
-/// parallel) and writes the samples it returns into `frame`, counters into the
-/// extra channels named `counters`; returns those samples.
+/// parallel) and writes the samples it changes into `frame`, counters into the
+/// extra channels named `counters`; returns what it traced again.
 pub fn rerender_pixels(
     frame: &mut Frame,
     rects: &[super::PixelRect],
