@@ -826,6 +826,8 @@ fn bench_edit_reports_figure_8_and_plots_it() {
         "16",
         "--size",
         "32x24",
+        "--repeat",
+        "2",
         "-o",
         plot.to_str().unwrap(),
         "--json",
@@ -836,6 +838,15 @@ fn bench_edit_reports_figure_8_and_plots_it() {
         assert!(v[key].as_f64().is_some_and(|x| x > 0.0), "{key} in {v}");
     }
     assert!(v["naive"]["full_render_s"].as_f64().unwrap() > 0.0);
+    // Two rounds of each mode; each measure is the fastest of its rounds.
+    let rounds = v["rounds"].as_array().unwrap();
+    assert_eq!(rounds.len(), 2);
+    for (mode, side) in [("cached", 0), ("naive", 1)] {
+        for measure in ["local_polygonize_s", "full_render_s"] {
+            let fastest = rounds.iter().map(|r| r[side][measure].as_f64().unwrap()).fold(f64::MAX, f64::min);
+            assert_eq!(v[mode][measure].as_f64(), Some(fastest), "{mode} {measure}");
+        }
+    }
     assert!(image::open(&plot).is_ok());
     std::fs::remove_dir_all(dir).unwrap();
 }
