@@ -15,7 +15,7 @@ use super::mesh::{CellsArg, PolygonizeArgs, VertexArg};
 use super::with_threads;
 use crate::compare::line_plot;
 use crate::field::EvalMode;
-use crate::scene::{Scene, Size, load_script};
+use crate::scene::{Scene, Script, Size, load_script};
 
 /// Options of `blobtrace bench edit`.
 #[derive(Debug, Args)]
@@ -118,6 +118,10 @@ pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
     let totals: Vec<[ModeTotals; 2]> = rounds.iter().map(|r| [ModeTotals::of(&r[0]), ModeTotals::of(&r[1])]).collect();
     let (cached, naive) =
         (ModeTotals::fastest(totals.iter().map(|t| t[0])), ModeTotals::fastest(totals.iter().map(|t| t[1])));
+    let shown = (0..rounds.len())
+        .min_by(|&i, &j| totals[i][0].local_polygonize_s.total_cmp(&totals[j][0].local_polygonize_s))
+        .unwrap_or(0);
+    plot(a, &rounds[shown])?;
     let report = EditBenchReport {
         frames: script.frames.len(),
         res: a.res,
@@ -125,12 +129,8 @@ pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
         dirty_render_speedup: cached.full_render_s / cached.dirty_render_s.max(1e-9),
         cached,
         naive,
-        rounds: totals.clone(),
+        rounds: totals,
     };
-    let shown = (0..rounds.len())
-        .min_by(|&i, &j| totals[i][0].local_polygonize_s.total_cmp(&totals[j][0].local_polygonize_s))
-        .unwrap_or(0);
-    plot(a, &rounds[shown])?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
     } else {
@@ -163,7 +163,7 @@ type Replayed = (Vec<FrameRow>, Vec<ScratchFrame>);
 /// freshly loaded scene.
 fn replay_both_ways(
     a: &EditBenchArgs,
-    script: &crate::scene::Script,
+    script: &Script,
     polygonize: &PolygonizeArgs,
     mode: EvalMode,
 ) -> anyhow::Result<Replayed> {
