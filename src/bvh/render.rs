@@ -54,8 +54,9 @@ pub fn rerender_mesh(
     frame: &mut Frame,
     rects: &[PixelRect],
 ) -> MeshRenderStats {
-    let done =
-        rerender_pixels(frame, rects, MESH_COUNTERS, |x, y, _| Retrace::Changed(shade_pixel(target, settings, x, y)));
+    let done = rerender_pixels(frame, rects, MESH_COUNTERS, |x, y, _| {
+        Some(Retrace::Changed(shade_pixel(target, settings, x, y)))
+    });
     MeshRenderStats::of(&done.changed)
 }
 

@@ -478,9 +478,9 @@ impl CacheGrid {
     }
 
     /// [`Self::value`] and [`Self::gradient`] at `p` together, to the same
-    /// bits, from one gather where one filter's samples hold the other's (the
-    /// tri-linear cube always lies in the tri-quadratic one around the same
-    /// point): a shaded hit or a coloured vertex weighs a cache's colour by
+    /// bits, from one gather: one filter's samples always hold the other's
+    /// (the tri-linear cube lies in the tri-quadratic one around the same
+    /// point). A shaded hit or a coloured vertex weighs a cache's colour by
     /// its value and takes its gradient there.
     pub fn value_and_gradient(&self, p: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> (f32, Vec3A) {
         let u = p * self.inv_cell;
@@ -488,9 +488,7 @@ impl CacheGrid {
         let (wide, narrow) = if gradient.taps() >= value.taps() { (gradient, value) } else { (value, gradient) };
         let ((first, n), (inner, m)) = (wide.footprint(u), narrow.footprint(u));
         let offset = inner - first;
-        if offset.min_element() < 0 || (offset + IVec3::splat(m as i32)).max_element() > n as i32 {
-            return (self.value(p, pool, eval), self.gradient(p, pool, eval));
-        }
+        debug_assert!(offset.min_element() >= 0 && (offset + IVec3::splat(m as i32)).max_element() <= n as i32);
         self.lookups.add_one_unsynchronized();
         self.lookups.add_one_unsynchronized();
         let outer = self.gather(wide, u, pool, eval);

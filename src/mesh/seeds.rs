@@ -88,7 +88,8 @@ fn collect(model: &Model, id: NodeId, placed: Placed, out: &mut Vec<Seed>) {
 /// Evenly spaced points from `a` to `b`, both ends and the middle among
 /// them, no farther apart than `spacing`.
 fn segment_samples(a: Vec3A, b: Vec3A, spacing: f32) -> impl Iterator<Item = Vec3A> {
-    let halves = (((b - a).length() / (2.0 * spacing)).ceil() as usize).clamp(1, MAX_SKELETON_STARTS / 2);
+    // `2 · halves + 1` points, at most the most starts a skeleton gets.
+    let halves = (((b - a).length() / (2.0 * spacing)).ceil() as usize).clamp(1, (MAX_SKELETON_STARTS - 1) / 2);
     let n = 2 * halves;
     (0..=n).map(move |i| a.lerp(b, i as f32 / n as f32))
 }

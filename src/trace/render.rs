@@ -160,11 +160,9 @@ pub fn rerender<F: Field + ?Sized>(
     stats
 }
 
-/// What re-rendering a pixel did.
+/// What re-rendering a pixel whose ray can meet the change did.
 #[derive(Clone, Copy, Debug)]
 pub enum Retrace {
-    /// Nothing: its ray cannot meet the change.
-    Untouched,
     /// Its ray was traced again, whole or in part, and the pixel stands.
     Kept(KeptPixel),
     /// The pixel now shows this.
@@ -181,7 +179,7 @@ pub struct KeptPixel {
 }
 
 /// What pixel (`x`, `y`) shows after the field changed inside `changed`,
-/// given the hit distance `before` it had.
+/// given the hit distance `before` it had; `None` when its ray cannot meet the change.
 fn retrace_pixel<F: Field + ?Sized>(
     field: &F,
     s: &RenderSettings,
@@ -189,41 +187,43 @@ fn retrace_pixel<F: Field + ?Sized>(
     y: u32,
     before: f32,
     changed: &ChangedSpace,
-) -> Retrace {
+) -> Option<Retrace> {
     let ray = s.camera.ray(x, y, s.width, s.height);
-    let Some((t_in, t_out)) = changed.span(&ray) else { return Retrace::Untouched };
+    let (t_in, t_out) = changed.span(&ray)?;
     if before < t_in {
         // The old hit lies in front of the change.
-        return Retrace::Untouched;
+        return None;
     }
     let Some((t_start, t_end)) = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY) else {
-        return Retrace::Changed(PixelSample::miss(s.background, [0, 0]));
+        return Some(Retrace::Changed(PixelSample::miss(s.background, [0, 0])));
     };
     if t_in <= t_start {
-        return Retrace::Changed(trace_pixel(field, s, x, y));
+        return Some(Retrace::Changed(trace_pixel(field, s, x, y)));
     }
     let (found, inside) = march(field, &ray, &s.trace, (t_in, t_out.min(t_end)));
     let mut work = [inside.steps, inside.evals];
     let hit = match found {
         Crossing::At(t) => Some(t),
         // Entering the surface exactly where the stretch starts: trace it whole.
-        Crossing::InsideAtStart => return Retrace::Changed(trace_pixel(field, s, x, y)),
-        Crossing::None if before > t_out => return Retrace::Kept(KeptPixel { hit: before.is_finite(), counts: work }),
+        Crossing::InsideAtStart => return Some(Retrace::Changed(trace_pixel(field, s, x, y))),
+        Crossing::None if before > t_out => {
+            return Some(Retrace::Kept(KeptPixel { hit: before.is_finite(), counts: work }));
+        }
         Crossing::None => {
             // The old hit lay in the stretch and is gone: go on past it.
             let (found, after) = march(field, &ray, &s.trace, (t_out, t_end));
             work = [work[0] + after.steps, work[1] + after.evals];
             match found {
                 Crossing::At(t) => Some(t),
-                Crossing::InsideAtStart => return Retrace::Changed(trace_pixel(field, s, x, y)),
+                Crossing::InsideAtStart => return Some(Retrace::Changed(trace_pixel(field, s, x, y))),
                 Crossing::None => None,
             }
         }
     };
-    Retrace::Changed(match hit {
+    Some(Retrace::Changed(match hit {
         Some(t) => shade_hit(field, s, &ray, t, work),
         None => PixelSample::miss(s.background, work),
-    })
+    }))
 }
 
 /// Calls `pixel` with the hit distance each pixel inside `rects` had (in
@@ -233,7 +233,7 @@ pub fn rerender_pixels(
     frame: &mut Frame,
     rects: &[super::PixelRect],
     counters: [&str; 2],
-    pixel: impl Fn(u32, u32, f32) -> Retrace + Sync,
+    pixel: impl Fn(u32, u32, f32) -> Option<Retrace> + Sync,
 ) -> Rerendered {
     let pixels: Vec<(u32, u32)> =
         rects.iter().flat_map(|r| (r.y0..r.y1).flat_map(move |y| (r.x0..r.x1).map(move |x| (x, y)))).collect();
@@ -243,8 +243,7 @@ pub fn rerender_pixels(
         .par_iter()
         .filter_map(|&(x, y)| {
             let i = (y * width + x) as usize;
-            let r = pixel(x, y, depth[i]);
-            (!matches!(r, Retrace::Untouched)).then_some((i, r))
+            pixel(x, y, depth[i]).map(|r| (i, r))
         })
         .collect();
     let channels = counters.map(|name| frame.extra.iter().position(|(n, _)| n == name));
@@ -256,7 +255,6 @@ pub fn rerender_pixels(
                 out.kept.push(k);
                 continue;
             }
-            Retrace::Untouched => continue,
         };
         write_sample(frame, i, &p);
         for (k, channel) in channels.iter().enumerate() {
