@@ -23,6 +23,7 @@
 //! ```
 
 mod bcc;
+mod corners;
 mod cubes;
 mod export;
 mod lattice;

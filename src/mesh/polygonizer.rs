@@ -16,6 +16,7 @@ use glam::{IVec3, Vec3, Vec3A};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
+use super::corners::CornerValues;
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, ordered_edge, sort_key};
 use super::seeds::{Evaluated, Marched, Rejoin, RowSpans, RowStarts, Seed, SeedMarch, SeedStarts, Start, row_passes};
 use super::vertex::{VertexPlacement, place_on_edge};
@@ -183,7 +184,7 @@ const PENDING: u8 = 0;
 pub struct Polygonizer {
     lattice: Lattice,
     options: PolygonizeOptions,
-    corners: FxHashMap<LatticePoint, f32>,
+    corners: CornerValues,
     /// Visited cells and their inside masks.
     cells: FxHashMap<Cell, u8>,
     vertices: FxHashMap<EdgeKey, EdgeVertex>,
@@ -204,7 +205,7 @@ impl Polygonizer {
         Self {
             lattice,
             options,
-            corners: FxHashMap::default(),
+            corners: CornerValues::default(),
             cells: FxHashMap::default(),
             vertices: FxHashMap::default(),
             row_spans: FxHashMap::default(),
@@ -252,7 +253,7 @@ impl Polygonizer {
         self.with_colors = field.varies_in_color();
         self.threshold = field.threshold();
         let scale = 1i32 << k;
-        self.corners.extend(coarse.corners.iter().map(|(&q, &v)| (q * scale, v)));
+        self.corners.extend(coarse.corners.iter().map(|(q, v)| (q * scale, v)));
         let shape = self.options.cells;
         let mut edges: Vec<[LatticePoint; 2]> = vec![];
         for (&cell, &mask) in &coarse.cells {
@@ -289,7 +290,7 @@ impl Polygonizer {
                 let step = (b - a) / scale;
                 let mut fresh = vec![];
                 let mut value = |q: LatticePoint| {
-                    known.get(&q).copied().unwrap_or_else(|| {
+                    known.get(q).unwrap_or_else(|| {
                         let v = field.value(lattice.position(q));
                         fresh.push((q, v));
                         v
@@ -327,7 +328,7 @@ impl Polygonizer {
         // The three maps are dropped from in parallel, each in one pass.
         let (corners, vertices, cells) = (&mut self.corners, &mut self.vertices, &mut self.cells);
         let ((), ((), hole_cells)) = rayon::join(
-            || corners.retain(|&q, _| !near.contains(lattice.position(q))),
+            || corners.forget_within(&near, |q| lattice.position(q)),
             || {
                 rayon::join(
                     || vertices.retain(|&k, _| !midpoints.contains(lattice.position(k) * 0.5)),
@@ -397,7 +398,7 @@ impl Polygonizer {
         // The second round sees the corners the first evaluated. A walk from a
         // corner known to be inside ends where it starts (most of them: 82% of
         // a point/hair update's).
-        let known_inside = |q: LatticePoint| self.corners.get(&q).is_some_and(|&v| v > self.threshold);
+        let known_inside = |q: LatticePoint| self.corners.get(q).is_some_and(|v| v > self.threshold);
         let marched: Vec<Marched> = starts
             .par_iter()
             .filter(|&&(q, reach)| walks_near_hole(q, reach) && !known_inside(q))
@@ -516,7 +517,7 @@ impl Polygonizer {
             .with_min_len(MIN_PARALLEL_ITEMS)
             .flat_map_iter(|&cell| {
                 let (v, n) = shape.vertices(cell);
-                (0..n).map(move |i| v[i]).filter(|q| !corners.contains_key(q))
+                (0..n).map(move |i| v[i]).filter(|&q| !corners.contains(q))
             })
             .collect();
         missing.par_sort_unstable_by_key(|&q| sort_key(q));
@@ -532,7 +533,7 @@ impl Polygonizer {
     fn mask(&self, cell: Cell) -> u8 {
         let t = self.threshold;
         let (v, n) = self.options.cells.vertices(cell);
-        (0..n).filter(|&i| self.corners[&v[i]] > t).fold(0u8, |m, i| m | 1 << i)
+        (0..n).filter(|&i| self.corners.value(v[i]) > t).fold(0u8, |m, i| m | 1 << i)
     }
 
     /// Every crossed cell with its mask.
@@ -567,7 +568,7 @@ impl Polygonizer {
             .par_iter()
             .with_min_len(MIN_PARALLEL_ITEMS)
             .map(|&[a, b]| {
-                let ends = |q: LatticePoint| (lattice.position(q), corners[&q]);
+                let ends = |q: LatticePoint| (lattice.position(q), corners.value(q));
                 let (p, evals) = place_on_edge(field, ends(a), ends(b), placement);
                 let (gradient, color) = match (placement, with_colors) {
                     // A preview spends nothing on normals: the mesh's face normals stand in.

@@ -19,6 +19,7 @@
 use glam::{Affine3A, IVec3, Vec3A};
 use rustc_hash::FxHashMap;
 
+use super::corners::CornerValues;
 use super::lattice::{Lattice, LatticePoint, sort_key};
 use crate::field::{Field, Model, NodeId, NodeKind, Region, Skeleton, outside_margin};
 use crate::geom::Aabb;
@@ -247,7 +248,7 @@ pub(super) struct SeedMarch<'a, F: ?Sized> {
     field: &'a F,
     lattice: Lattice,
     threshold: f32,
-    known: &'a FxHashMap<LatticePoint, f32>,
+    known: &'a CornerValues,
     fresh: FxHashMap<LatticePoint, f32>,
     crossings: Vec<LatticePoint>,
     gradients: u64,
@@ -257,7 +258,7 @@ pub(super) struct SeedMarch<'a, F: ?Sized> {
 }
 
 impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
-    pub fn new(field: &'a F, lattice: Lattice, known: &'a FxHashMap<LatticePoint, f32>) -> Self {
+    pub fn new(field: &'a F, lattice: Lattice, known: &'a CornerValues) -> Self {
         let threshold = field.threshold();
         Self {
             field,
@@ -372,8 +373,8 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
     /// The value at corner `q`: known before seeding, or evaluated now and kept.
     fn value(&mut self, q: LatticePoint) -> f32 {
         self.farthest = self.farthest.max(q.x);
-        match self.known.get(&q) {
-            Some(&v) => v,
+        match self.known.get(q) {
+            Some(v) => v,
             None => *self.fresh.entry(q).or_insert_with(|| self.field.value(self.lattice.position(q))),
         }
     }
