@@ -317,6 +317,66 @@ fn invalidation_after_an_edit_matches_a_fresh_cache_and_spares_the_rest() {
     assert!(refilled > 0);
 }
 
+/// Two small balls far apart under one cache, the second named to move.
+fn far_apart_scene() -> Scene {
+    Scene::parse(
+        r#"Scene(
+    camera: Camera(eye: (0.0, 0.5, 5.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
+    size: (64, 48),
+    model: Cache(res: 64, child: Blend([
+        Point(center: (-2.0, 0.0, 0.0), radius: 0.4),
+        Named("probe", Point(center: (2.0, 0.0, 0.0), radius: 0.4)),
+    ])),
+)"#,
+        "far apart",
+    )
+    .expect("test scene parses")
+}
+
+/// Points of the slab |x| ≤ 1 between the two balls, a lattice block or
+/// more from either support.
+fn points_between(n: usize, seed: u64) -> Vec<Vec3A> {
+    let mut rng = Rng(seed);
+    (0..n).map(|_| rng.point_in(Vec3A::new(-1.0, -0.4, -0.4), Vec3A::new(1.0, 0.4, 0.4))).collect()
+}
+
+#[test]
+fn a_cache_stores_and_evaluates_nothing_where_its_subtree_is_zero() {
+    let mut scene = far_apart_scene();
+    let (cache, _, _) = cache_node(&scene.model);
+    let between = points_between(2000, 17);
+    for &p in &between {
+        assert_eq!(scene.model.node_value(cache, p, EvalMode::Cached), 0.0, "at {p}");
+        assert_eq!(scene.model.node_gradient(cache, p, EvalMode::Cached), Vec3A::ZERO, "at {p}");
+    }
+    let stats = |m: &Model| m.cache_stats()[0].2;
+    assert_eq!(stats(&scene.model).samples_evaluated, 0, "no sample evaluated between the balls");
+    assert_eq!(stats(&scene.model).blocks, 0, "no block stored between the balls");
+    // Near a ball the samples are read and evaluated as before.
+    let near = Vec3A::new(-2.0, 0.1, 0.0);
+    assert!(
+        (scene.model.node_value(cache, near, EvalMode::Cached)
+            - scene.model.node_value(cache, near, EvalMode::Indexed))
+        .abs()
+            < 0.05
+    );
+    assert!(stats(&scene.model).samples_evaluated > 0);
+    // The second ball moved between them: the cache forgets that the
+    // region was zero, and answers as a fresh cache of the moved model.
+    let id = probe(&scene.model);
+    let centre = Primitive::new(Skeleton::Point { center: Vec3A::ZERO }, 0.4, 1.0, Default::default());
+    scene.model.set_primitive(id, centre).unwrap();
+    let mut fresh = far_apart_scene().model;
+    fresh.set_primitive(probe(&fresh), centre).unwrap();
+    let mut inside = 0;
+    for &p in &between {
+        let value = scene.model.node_value(cache, p, EvalMode::Cached);
+        assert_eq!(value, fresh.node_value(cache, p, EvalMode::Cached), "at {p}");
+        inside += usize::from(value > 0.5);
+    }
+    assert!(inside > 0, "the moved ball shows between the others");
+}
+
 #[test]
 fn moving_a_cached_subtree_rigidly_costs_no_samples() {
     let mut scene = Scene::parse(

@@ -2,6 +2,11 @@
 //! of its own frame, in blocks allocated on first touch and filled one sample
 //! at a time when a reconstruction first needs it (paper sections 4.2–4.5).
 //!
+//! A block's parts (its halves along each axis) where the subtree's field is
+//! zero throughout, by an interval over the part, hold no samples: lookups
+//! there answer zero without reading a block, and a block only zero parts of
+//! which are read is never stored.
+//!
 //! The lattice is anchored at the frame's origin, not at the subtree's bounds,
 //! so a sample keeps its place when the bounds change: an edit clears only the
 //! samples inside the changed box, and the grid only grows its block table.
@@ -35,6 +40,32 @@ const UNSET_SLOPE: u32 = u32::MAX;
 /// The half-precision word of a cell slope not yet computed (a NaN).
 const UNSET_CELL_SLOPE: u16 = u16::MAX;
 
+/// The subtree a cache samples: its value at a point (in the cache's frame),
+/// and whether its field is zero throughout a box.
+pub trait Sampled {
+    /// The subtree's value at `p`.
+    fn value(&self, p: Vec3A) -> f32;
+    /// True only where the subtree's field is zero at every point of `b`.
+    fn is_zero_over(&self, b: &Aabb) -> bool;
+}
+
+/// A bare function knows no region where it is zero.
+impl<F: Fn(Vec3A) -> f32> Sampled for F {
+    fn value(&self, p: Vec3A) -> f32 {
+        self(p)
+    }
+
+    fn is_zero_over(&self, _: &Aabb) -> bool {
+        false
+    }
+}
+
+/// A block's eight parts (halves along each axis): whether each is known to
+/// hold only zero samples, two bits per part.
+const PART_UNKNOWN: u16 = 0;
+const PART_ZERO: u16 = 1;
+const PART_NONZERO: u16 = 2;
+
 /// The lattice, the block table and the per-region slope summaries of one cache.
 pub struct CacheGrid {
     spec: CacheSpec,
@@ -59,6 +90,9 @@ pub struct CacheGrid {
     /// of their lattice points, so these stay valid when blocks are evicted;
     /// only invalidation clears them.
     cell_slopes: Box<[OnceLock<Box<[AtomicU16]>>]>,
+    /// Per block of the table, which of its parts the subtree's field is
+    /// known to be zero throughout (see [`Self::part_is_zero`]).
+    zero_parts: Box<[AtomicU16]>,
     lookups: ShardedCounter,
     /// Samples evaluated, counted per thread: one shared counter bounced
     /// between the cores on every fill.
@@ -123,6 +157,7 @@ impl CacheGrid {
             summary: UniformGrid::new(Vec3A::ZERO, 1.0, UVec3::ONE),
             slopes: Box::new([]),
             cell_slopes: Box::new([]),
+            zero_parts: Box::new([]),
             lookups: ShardedCounter::default(),
             evaluated: ShardedCounter::default(),
         };
@@ -194,7 +229,8 @@ impl CacheGrid {
     pub fn table_bytes_at(res: u32) -> u64 {
         let per_block = std::mem::size_of::<AtomicPtr<Slot>>()
             + std::mem::size_of::<OnceLock<Box<[AtomicU16]>>>()
-            + std::mem::size_of::<AtomicU32>();
+            + std::mem::size_of::<AtomicU32>()
+            + std::mem::size_of::<AtomicU16>();
         // The padded bounds span `res` cells plus the pad on each side, in blocks, and one more for alignment.
         let blocks = (u64::from(res) + 2 * (PAD_CELLS as u64 + 1)).div_ceil(1 << BLOCK_SHIFT) + 1;
         blocks.pow(3) * per_block as u64
@@ -208,6 +244,7 @@ impl CacheGrid {
         self.child_bounds = child_bounds;
         self.table = Box::new([]);
         self.cell_slopes = Box::new([]);
+        self.zero_parts = Box::new([]);
         self.table_dims = UVec3::ZERO;
         // A subtree with empty bounds reads no sample, but invalidation still
         // walks the slope summaries: one cell, with its slope, keeps them whole.
@@ -234,14 +271,17 @@ impl CacheGrid {
         let mut table: Vec<AtomicPtr<Slot>> =
             (0..dims.as_usizevec3().element_product()).map(|_| AtomicPtr::new(std::ptr::null_mut())).collect();
         let mut cell_slopes: Vec<OnceLock<Box<[AtomicU16]>>> = table.iter().map(|_| OnceLock::new()).collect();
+        let zero_parts: Box<[AtomicU16]> = table.iter().map(|_| AtomicU16::new(PART_UNKNOWN)).collect();
         for (i, entry) in self.table.iter().enumerate() {
             let b = self.table_lo + cell_coords(i, self.table_dims).as_ivec3();
             let to = linear_index((b - lo).as_uvec3(), dims);
             table[to] = AtomicPtr::new(entry.load(Ordering::Relaxed));
             cell_slopes[to] = std::mem::take(&mut self.cell_slopes[i]);
+            zero_parts[to].store(self.zero_parts[i].load(Ordering::Relaxed), Ordering::Relaxed);
         }
         self.table = table.into_boxed_slice();
         self.cell_slopes = cell_slopes.into_boxed_slice();
+        self.zero_parts = zero_parts;
         self.table_lo = lo;
         self.table_dims = dims;
         // The cells over the same region, and slope summaries over cubes of 8
@@ -282,7 +322,7 @@ impl CacheGrid {
     }
 
     /// Sample `i`: held, or evaluated now with `eval` (in the cache's frame) and stored.
-    fn sample(&self, i: IVec3, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+    fn sample(&self, i: IVec3, pool: &SamplePool, eval: &impl Sampled) -> f32 {
         let p = i.as_vec3a() * self.cell;
         if !self.child_bounds.contains(p) {
             // The subtree's field is zero outside its bounds: nothing to store.
@@ -290,8 +330,11 @@ impl CacheGrid {
         }
         let block = self.block_of(i);
         let Some(t) = self.table_index(block) else {
-            return self.spec.storage.round_trip(eval(p));
+            return self.spec.storage.round_trip(eval.value(p));
         };
+        if self.part_is_zero(t, i, eval) {
+            return 0.0;
+        }
         let key = block_key(self.serial, block);
         let (w, half) = self.word_of(i);
         let storage = self.spec.storage;
@@ -310,18 +353,18 @@ impl CacheGrid {
                 pool.touch(slot);
                 return v;
             }
-            let v = storage.round_trip(eval(p));
+            let v = storage.round_trip(eval.value(p));
             self.evaluated.add(1);
             let bits = storage.encode(v);
             pool.store(slot, g, w, |old| storage.store(old, half, bits));
             return v;
         }
         // The block kept changing hands under a tight budget: evaluate without storing.
-        storage.round_trip(eval(p))
+        storage.round_trip(eval.value(p))
     }
 
     /// The footprint's samples for `filter` at lattice coordinate `u`, x fastest.
-    fn gather(&self, filter: Filter, u: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> [f32; 27] {
+    fn gather(&self, filter: Filter, u: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> [f32; 27] {
         let (first, n) = filter.footprint(u);
         let mut s = [0.0; 27];
         self.gather_cube(first, n, &mut s, pool, eval);
@@ -331,11 +374,15 @@ impl CacheGrid {
     /// The `n³` samples from lattice point `first`, x fastest, into `out`. The
     /// cube spans at most two blocks per axis; each block's part is fetched in
     /// one consistent read, and only samples not yet held go one by one.
-    fn gather_cube(&self, first: IVec3, n: usize, out: &mut [f32], pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) {
+    fn gather_cube(&self, first: IVec3, n: usize, out: &mut [f32], pool: &SamplePool, eval: &impl Sampled) {
         let last = first + IVec3::splat(n as i32 - 1);
         let reach = Aabb::new(first.as_vec3a() * self.cell, last.as_vec3a() * self.cell);
         if !reach.overlaps(&self.child_bounds) {
             // Every sample lies outside the subtree's support.
+            out[..n * n * n].fill(0.0);
+            return;
+        }
+        if self.parts_are_zero(first, last, eval) {
             out[..n * n * n].fill(0.0);
             return;
         }
@@ -365,6 +412,66 @@ impl CacheGrid {
         IVec3::new(1, 1, 1 << self.spec.storage.z_extra_shift()) << BLOCK_SHIFT
     }
 
+    /// Lattice points per block part along each axis (half a block).
+    fn part_cells(&self) -> IVec3 {
+        self.block_cells() >> 1
+    }
+
+    /// Part coordinates (floor division) of lattice point `i`: a block's
+    /// parts are its halves along each axis.
+    #[inline]
+    fn part_of(&self, i: IVec3) -> IVec3 {
+        let z_shift = BLOCK_SHIFT - 1 + self.spec.storage.z_extra_shift();
+        IVec3::new(i.x >> (BLOCK_SHIFT - 1), i.y >> (BLOCK_SHIFT - 1), i.z >> z_shift)
+    }
+
+    /// Whether every sample of lattice point `i`'s block part is zero: the
+    /// subtree asked once per part (an interval over the part's box), its
+    /// answer kept until an edit touches the block. A zero part stores no
+    /// sample and costs no evaluation: most of a cache's bounds around a
+    /// thin subtree (strands, chains of points) lie outside its support.
+    #[inline]
+    fn part_is_zero(&self, t: usize, i: IVec3, subtree: &impl Sampled) -> bool {
+        let part = self.part_of(i);
+        let bit = 2 * (part.x & 1 | (part.y & 1) << 1 | (part.z & 1) << 2) as u32;
+        let word = &self.zero_parts[t];
+        match word.load(Ordering::Relaxed) >> bit & 3 {
+            PART_ZERO => true,
+            PART_NONZERO => false,
+            _ => {
+                let lo = part * self.part_cells();
+                let hi = lo + self.part_cells() - IVec3::ONE;
+                // A sliver of padding keeps the answer conservative against
+                // rounding at the edge of a support.
+                let b = Aabb::new(lo.as_vec3a() * self.cell, hi.as_vec3a() * self.cell).padded(0.01 * self.cell);
+                let zero = subtree.is_zero_over(&b);
+                // Racing threads reach the same answer: the bits only ever agree.
+                word.fetch_or((if zero { PART_ZERO } else { PART_NONZERO }) << bit, Ordering::Relaxed);
+                zero
+            }
+        }
+    }
+
+    /// Whether every sample of the lattice points `first..=last` lies in a
+    /// zero part (see [`Self::part_is_zero`]).
+    fn parts_are_zero(&self, first: IVec3, last: IVec3, subtree: &impl Sampled) -> bool {
+        let (p0, p1) = (self.part_of(first), self.part_of(last));
+        let cells = self.part_cells();
+        for z in p0.z..=p1.z {
+            for y in p0.y..=p1.y {
+                for x in p0.x..=p1.x {
+                    // Any point of the part names it.
+                    let i = IVec3::new(x, y, z) * cells;
+                    let Some(t) = self.table_index(self.block_of(i)) else { return false };
+                    if !self.part_is_zero(t, i, subtree) {
+                        return false;
+                    }
+                }
+            }
+        }
+        true
+    }
+
     /// The samples of the cube from `first` (edge `n`) in the box `lo..=hi` of `block`.
     #[allow(clippy::too_many_arguments)]
     fn gather_part(
@@ -375,7 +482,7 @@ impl CacheGrid {
         n: usize,
         out: &mut [f32],
         pool: &SamplePool,
-        eval: &impl Fn(Vec3A) -> f32,
+        eval: &impl Sampled,
     ) {
         // Small index types keep these scratch arrays (and their clearing) cheap.
         let mut at = [0u16; 64];
@@ -415,7 +522,7 @@ impl CacheGrid {
         first: IVec3,
         out: &mut [f32],
         pool: &SamplePool,
-        eval: &impl Fn(Vec3A) -> f32,
+        eval: &impl Sampled,
     ) {
         // Word offsets of the samples (x fastest) within a block.
         let offsets: [u16; M] = std::array::from_fn(|m| {
@@ -449,20 +556,13 @@ impl CacheGrid {
     }
 
     /// The sample at position `m` (x fastest) of the cube of edge `n` from `first`.
-    fn sample_at_offset(
-        &self,
-        first: IVec3,
-        m: usize,
-        n: usize,
-        pool: &SamplePool,
-        eval: &impl Fn(Vec3A) -> f32,
-    ) -> f32 {
+    fn sample_at_offset(&self, first: IVec3, m: usize, n: usize, pool: &SamplePool, eval: &impl Sampled) -> f32 {
         let o = IVec3::new((m % n) as i32, ((m / n) % n) as i32, (m / (n * n)) as i32);
         self.sample(first + o, pool, eval)
     }
 
     /// The reconstructed value at `p` (cache frame), with the value filter.
-    pub fn value(&self, p: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+    pub fn value(&self, p: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> f32 {
         self.lookups.add_one_unsynchronized();
         let u = p * self.inv_cell;
         let filter = self.spec.value;
@@ -470,7 +570,7 @@ impl CacheGrid {
     }
 
     /// The reconstructed gradient at `p` (cache frame), with the gradient filter.
-    pub fn gradient(&self, p: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> Vec3A {
+    pub fn gradient(&self, p: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> Vec3A {
         self.lookups.add_one_unsynchronized();
         let u = p * self.inv_cell;
         let filter = self.spec.gradient;
@@ -482,7 +582,7 @@ impl CacheGrid {
     /// (the tri-linear cube lies in the tri-quadratic one around the same
     /// point). A shaded hit or a coloured vertex weighs a cache's colour by
     /// its value and takes its gradient there.
-    pub fn value_and_gradient(&self, p: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> (f32, Vec3A) {
+    pub fn value_and_gradient(&self, p: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> (f32, Vec3A) {
         let u = p * self.inv_cell;
         let (value, gradient) = (self.spec.value, self.spec.gradient);
         let (wide, narrow) = if gradient.taps() >= value.taps() { (gradient, value) } else { (value, gradient) };
@@ -617,7 +717,7 @@ impl CacheGrid {
     /// filter reads anywhere in the cell (2 per axis for tri-linear, 4 for the
     /// quadratic), so the largest such difference bounds it. Tight where the
     /// tracer needs it most: next to the surface.
-    fn cell_slope(&self, i: IVec3, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+    fn cell_slope(&self, i: IVec3, pool: &SamplePool, eval: &impl Sampled) -> f32 {
         let (lo, hi) = self.cell_differences(i, pool, eval);
         lo.abs().max(hi.abs()).length() * self.inv_cell
     }
@@ -625,7 +725,7 @@ impl CacheGrid {
     /// The least and the greatest difference along each axis between
     /// neighbouring samples the value filter reads in the lattice cell with
     /// minimum corner `i`.
-    fn cell_differences(&self, i: IVec3, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> (Vec3A, Vec3A) {
+    fn cell_differences(&self, i: IVec3, pool: &SamplePool, eval: &impl Sampled) -> (Vec3A, Vec3A) {
         let reach: usize = match self.spec.value {
             Filter::Trilinear => 0,
             Filter::Triquadratic => 1,
@@ -660,13 +760,7 @@ impl CacheGrid {
     /// differences along that axis between the samples it reads there (see
     /// [`Self::cell_slope`]), so it lies between the least and the greatest.
     /// Off the lattice the reconstruction is zero, and so is its derivative.
-    pub fn slope_floor(
-        &self,
-        (a, b): (Vec3A, Vec3A),
-        u: Vec3A,
-        pool: &SamplePool,
-        eval: &impl Fn(Vec3A) -> f32,
-    ) -> f32 {
+    pub fn slope_floor(&self, (a, b): (Vec3A, Vec3A), u: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> f32 {
         let on_lattice = self.lattice.bounds();
         let mut floor = if on_lattice.contains(a) && on_lattice.contains(b) { f32::INFINITY } else { 0.0 };
         self.lattice.walk_segment(a, b, |c| {
@@ -677,7 +771,7 @@ impl CacheGrid {
     }
 
     /// [`Self::slope_floor`] over the lattice cell with minimum corner `i`.
-    fn cell_slope_floor(&self, i: IVec3, u: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+    fn cell_slope_floor(&self, i: IVec3, u: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> f32 {
         let (lo, hi) = self.cell_differences(i, pool, eval);
         (u * lo).min(u * hi).element_sum() * self.inv_cell
     }
@@ -694,7 +788,7 @@ impl CacheGrid {
         region: &Region,
         child_slope: &impl Fn(&Aabb) -> f32,
         child_range: &impl Fn(&Aabb) -> Interval,
-        sample: (&SamplePool, &impl Fn(Vec3A) -> f32),
+        sample: (&SamplePool, &impl Sampled),
     ) -> f32 {
         if let Region::Segment(a, b) = *region
             && (b - a).length() * self.inv_cell <= MAX_SAMPLED_SEGMENT_CELLS
@@ -715,7 +809,7 @@ impl CacheGrid {
     }
 
     /// The largest sampled cell bound along `a..b`.
-    fn segment_slope_from_samples(&self, a: Vec3A, b: Vec3A, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+    fn segment_slope_from_samples(&self, a: Vec3A, b: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> f32 {
         let mut l = 0.0f32;
         self.lattice.walk_segment(a, b, |c| {
             let i = self.lattice_lo + self.lattice.coords(c).as_ivec3();
@@ -727,7 +821,7 @@ impl CacheGrid {
     /// [`Self::cell_slope`], kept once computed (in half precision, rounded
     /// up, as it is always returned: kept or not, the same bound). Under a
     /// budget nothing is kept, so the budget bounds all the memory the cache holds.
-    fn kept_cell_slope(&self, i: IVec3, pool: &SamplePool, eval: &impl Fn(Vec3A) -> f32) -> f32 {
+    fn kept_cell_slope(&self, i: IVec3, pool: &SamplePool, eval: &impl Sampled) -> f32 {
         let Some((t, w)) = self.cell_slope_word(i).filter(|_| pool.budget_slots().is_none()) else {
             return half::f16::from_bits(half_up(self.cell_slope(i, pool, eval))).to_f32();
         };
@@ -816,10 +910,32 @@ impl CacheGrid {
             }
             self.clear_cell_slopes(lo, hi);
         }
+        self.forget_zero_parts(b);
         let reach = self.sample_reach(b);
         let slopes = &self.slopes;
         self.summary.for_each_cell(&reach, |c| slopes[c].store(UNSET_SLOPE, Ordering::Relaxed));
         cleared
+    }
+
+    /// Forgets which parts are zero in every block within a cell of `b`,
+    /// where an edit may have changed the subtree's support.
+    fn forget_zero_parts(&mut self, b: &Aabb) {
+        if b.is_empty() || self.table.is_empty() {
+            return;
+        }
+        let near = b.padded(self.cell);
+        let lo = self.block_of((near.min * self.inv_cell).floor().as_ivec3()).max(self.table_lo);
+        let table_hi = self.table_lo + self.table_dims.as_ivec3() - IVec3::ONE;
+        let hi = self.block_of((near.max * self.inv_cell).ceil().as_ivec3()).min(table_hi);
+        for z in lo.z..=hi.z {
+            for y in lo.y..=hi.y {
+                for x in lo.x..=hi.x {
+                    if let Some(t) = self.table_index(IVec3::new(x, y, z)) {
+                        self.zero_parts[t].store(PART_UNKNOWN, Ordering::Relaxed);
+                    }
+                }
+            }
+        }
     }
 
     fn clear_sample(&self, i: IVec3) -> bool {

@@ -12,6 +12,7 @@ use super::node::{NodeId, NodeKind};
 use super::primitive::Primitive;
 use super::region::Region;
 use super::{DEFAULT_COLOR, EvalMode};
+use crate::cache::grid::Sampled;
 use crate::geom::{Aabb, Interval};
 
 /// Above this many index cells, a region's bounds come from the per-cell
@@ -68,7 +69,30 @@ fn for_each_unique_leaf(ix: &BlendIndex, region: &Region, f: impl FnMut(u32)) {
     });
 }
 
+/// A cache's subtree as its lattice samples it: values, and the intervals
+/// that show a region of the lattice to be zero.
+struct CachedSubtree<'m> {
+    model: &'m Model,
+    child: NodeId,
+    mode: EvalMode,
+}
+
+impl Sampled for CachedSubtree<'_> {
+    fn value(&self, p: Vec3A) -> f32 {
+        self.model.node_value(self.child, p, self.mode)
+    }
+
+    fn is_zero_over(&self, b: &Aabb) -> bool {
+        self.model.node_interval(self.child, b, self.mode) == Interval::ZERO
+    }
+}
+
 impl Model {
+    /// Cache node `child`'s subtree, for its grid.
+    fn sampled(&self, child: NodeId, mode: EvalMode) -> CachedSubtree<'_> {
+        CachedSubtree { model: self, child, mode }
+    }
+
     /// Field value of node `id` at `p`.
     pub fn node_value(&self, id: NodeId, p: Vec3A, mode: EvalMode) -> f32 {
         let node = self.node(id);
@@ -102,7 +126,7 @@ impl Model {
             }
             NodeKind::Transform { placement, child } => self.node_value(*child, placement.local(p), mode),
             NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
-                self.cache(*grid).value(p, self.pool(), &|q| self.node_value(*child, q, mode))
+                self.cache(*grid).value(p, self.pool(), &self.sampled(*child, mode))
             }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_value(*child, p, mode),
         }
@@ -150,7 +174,7 @@ impl Model {
                 return (v, placement.gradient_map * g);
             }
             NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
-                return self.cache(*grid).value_and_gradient(p, self.pool(), &|q| self.node_value(*child, q, mode));
+                return self.cache(*grid).value_and_gradient(p, self.pool(), &self.sampled(*child, mode));
             }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => {
                 return self.node_value_and_gradient(*child, p, mode);
@@ -249,7 +273,7 @@ impl Model {
                 placement.gradient_map * self.node_gradient(*child, placement.local(p), mode)
             }
             NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
-                self.cache(*grid).gradient(p, self.pool(), &|q| self.node_value(*child, q, mode))
+                self.cache(*grid).gradient(p, self.pool(), &self.sampled(*child, mode))
             }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_gradient(*child, p, mode),
         }
@@ -435,7 +459,7 @@ impl Model {
                 region,
                 &|b| self.node_lipschitz(*child, &Region::Box(*b), mode),
                 &|b| self.node_interval(*child, b, mode),
-                (self.pool(), &|q| self.node_value(*child, q, mode)),
+                (self.pool(), &self.sampled(*child, mode)),
             ),
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_lipschitz(*child, region, mode),
         }
@@ -480,7 +504,7 @@ impl Model {
                 )
             }
             NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
-                Some(self.cache(*grid).slope_floor((a, b), u, self.pool(), &|q| self.node_value(*child, q, mode)))
+                Some(self.cache(*grid).slope_floor((a, b), u, self.pool(), &self.sampled(*child, mode)))
             }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => {
                 self.node_slope_floor(*child, (a, b), u, mode)
