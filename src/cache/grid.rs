@@ -66,6 +66,12 @@ const PART_UNKNOWN: u16 = 0;
 const PART_ZERO: u16 = 1;
 const PART_NONZERO: u16 = 2;
 
+/// The first of part `part`'s two state bits in its block's word.
+#[inline]
+fn part_bit(part: IVec3) -> u32 {
+    2 * (part.x & 1 | (part.y & 1) << 1 | (part.z & 1) << 2) as u32
+}
+
 /// The lattice, the block table and the per-region slope summaries of one cache.
 pub struct CacheGrid {
     spec: CacheSpec,
@@ -433,7 +439,7 @@ impl CacheGrid {
     #[inline]
     fn part_is_zero(&self, t: usize, i: IVec3, subtree: &impl Sampled) -> bool {
         let part = self.part_of(i);
-        let bit = 2 * (part.x & 1 | (part.y & 1) << 1 | (part.z & 1) << 2) as u32;
+        let bit = part_bit(part);
         let word = &self.zero_parts[t];
         match word.load(Ordering::Relaxed) >> bit & 3 {
             PART_ZERO => true,
@@ -450,6 +456,16 @@ impl CacheGrid {
                 zero
             }
         }
+    }
+
+    /// Whether lattice point `i` (of `block`) lies in a part already known
+    /// to be zero; asks the subtree nothing.
+    fn part_known_zero(&self, block: IVec3, i: IVec3) -> bool {
+        self.table_index(block).is_some_and(|t| {
+            let part = self.part_of(i);
+            let bit = part_bit(part);
+            self.zero_parts[t].load(Ordering::Relaxed) >> bit & 3 == PART_ZERO
+        })
     }
 
     /// Whether every sample of the lattice points `first..=last` lies in a
@@ -673,7 +689,7 @@ impl CacheGrid {
             for y in lo.y..=hi.y {
                 for x in lo.x..=hi.x {
                     let i = IVec3::new(x, y, z);
-                    if !self.child_bounds.contains(i.as_vec3a() * self.cell) {
+                    if !self.child_bounds.contains(i.as_vec3a() * self.cell) || self.part_known_zero(block, i) {
                         // Never stored: the subtree is zero there.
                         (min, max) = (min.min(0.0), max.max(0.0));
                         continue;
