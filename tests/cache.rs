@@ -377,6 +377,51 @@ fn a_cache_stores_and_evaluates_nothing_where_its_subtree_is_zero() {
     assert!(inside > 0, "the moved ball shows between the others");
 }
 
+/// A cache over a cache over a named ball, beside a ball.
+fn nested_caches_scene() -> Scene {
+    Scene::parse(
+        r#"Scene(
+    camera: Camera(eye: (0.0, 0.5, 5.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
+    size: (64, 48),
+    model: Blend([
+        Point(center: (0.0, 0.0, 0.0), radius: 0.5),
+        Cache(res: 16, child: Cache(res: 32, child: Named("probe", Point(center: (-0.184, 1.629, 1.648), radius: 0.481)))),
+    ]),
+)"#,
+        "nested caches",
+    )
+    .expect("test scene parses")
+}
+
+#[test]
+fn an_edit_under_nested_caches_clears_the_outer_one_where_the_inner_one_changed() {
+    let squash = |by: Vec3| blobtrace::field::Edit::Scale { node: "probe".into(), by };
+    let edits = [squash(Vec3::new(1.2, 0.82, 0.97)), squash(Vec3::new(0.74, 0.98, 1.28))];
+    let mut scene = nested_caches_scene();
+    let root = scene.model.root();
+    let points = random_points(&scene.model, 20_000, 23);
+    let mut fresh = nested_caches_scene().model;
+    let cells = |m: &Model| m.cache_stats().iter().map(|(_, _, s)| s.cell).collect::<Vec<_>>();
+    for edit in &edits {
+        for &p in &points {
+            scene.model.node_value(root, p, EvalMode::Cached);
+            scene.model.node_gradient(root, p, EvalMode::Cached);
+        }
+        scene.model.apply(edit).unwrap();
+        fresh.apply(edit).unwrap();
+    }
+    assert_eq!(cells(&scene.model), cells(&fresh), "the lattices were kept, not laid anew");
+    // The inner cache's reconstruction changed a filter's reach beyond the
+    // ball's boxes, and the outer cache samples that reconstruction.
+    for &p in &points {
+        let (a, b) = (scene.model.node_value(root, p, EvalMode::Cached), fresh.node_value(root, p, EvalMode::Cached));
+        assert_eq!(a, b, "at {p}");
+        let (a, b) =
+            (scene.model.node_gradient(root, p, EvalMode::Cached), fresh.node_gradient(root, p, EvalMode::Cached));
+        assert_eq!(a, b, "gradient at {p}");
+    }
+}
+
 #[test]
 fn moving_a_cached_subtree_rigidly_costs_no_samples() {
     let mut scene = Scene::parse(

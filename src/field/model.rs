@@ -550,12 +550,23 @@ impl Model {
 
     /// Clears the samples inside `region` (in `id`'s own frame) in `id` if it
     /// is a cache, then in every cache above.
-    fn invalidate_from(&mut self, id: NodeId, region: Aabb) -> u64 {
+    fn invalidate_from(&mut self, id: NodeId, mut region: Aabb) -> u64 {
         let own = match self.nodes[id as usize].kind {
-            NodeKind::Cache { grid, .. } => self.grids[grid].as_mut().map_or(0, |g| g.invalidate(&region)),
+            NodeKind::Cache { grid, .. } => self.invalidate_cache(grid, &mut region),
             _ => 0,
         };
         own + self.invalidate_above(id, region)
+    }
+
+    /// Clears the samples of cache `grid` inside `region` and widens `region`
+    /// to where its reconstruction changed: by its filters' reach, since a
+    /// cache above samples that reconstruction, not the field beneath it.
+    fn invalidate_cache(&mut self, grid: usize, region: &mut Aabb) -> u64 {
+        self.grids[grid].as_mut().map_or(0, |g| {
+            let cleared = g.invalidate(region);
+            *region = g.sample_reach(region);
+            cleared
+        })
     }
 
     /// Brings bounds, indices and caches up to date after node `id` changed.
@@ -568,7 +579,8 @@ impl Model {
 
     /// Clears, in every cache above node `id`, the samples inside `changed` (a
     /// box in the frame `id`'s parent sees), carrying the box up through the
-    /// transforms on the way. Returns how many held samples were cleared.
+    /// transforms on the way and widening it at each cache passed (see
+    /// [`Self::invalidate_cache`]). Returns how many held samples were cleared.
     pub fn invalidate_above(&mut self, id: NodeId, changed: Aabb) -> u64 {
         let (mut at, mut region, mut cleared) = (id, changed, 0);
         while let Some(parent) = self.node(at).parent {
@@ -576,9 +588,7 @@ impl Model {
                 NodeKind::Transform { placement, .. } => region = region.transformed(&placement.to_world),
                 NodeKind::Cache { grid, .. } => {
                     let grid = *grid;
-                    if let Some(g) = self.grids[grid].as_mut() {
-                        cleared += g.invalidate(&region);
-                    }
+                    cleared += self.invalidate_cache(grid, &mut region);
                 }
                 _ => {}
             }
