@@ -9,20 +9,8 @@ use blobtrace::frame::Frame;
 use blobtrace::mesh::{PolygonizeOptions, Polygonizer, skeleton_seeds};
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::{PixelRect, RenderSettings, changed_space, render, render_model, rerender};
-use common::{EVERY_NODE, Rng, bundled, polygonize};
+use common::{EVERY_NODE, Rng, bundled, polygonize, random_edit};
 use glam::Vec3;
-
-fn random_edit(rng: &mut Rng, node: &str, primitive: bool) -> Edit {
-    let mut v = |s: f32| Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5) * s;
-    let node = node.to_string();
-    let pick = (v(1.0).x + 0.5) * 5.0;
-    match pick as u32 {
-        0 => Edit::Rotate { node, degrees: v(60.0) },
-        1 => Edit::Scale { node, by: Vec3::ONE + v(0.4) },
-        2 if primitive => Edit::Radius { node, radius: 0.3 + (v(1.0).y + 0.5) * 0.5 },
-        _ => Edit::Translate { node, by: v(0.6) },
-    }
-}
 
 /// The space the change reached and its dirty rectangles.
 /// Re-renders `frame` after `change` as `blobtrace edit` does: the empty

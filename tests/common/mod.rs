@@ -2,12 +2,12 @@
 #![allow(dead_code)]
 
 use blobtrace::camera::Camera;
-use blobtrace::field::{EvalMode, Field, Model, ModelField};
+use blobtrace::field::{Edit, EvalMode, Field, Model, ModelField};
 use blobtrace::geom::Ray;
 use blobtrace::mesh::{Lattice, Mesh, PolygonizeOptions, Polygonizer, skeleton_seeds};
 use blobtrace::scene::Scene;
 use blobtrace::trace::{TraceOptions, trace_ray};
-use glam::Vec3A;
+use glam::{Vec3, Vec3A};
 
 /// A scene using every node type, with transforms that rotate and scale unevenly.
 pub const EVERY_NODE: &str = r#"Scene(
@@ -27,6 +27,19 @@ pub const EVERY_NODE: &str = r#"Scene(
         Cache(res: 32, child: Point(center: (0.0, 0.0, 1.5), radius: 0.7)),
     ]),
 )"#;
+
+/// A random move, turn or scaling of `node`, or for a primitive a new radius.
+pub fn random_edit(rng: &mut Rng, node: &str, primitive: bool) -> Edit {
+    let mut v = |s: f32| Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5) * s;
+    let node = node.to_string();
+    let pick = (v(1.0).x + 0.5) * 5.0;
+    match pick as u32 {
+        0 => Edit::Rotate { node, degrees: v(60.0) },
+        1 => Edit::Scale { node, by: Vec3::ONE + v(0.4) },
+        2 if primitive => Edit::Radius { node, radius: 0.3 + (v(1.0).y + 0.5) * 0.5 },
+        _ => Edit::Translate { node, by: v(0.6) },
+    }
+}
 
 /// Loads a bundled scene by file name.
 pub fn bundled(name: &str) -> Scene {
