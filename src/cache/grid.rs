@@ -443,18 +443,21 @@ impl CacheGrid {
         let word = &self.zero_parts[t];
         match word.load(Ordering::Relaxed) >> bit & 3 {
             PART_ZERO => true,
-            PART_NONZERO => false,
-            _ => {
+            PART_UNKNOWN => {
                 let lo = part * self.part_cells();
                 let hi = lo + self.part_cells() - IVec3::ONE;
                 // A sliver of padding keeps the answer conservative against
                 // rounding at the edge of a support.
                 let b = Aabb::new(lo.as_vec3a() * self.cell, hi.as_vec3a() * self.cell).padded(0.01 * self.cell);
                 let zero = subtree.is_zero_over(&b);
-                // Racing threads reach the same answer: the bits only ever agree.
+                // Threads racing here may disagree where the subtree's
+                // bound rests on its own caches' held samples; both bits
+                // set then read as nonzero, which reads the samples and is
+                // never wrong (zero-part samples evaluate to zero).
                 word.fetch_or((if zero { PART_ZERO } else { PART_NONZERO }) << bit, Ordering::Relaxed);
                 zero
             }
+            _ => false,
         }
     }
 
