@@ -3,9 +3,10 @@
 //! Starting from cells found by marching from every skeleton, it grows across
 //! the faces the surface crosses, one wave at a time: the new corners of a
 //! wave are evaluated in parallel, then the wave's crossed cells name the next.
-//! Corner values, visited cells and edge vertices live in hash maps keyed by
-//! integer lattice coordinates, so each corner is evaluated once and each
-//! crossed edge gets one vertex, shared by every cell around it.
+//! Corner values (in bricks of lattice points, see [`super::corners`]),
+//! visited cells and edge vertices are keyed by integer lattice coordinates,
+//! so each corner is evaluated once and each crossed edge gets one vertex,
+//! shared by every cell around it.
 //!
 //! Everything the polygonizer keeps is a pure function of the field and the
 //! lattice, so [`Polygonizer::repolygonize`] can drop what lies near an edit,
@@ -184,6 +185,7 @@ const PENDING: u8 = 0;
 pub struct Polygonizer {
     lattice: Lattice,
     options: PolygonizeOptions,
+    /// Field values at the corners evaluated.
     corners: CornerValues,
     /// Visited cells and their inside masks.
     cells: FxHashMap<Cell, u8>,
