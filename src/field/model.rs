@@ -579,8 +579,9 @@ impl Model {
 
     /// Clears, in every cache above node `id`, the samples inside `changed` (a
     /// box in the frame `id`'s parent sees), carrying the box up through the
-    /// transforms on the way and widening it at each cache passed (see
-    /// [`Self::invalidate_cache`]). Returns how many held samples were cleared.
+    /// transforms on the way and widening it by each cache's filter reach
+    /// (an outer cache samples the inner one's reconstruction). Returns how
+    /// many held samples were cleared.
     pub fn invalidate_above(&mut self, id: NodeId, changed: Aabb) -> u64 {
         let (mut at, mut region, mut cleared) = (id, changed, 0);
         while let Some(parent) = self.node(at).parent {
