@@ -502,6 +502,32 @@ fn warm_caches_after_random_edits_equal_fresh_ones() {
 }
 
 #[test]
+fn a_clone_has_cold_caches_on_the_same_lattices() {
+    let mut scene = default_scene(32);
+    let (cache, _, _) = cache_node(&scene.model);
+    let points = random_points(&scene.model, 3000, 41);
+    for &p in &points {
+        scene.model.node_value(cache, p, EvalMode::Cached);
+    }
+    // The probe moved outward: the bounds grow, the cell size is kept.
+    let outward = Primitive::new(Skeleton::Point { center: Vec3A::new(1.8, 0.3, 0.3) }, 0.5, 1.0, Default::default());
+    scene.model.set_primitive(probe(&scene.model), outward).unwrap();
+    let cell = |m: &Model| m.cache_stats()[0].2.cell;
+    let mut relaid = scene.model.clone();
+    relaid.set_cache_budget(None);
+    assert_ne!(cell(&relaid), cell(&scene.model), "a lattice laid afresh differs from the kept one");
+    let clone = scene.model.clone();
+    assert_eq!(cell(&clone), cell(&scene.model));
+    assert_eq!(samples_evaluated(&clone), 0, "the clone's caches are cold");
+    for &p in &points {
+        let (warm, cold) =
+            (scene.model.node_value(cache, p, EvalMode::Cached), clone.node_value(cache, p, EvalMode::Cached));
+        assert_eq!(warm.to_bits(), cold.to_bits(), "at {p}");
+    }
+    assert!(samples_evaluated(&clone) > 0);
+}
+
+#[test]
 fn moving_a_cached_subtree_rigidly_costs_no_samples() {
     let mut scene = Scene::parse(
         r#"Scene(

@@ -171,6 +171,23 @@ impl CacheGrid {
         grid
     }
 
+    /// A cache on this one's lattice, over the same block table, holding no
+    /// sample: its reconstruction is this one's exactly, filled afresh. (A
+    /// new cache over the same bounds may lay another lattice: the resize
+    /// rule keeps a cell size while the bounds drift.)
+    #[must_use]
+    pub fn cold_copy(&self, pool: &SamplePool) -> Self {
+        let mut grid = Self::new(self.spec, Aabb::EMPTY, pool);
+        (grid.cell, grid.inv_cell) = (self.cell, self.inv_cell);
+        grid.lattice = UniformGrid::new(Vec3A::ZERO, self.cell, UVec3::ONE);
+        grid.summary = UniformGrid::new(Vec3A::ZERO, 8.0 * self.cell, UVec3::ONE);
+        if self.table_dims.cmpgt(UVec3::ZERO).all() {
+            grid.resize_table(self.table_lo, self.table_lo + self.table_dims.as_ivec3() - IVec3::ONE);
+        }
+        grid.child_bounds = self.child_bounds;
+        grid
+    }
+
     /// The options the cache was made with.
     #[must_use]
     pub fn spec(&self) -> &CacheSpec {

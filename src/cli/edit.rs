@@ -360,13 +360,16 @@ fn update_depth_diff(diff: &mut [f32], mesh: &Frame, field: &Frame, rects: &[Pix
     }
 }
 
-/// Renders and polygonizes from scratch; returns the seconds rendering, the
-/// seconds in all, and how the incremental image or mesh differ from them, if they do.
+/// Renders and polygonizes from scratch, on a copy of the model with cold
+/// caches on the same lattices (so a sample an edit should have cleared and
+/// did not shows); returns the seconds rendering, the seconds in all, and how
+/// the incremental image or mesh differ from them, if they do.
 fn verify(scene: &Scene, s: &EditState, polygonize: &PolygonizeArgs) -> (f64, f64, Option<String>) {
+    let fresh_model = scene.model.clone();
     let clock = Instant::now();
-    let full = render_model(&scene.model, s.mode, &s.settings, &|_| {}).0;
+    let full = render_model(&fresh_model, s.mode, &s.settings, &|_| {}).0;
     let render_s = clock.elapsed().as_secs_f64();
-    let field = ModelField::new(&scene.model, s.mode);
+    let field = ModelField::new(&fresh_model, s.mode);
     let mut fresh = Polygonizer::new(s.polygonizer.lattice(), polygonize.options());
     fresh.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
     let mesh = fresh.mesh();

@@ -316,12 +316,14 @@ impl Model {
     }
 
     /// The world boxes of the caches `change` rebuilt, whose cached field
-    /// changed all over; none for exact evaluation, which passes caches by.
+    /// changed all over (none for exact evaluation, which passes caches by),
+    /// and of the index cells whose lists it changed, where sums may differ
+    /// in their last bits.
     fn rebuilt_regions<'a>(&'a self, change: &'a Change, cached: bool) -> impl Iterator<Item = Aabb> + 'a {
         let rebuilt = if cached { &change.rebuilt[..] } else { &[] };
-        rebuilt.iter().map(move |&(cache, b)| {
+        rebuilt.iter().chain(&change.reindexed).map(move |&(node, b)| {
             let mut region = [b];
-            self.carry_up(cache, &mut region, cached);
+            self.carry_up(node, &mut region, cached);
             region[0]
         })
     }

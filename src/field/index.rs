@@ -35,7 +35,7 @@ const SUPPORT_SLACK: f32 = 1.001;
 const MAX_CELLS: usize = 1 << 22;
 
 /// A leaf of a blend cluster: a primitive stored inline, or any other node.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Leaf {
     /// A primitive, copied so the hot loop needs no arena lookup.
     Primitive(Primitive),
@@ -44,7 +44,7 @@ pub enum Leaf {
 }
 
 /// A leaf with the colour it inherits from the nearest coloured blend above it.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct IndexedLeaf {
     /// The leaf.
     pub leaf: Leaf,
@@ -333,6 +333,44 @@ impl BlendIndex {
         self.cell_lipschitz = bounds.iter().map(|b| b.0).collect();
         self.cell_curvature = bounds.iter().map(|b| b.1).collect();
         self.cell_range = bounds.into_iter().map(|b| b.2).collect();
+    }
+
+    /// Where evaluation through this index may differ, even in its last
+    /// bits, from evaluation through `old`: the cells and blocks whose leaf
+    /// lists changed, or all either covers when their grids or their ways of
+    /// summing differ. A point's
+    /// sum runs over its cell's list in order, several lanes at a time, so a
+    /// leaf joining or leaving a list changes the rounding at every point of
+    /// the cell, inside the leaf's support or not.
+    #[must_use]
+    pub fn changed_since(&self, old: &BlendIndex) -> Aabb {
+        // A node among the leaves sends every point down the general
+        // per-leaf sum instead of the packed four-lane one, and back.
+        let path_changed = self.points.is_some() != old.points.is_some();
+        if path_changed || self.grid != old.grid || self.blocks.grid != old.blocks.grid {
+            return self.grid.bounds().union(&old.grid.bounds());
+        }
+        let cells = (&self.offsets[..], &self.items[..], &old.offsets[..], &old.items[..]);
+        let blocks = (&self.blocks.offsets[..], &self.blocks.items[..], &old.blocks.offsets[..], &old.blocks.items[..]);
+        let mut changed = Aabb::EMPTY;
+        for (grid, (offsets, items, old_offsets, old_items)) in [(self.grid, cells), (self.blocks.grid, blocks)] {
+            for c in 0..grid.cell_count() {
+                let list = &items[offsets[c] as usize..offsets[c + 1] as usize];
+                let old_list = &old_items[old_offsets[c] as usize..old_offsets[c + 1] as usize];
+                let same = list.len() == old_list.len()
+                    && list.iter().zip(old_list).all(|(&i, &j)| self.leaves[i as usize] == old.leaves[j as usize]);
+                if !same {
+                    changed = changed.union(&grid.cell_box(c));
+                }
+            }
+        }
+        changed
+    }
+
+    /// The box the index's grid covers.
+    #[must_use]
+    pub fn bounds(&self) -> Aabb {
+        self.grid.bounds()
     }
 
     fn cell_items(&self, c: usize) -> &[u32] {

@@ -93,6 +93,11 @@ pub struct Change {
     /// bounds together (in its parent's frame): the cached field changed all
     /// over them.
     pub rebuilt: Vec<(NodeId, Aabb)>,
+    /// Indexed blends whose index lists changed, each with the box (in its
+    /// parent's frame) where evaluation through it may differ, if only in
+    /// its last bits (see [`crate::field::BlendIndex::changed_since`]): in
+    /// exact and cached mode alike.
+    pub reindexed: Vec<(NodeId, Aabb)>,
 }
 
 /// A BlobTree: nodes in an arena, children before parents' use, parents known,
@@ -108,22 +113,27 @@ pub struct Model {
     pool: SamplePool,
     /// Caches rebuilt since the last change was reported (see [`Change::rebuilt`]).
     rebuilt: Vec<(NodeId, Aabb)>,
+    /// Indices rebuilt since the last change was reported (see [`Change::reindexed`]).
+    reindexed: Vec<(NodeId, Aabb)>,
 }
 
 impl Clone for Model {
-    /// The same tree with cold caches (and the same cache budget).
+    /// The same tree with cold caches on the same lattices (and the same
+    /// cache budget): its cached field is this one's exactly, every sample
+    /// evaluated afresh.
     fn clone(&self) -> Self {
-        let mut model = Self {
+        let pool = SamplePool::new(self.pool.budget_slots());
+        let grids = self.grids.iter().map(|g| g.as_ref().map(|g| g.cold_copy(&pool))).collect();
+        Self {
             nodes: self.nodes.clone(),
             root: self.root,
             threshold: self.threshold,
             names: self.names.clone(),
-            grids: self.grids.iter().map(|_| None).collect(),
-            pool: SamplePool::default(),
+            grids,
+            pool,
             rebuilt: Vec::new(),
-        };
-        model.empty_caches(SamplePool::new(self.pool.budget_slots()));
-        model
+            reindexed: Vec::new(),
+        }
     }
 }
 
@@ -169,6 +179,7 @@ impl ModelBuilder {
             grids: Vec::new(),
             pool: SamplePool::default(),
             rebuilt: Vec::new(),
+            reindexed: Vec::new(),
         };
         model.link()?;
         model.refresh();
@@ -298,7 +309,10 @@ impl Model {
             at = parent;
         }
         for node in path {
-            self.build_index_at(node);
+            let changed = self.build_index_at(node);
+            if !changed.is_empty() {
+                self.reindexed.push((node, changed));
+            }
         }
     }
 
@@ -542,10 +556,11 @@ impl Model {
     /// way clear its whole bounds too.
     fn change(&mut self, id: NodeId, (old, new): (Aabb, Aabb), mut samples_cleared: u64) -> Change {
         let rebuilt = std::mem::take(&mut self.rebuilt);
-        for &(cache, b) in &rebuilt {
-            samples_cleared += self.invalidate_above(cache, b);
+        let reindexed = std::mem::take(&mut self.reindexed);
+        for &(node, b) in rebuilt.iter().chain(&reindexed) {
+            samples_cleared += self.invalidate_above(node, b);
         }
-        Change { node: id, old, new, samples_cleared, supports: Vec::new(), scope: id, rebuilt }
+        Change { node: id, old, new, samples_cleared, supports: Vec::new(), scope: id, rebuilt, reindexed }
     }
 
     /// Clears the samples inside `region` (in `id`'s own frame) in `id` if it
@@ -626,14 +641,16 @@ impl Model {
         self.build_index_at(id);
     }
 
-    /// Rebuilds the index of node `id` if it is the top blend of a cluster.
-    fn build_index_at(&mut self, id: NodeId) {
+    /// Rebuilds the index of node `id` if it is the top blend of a cluster;
+    /// returns where evaluation through it may now differ (in the frame its
+    /// parent sees), empty where nothing did.
+    fn build_index_at(&mut self, id: NodeId) -> Aabb {
         let is_cluster_top = matches!(self.nodes[id as usize].kind, NodeKind::Blend { .. })
             && !self.nodes[id as usize]
                 .parent
                 .is_some_and(|p| matches!(self.nodes[p as usize].kind, NodeKind::Blend { .. }));
         if !is_cluster_top {
-            return;
+            return Aabb::EMPTY;
         }
         let mut leaves = Vec::new();
         self.collect_leaves(id, None, &mut leaves);
@@ -647,9 +664,16 @@ impl Model {
                 |leaf, r: &Region| in_every_mode(leaf, |m| self.leaf_lipschitz(leaf, r, m), f32::max),
             ))
         });
-        if let NodeKind::Blend { index: slot, .. } = &mut self.nodes[id as usize].kind {
-            *slot = index;
-        }
+        let bounds = self.nodes[id as usize].bounds;
+        let NodeKind::Blend { index: slot, .. } = &mut self.nodes[id as usize].kind else { return Aabb::EMPTY };
+        let changed = match (&*slot, &index) {
+            (Some(old), Some(new)) => new.changed_since(old),
+            // Summed in child order instead of index order, or the reverse.
+            (Some(ix), None) | (None, Some(ix)) => bounds.union(&ix.bounds()),
+            (None, None) => Aabb::EMPTY,
+        };
+        *slot = index;
+        changed
     }
 
     /// The non-blend descendants reached through nested blends, in scene order.
