@@ -338,10 +338,10 @@ impl BlendIndex {
     /// Where evaluation through this index may differ, even in its last
     /// bits, from evaluation through `old`: the cells and blocks whose leaf
     /// lists changed, or all either covers when their grids or their ways of
-    /// summing differ. A point's
-    /// sum runs over its cell's list in order, several lanes at a time, so a
-    /// leaf joining or leaving a list changes the rounding at every point of
-    /// the cell, inside the leaf's support or not.
+    /// summing differ. A point's sum runs over its cell's list in order,
+    /// several lanes at a time, so a leaf joining or leaving a list changes
+    /// the rounding at every point of the cell, inside the leaf's support or
+    /// not.
     #[must_use]
     pub fn changed_since(&self, old: &BlendIndex) -> Aabb {
         // A node among the leaves sends every point down the general
