@@ -455,12 +455,10 @@ impl CacheGrid {
     /// thin subtree (strands, chains of points) lie outside its support.
     #[inline]
     fn part_is_zero(&self, t: usize, i: IVec3, subtree: &impl Sampled) -> bool {
-        let part = self.part_of(i);
-        let bit = part_bit(part);
-        let word = &self.zero_parts[t];
-        match word.load(Ordering::Relaxed) >> bit & 3 {
+        match self.part_state(t, i) {
             PART_ZERO => true,
             PART_UNKNOWN => {
+                let part = self.part_of(i);
                 let lo = part * self.part_cells();
                 let hi = lo + self.part_cells() - IVec3::ONE;
                 // A sliver of padding keeps the answer conservative against
@@ -471,7 +469,8 @@ impl CacheGrid {
                 // bound rests on its own caches' held samples; both bits
                 // set then read as nonzero, which reads the samples and is
                 // never wrong (zero-part samples evaluate to zero).
-                word.fetch_or((if zero { PART_ZERO } else { PART_NONZERO }) << bit, Ordering::Relaxed);
+                let state = if zero { PART_ZERO } else { PART_NONZERO };
+                self.zero_parts[t].fetch_or(state << part_bit(part), Ordering::Relaxed);
                 zero
             }
             _ => false,
@@ -481,11 +480,13 @@ impl CacheGrid {
     /// Whether lattice point `i` (of `block`) lies in a part already known
     /// to be zero; asks the subtree nothing.
     fn part_known_zero(&self, block: IVec3, i: IVec3) -> bool {
-        self.table_index(block).is_some_and(|t| {
-            let part = self.part_of(i);
-            let bit = part_bit(part);
-            self.zero_parts[t].load(Ordering::Relaxed) >> bit & 3 == PART_ZERO
-        })
+        self.table_index(block).is_some_and(|t| self.part_state(t, i) == PART_ZERO)
+    }
+
+    /// The state bits of lattice point `i`'s part, in table block `t`.
+    #[inline]
+    fn part_state(&self, t: usize, i: IVec3) -> u16 {
+        self.zero_parts[t].load(Ordering::Relaxed) >> part_bit(self.part_of(i)) & 3
     }
 
     /// Whether every sample of the lattice points `first..=last` lies in a

@@ -371,7 +371,7 @@ fn verify(scene: &Scene, s: &EditState, polygonize: &PolygonizeArgs) -> (f64, f6
     let render_s = clock.elapsed().as_secs_f64();
     let field = ModelField::new(&fresh_model, s.mode);
     let mut fresh = Polygonizer::new(s.polygonizer.lattice(), polygonize.options());
-    fresh.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
+    fresh.polygonize(&field, &skeleton_seeds(&fresh_model, fresh_model.root()));
     let mesh = fresh.mesh();
     let seconds = clock.elapsed().as_secs_f64();
     let mut mismatch = image_mismatch(&full, &s.field_frame);

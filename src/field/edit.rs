@@ -299,7 +299,7 @@ impl Model {
         }
         let mut boxes = change.supports.clone();
         self.carry_up(change.scope, &mut boxes, cached);
-        boxes.extend(self.rebuilt_regions(change, cached));
+        boxes.extend(self.replaced_regions(change, cached));
         boxes
     }
 
@@ -312,14 +312,14 @@ impl Model {
     pub fn change_region(&self, change: &Change, cached: bool) -> Aabb {
         let mut region = [change.old.union(&change.new)];
         self.carry_up(change.node, &mut region, cached);
-        self.rebuilt_regions(change, cached).fold(region[0], |u, b| u.union(&b))
+        self.replaced_regions(change, cached).fold(region[0], |u, b| u.union(&b))
     }
 
     /// The world boxes of the caches `change` rebuilt, whose cached field
     /// changed all over (none for exact evaluation, which passes caches by),
     /// and of the index cells whose lists it changed, where sums may differ
     /// in their last bits.
-    fn rebuilt_regions<'a>(&'a self, change: &'a Change, cached: bool) -> impl Iterator<Item = Aabb> + 'a {
+    fn replaced_regions<'a>(&'a self, change: &'a Change, cached: bool) -> impl Iterator<Item = Aabb> + 'a {
         let rebuilt = if cached { &change.rebuilt[..] } else { &[] };
         rebuilt.iter().chain(&change.reindexed).map(move |&(node, b)| {
             let mut region = [b];
