@@ -77,67 +77,106 @@ mod avx2 {
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     fn accumulate<const GRADIENT: bool>(terms: &[Vec4], weights: &[f32], items: &[u32], p: Vec3A) -> (f64, Vec3A) {
-        let p = [_mm256_set1_ps(p.x), _mm256_set1_ps(p.y), _mm256_set1_ps(p.z)];
-        let lane = _mm256_set_ps(7.0, 6.0, 5.0, 4.0, 3.0, 2.0, 1.0, 0.0);
-        let (one, zero, six) = (_mm256_set1_ps(1.0), _mm256_setzero_ps(), _mm256_set1_ps(6.0));
-        let mut values = _mm256_setzero_pd();
-        let mut gradient = [zero; 3];
-        for chunk in items.chunks(8) {
-            // No closures here: one the compiler leaves out of line runs
-            // without the target features (one did, at half the speed).
-            let mut idx = [chunk[0] as usize; 8];
-            for (slot, &i) in idx.iter_mut().zip(chunk) {
-                *slot = i as usize;
+        // One check of the whole list spares the loop a bounds check per load.
+        let largest = items.iter().fold(0, |m, &i| m.max(i)) as usize;
+        assert!(items.is_empty() || largest < terms.len().min(weights.len()), "a listed point is out of range");
+        let mut sums = Sums::<GRADIENT>::new(p);
+        let mut chunks = items.chunks_exact(8);
+        for chunk in &mut chunks {
+            let chunk: &[u32; 8] = chunk.try_into().expect("chunks of eight");
+            // SAFETY: every listed index is below both lengths (checked above).
+            unsafe { sums.add(terms, weights, chunk, 8) };
+        }
+        let tail = chunks.remainder();
+        if let Some(&first) = tail.first() {
+            let mut padded = [first; 8];
+            padded[..tail.len()].copy_from_slice(tail);
+            // SAFETY: as above; the padding repeats a listed index.
+            unsafe { sums.add(terms, weights, &padded, tail.len()) };
+        }
+        sums.totals()
+    }
+
+    /// Running sums of values (four double lanes) and gradients (eight single
+    /// lanes per axis) at one point.
+    struct Sums<const GRADIENT: bool> {
+        p: [__m256; 3],
+        values: __m256d,
+        gradient: [__m256; 3],
+    }
+
+    impl<const GRADIENT: bool> Sums<GRADIENT> {
+        #[inline]
+        #[target_feature(enable = "avx2,fma")]
+        fn new(p: Vec3A) -> Self {
+            let zero = _mm256_setzero_ps();
+            Self {
+                p: [_mm256_set1_ps(p.x), _mm256_set1_ps(p.y), _mm256_set1_ps(p.z)],
+                values: _mm256_setzero_pd(),
+                gradient: [zero; 3],
             }
+        }
+
+        /// Adds the first `live` of the eight points `idx`.
+        ///
+        /// # Safety
+        /// Every index in `idx` is below `terms.len()` and `weights.len()`.
+        #[inline]
+        #[target_feature(enable = "avx2,fma")]
+        unsafe fn add(&mut self, terms: &[Vec4], weights: &[f32], idx: &[u32; 8], live: usize) {
+            let load = |k: usize| {
+                // SAFETY: the caller promises the index is in range; a Vec4 is four floats.
+                unsafe { _mm_loadu_ps(terms.get_unchecked(idx[k] as usize) as *const Vec4 as *const f32) }
+            };
+            // SAFETY: as for `load`.
+            let weight = |k: usize| unsafe { *weights.get_unchecked(idx[k] as usize) };
             // Rows hold points (k, k + 4) as (x, y, z, 1/R²) in their two
             // halves; a 4×4 transpose within each half makes component rows.
             let rows = [
-                _mm256_set_m128(load(terms, idx[4]), load(terms, idx[0])),
-                _mm256_set_m128(load(terms, idx[5]), load(terms, idx[1])),
-                _mm256_set_m128(load(terms, idx[6]), load(terms, idx[2])),
-                _mm256_set_m128(load(terms, idx[7]), load(terms, idx[3])),
+                _mm256_set_m128(load(4), load(0)),
+                _mm256_set_m128(load(5), load(1)),
+                _mm256_set_m128(load(6), load(2)),
+                _mm256_set_m128(load(7), load(3)),
             ];
             let xy_lo = _mm256_unpacklo_ps(rows[0], rows[1]);
             let xy_hi = _mm256_unpacklo_ps(rows[2], rows[3]);
             let zr_lo = _mm256_unpackhi_ps(rows[0], rows[1]);
             let zr_hi = _mm256_unpackhi_ps(rows[2], rows[3]);
             let to_center = [
-                _mm256_sub_ps(_mm256_shuffle_ps::<0x44>(xy_lo, xy_hi), p[0]),
-                _mm256_sub_ps(_mm256_shuffle_ps::<0xEE>(xy_lo, xy_hi), p[1]),
-                _mm256_sub_ps(_mm256_shuffle_ps::<0x44>(zr_lo, zr_hi), p[2]),
+                _mm256_sub_ps(_mm256_shuffle_ps::<0x44>(xy_lo, xy_hi), self.p[0]),
+                _mm256_sub_ps(_mm256_shuffle_ps::<0xEE>(xy_lo, xy_hi), self.p[1]),
+                _mm256_sub_ps(_mm256_shuffle_ps::<0x44>(zr_lo, zr_hi), self.p[2]),
             ];
             let inv_r2 = _mm256_shuffle_ps::<0xEE>(zr_lo, zr_hi);
-            let mut w = [0.0f32; 8];
-            for (w, &i) in w.iter_mut().zip(&idx) {
-                *w = weights[i];
+            let mut weight =
+                _mm256_set_ps(weight(7), weight(6), weight(5), weight(4), weight(3), weight(2), weight(1), weight(0));
+            if live < 8 {
+                let lane = _mm256_set_ps(7.0, 6.0, 5.0, 4.0, 3.0, 2.0, 1.0, 0.0);
+                weight = _mm256_and_ps(weight, _mm256_cmp_ps::<_CMP_LT_OQ>(lane, _mm256_set1_ps(live as f32)));
             }
-            let live = _mm256_cmp_ps::<_CMP_LT_OQ>(lane, _mm256_set1_ps(chunk.len() as f32));
-            let weight = _mm256_and_ps(_mm256_set_ps(w[7], w[6], w[5], w[4], w[3], w[2], w[1], w[0]), live);
             let [dx, dy, dz] = to_center;
             let d2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dx, dx)));
-            let s = _mm256_max_ps(_mm256_fnmadd_ps(d2, inv_r2, one), zero);
+            let s = _mm256_max_ps(_mm256_fnmadd_ps(d2, inv_r2, _mm256_set1_ps(1.0)), _mm256_setzero_ps());
             let s2 = _mm256_mul_ps(s, s);
             let value = _mm256_mul_ps(_mm256_mul_ps(s2, s), weight);
             let halves = (_mm256_castps256_ps128(value), _mm256_extractf128_ps::<1>(value));
-            values = _mm256_add_pd(values, _mm256_add_pd(_mm256_cvtps_pd(halves.0), _mm256_cvtps_pd(halves.1)));
+            self.values =
+                _mm256_add_pd(self.values, _mm256_add_pd(_mm256_cvtps_pd(halves.0), _mm256_cvtps_pd(halves.1)));
             if GRADIENT {
                 // The gradient of w·g(|c − p|²) is 6·w·s²/R² times c − p.
-                let pull = _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(six, s2), inv_r2), weight);
-                for (axis, to_center) in gradient.iter_mut().zip(to_center) {
+                let pull = _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(6.0), s2), inv_r2), weight);
+                for (axis, to_center) in self.gradient.iter_mut().zip(to_center) {
                     *axis = _mm256_fmadd_ps(to_center, pull, *axis);
                 }
             }
         }
-        (total(values), Vec3A::new(total_f32(gradient[0]), total_f32(gradient[1]), total_f32(gradient[2])))
-    }
 
-    /// Point `i`'s `x, y, z, 1/R²`.
-    #[inline]
-    #[target_feature(enable = "avx2,fma")]
-    fn load(terms: &[Vec4], i: usize) -> __m128 {
-        let t: [f32; 4] = terms[i].to_array();
-        // SAFETY: reads the four floats of a local array.
-        unsafe { _mm_loadu_ps(t.as_ptr()) }
+        #[inline]
+        #[target_feature(enable = "avx2,fma")]
+        fn totals(&self) -> (f64, Vec3A) {
+            let g = self.gradient;
+            (total(self.values), Vec3A::new(total_f32(g[0]), total_f32(g[1]), total_f32(g[2])))
+        }
     }
 
     /// The total of four double lanes, summed in pairs.
