@@ -10,6 +10,8 @@
 //! leaves, where the cells would be too loose: see `field::eval`.)
 
 use glam::{Mat4, UVec3, Vec3, Vec3A, Vec4};
+use std::sync::OnceLock;
+
 use rayon::prelude::*;
 
 use super::kernel::Kernel;
@@ -134,16 +136,19 @@ fn reached_cells(grid: &UniformGrid, leaf: &IndexedLeaf) -> Vec<u32> {
 }
 
 /// Point leaves reduced to what their values need: centre and `1/R²` in one
-/// 16-byte load, weights apart. A sixth of a leaf's size, so the leaves of a
-/// dense model stay in cache.
+/// 16-byte load, weights apart (a sixth of a leaf's size, so the leaves of a
+/// dense model stay in cache); and where the eight-wide sums run, each
+/// cell's list packed for them.
 #[derive(Clone, Debug)]
 struct PackedPoints {
     terms: Vec<Vec4>,
     weights: Vec<f32>,
+    /// Each cell's list packed eight points to a chunk (see [`Self::packed`]).
+    cells: Option<Vec<OnceLock<Box<[wide::Chunk]>>>>,
 }
 
 impl PackedPoints {
-    fn pack(leaves: &[IndexedLeaf]) -> Option<Self> {
+    fn pack(leaves: &[IndexedLeaf], cells: usize) -> Option<Self> {
         let (terms, weights) = leaves
             .iter()
             .map(|l| match &l.leaf {
@@ -153,44 +158,46 @@ impl PackedPoints {
             .collect::<Option<Vec<_>>>()?
             .into_iter()
             .unzip();
-        Some(Self { terms, weights })
+        let cells = wide::available().then(|| (0..cells).map(|_| OnceLock::new()).collect());
+        Some(Self { terms, weights, cells })
     }
 
-    /// The sum of the listed points' values at `p`, four at a time, in
-    /// double precision.
+    /// The sum of cell `c`'s points' values at `p`, in double precision;
+    /// `items` lists them (read only where the cell's packed list is not
+    /// there yet, or the eight-wide sums do not run).
     #[inline]
-    fn sum(&self, items: &[u32], p: Vec3A) -> f64 {
-        if let Some(sum) = wide::sum(&self.terms, &self.weights, items, p) {
+    fn sum<'a>(&'a self, c: usize, items: impl Fn() -> &'a [u32], p: Vec3A) -> f64 {
+        if let Some(sum) = self.packed(c, &items).and_then(|chunks| wide::sum(chunks, p)) {
             return sum;
         }
         let mut acc = glam::DVec4::ZERO;
-        self.for_each_quad(items, p, |lanes| acc += lanes.values());
+        self.for_each_quad(items(), p, |lanes| acc += lanes.values());
         sum_lanes(acc)
     }
 
-    /// The sum of the listed points' gradients at `p`, four at a time.
+    /// [`Self::sum`] and the sum of the gradients in one pass, the value to the same bits.
     #[inline]
-    fn gradient(&self, items: &[u32], p: Vec3A) -> Vec3A {
-        if let Some(gradient) = wide::gradient(&self.terms, &self.weights, items, p) {
-            return gradient;
-        }
-        let mut acc = [Vec4::ZERO; 3];
-        self.for_each_quad(items, p, |lanes| add_axes(&mut acc, lanes.gradients()));
-        sum_axes(acc)
-    }
-
-    /// [`Self::sum`] and [`Self::gradient`] in one pass, each to the same bits.
-    #[inline]
-    fn sum_and_gradient(&self, items: &[u32], p: Vec3A) -> (f64, Vec3A) {
-        if let Some(both) = wide::sum_and_gradient(&self.terms, &self.weights, items, p) {
+    fn sum_and_gradient<'a>(&'a self, c: usize, items: impl Fn() -> &'a [u32], p: Vec3A) -> (f64, Vec3A) {
+        if let Some(both) = self.packed(c, &items).and_then(|chunks| wide::sum_and_gradient(chunks, p)) {
             return both;
         }
         let (mut values, mut gradients) = (glam::DVec4::ZERO, [Vec4::ZERO; 3]);
-        self.for_each_quad(items, p, |lanes| {
+        self.for_each_quad(items(), p, |lanes| {
             values += lanes.values();
             add_axes(&mut gradients, lanes.gradients());
         });
         (sum_lanes(values), sum_axes(gradients))
+    }
+
+    /// Cell `c`'s list, `items`, packed for the eight-wide sums where they
+    /// run. A cell is packed on its first sum, so that only the cells where
+    /// the field is evaluated take the memory: packed, a list takes five
+    /// times the bytes (all of Medusa's would take 160 MB; a render packs
+    /// about 100 MB of them).
+    #[inline]
+    fn packed<'a>(&'a self, c: usize, items: impl Fn() -> &'a [u32]) -> Option<&'a [wide::Chunk]> {
+        let list = self.cells.as_ref()?.get(c)?;
+        Some(list.get_or_init(|| wide::pack(&self.terms, &self.weights, items()).collect()))
     }
 
     /// Calls `f` with the listed points four at a time, laid out by lane.
@@ -284,9 +291,9 @@ impl BlendIndex {
     ) -> Self {
         let cell = choose_cell_size(&bounds, &leaves);
         let has_node_leaves = leaves.iter().any(|l| matches!(l.leaf, Leaf::Node(_)));
-        let points = PackedPoints::pack(&leaves);
         let dims = (bounds.size() / cell).ceil().as_uvec3();
         let grid = UniformGrid::new(bounds.min, cell, dims);
+        let points = PackedPoints::pack(&leaves, grid.cell_count());
         let Lists { offsets, items, .. } = Lists::bucket(grid, &leaves);
         let block_dims = (dims + UVec3::splat(BLOCK_CELLS - 1)) / BLOCK_CELLS;
         let blocks = Lists::bucket(UniformGrid::new(bounds.min, cell * BLOCK_CELLS as f32, block_dims), &leaves);
@@ -381,14 +388,15 @@ impl BlendIndex {
     #[inline]
     #[must_use]
     pub fn point_gradient(&self, p: Vec3A) -> Option<Vec3A> {
-        self.points.as_ref().map(|points| points.gradient(self.candidates(p), p))
+        self.point_sum_and_gradient(p).map(|(_, gradient)| gradient)
     }
 
     /// The blend's value at `p` when all its leaves are points (`None` otherwise).
     #[inline]
     #[must_use]
     pub fn point_sum(&self, p: Vec3A) -> Option<f64> {
-        self.points.as_ref().map(|points| points.sum(self.candidates(p), p))
+        let points = self.points.as_ref()?;
+        Some(self.grid.cell_of(p).map_or(0.0, |c| points.sum(c, || self.cell_items(c), p)))
     }
 
     /// The blend's value and gradient at `p` when all its leaves are points:
@@ -396,7 +404,9 @@ impl BlendIndex {
     #[inline]
     #[must_use]
     pub fn point_sum_and_gradient(&self, p: Vec3A) -> Option<(f64, Vec3A)> {
-        self.points.as_ref().map(|points| points.sum_and_gradient(self.candidates(p), p))
+        let points = self.points.as_ref()?;
+        let cell = self.grid.cell_of(p);
+        Some(cell.map_or((0.0, Vec3A::ZERO), |c| points.sum_and_gradient(c, || self.cell_items(c), p)))
     }
 
     /// True when some leaf is a node rather than a primitive.
