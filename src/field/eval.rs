@@ -133,15 +133,17 @@ impl Model {
     }
 
     /// The first node at or below `id` that is not a pass-through in `mode`
-    /// (a name, or a cache evaluated exactly). Its bounds are theirs, so
-    /// evaluations test them once, there, and not at every level above
-    /// (three times for each of Medusa's components).
+    /// (a name, a cache evaluated exactly, a transform that moves nothing, as
+    /// one that only colours does). Its bounds are theirs, so evaluations
+    /// test them once, there, and not at every level above (four times for
+    /// each of Medusa's components).
     #[inline]
     fn past_pass_throughs(&self, mut id: NodeId, mode: EvalMode) -> NodeId {
         loop {
             match &self.node(id).kind {
                 NodeKind::Named { child, .. } => id = *child,
                 NodeKind::Cache { child, .. } if mode != EvalMode::Cached => id = *child,
+                NodeKind::Transform { placement, child } if placement.is_identity() => id = *child,
                 _ => return id,
             }
         }

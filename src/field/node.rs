@@ -120,6 +120,14 @@ impl Placement {
     pub fn local(&self, p: Vec3A) -> Vec3A {
         self.to_local.transform_point3a(p)
     }
+
+    /// True when the placement moves nothing: values, gradients and bounds
+    /// through it are those of its child, to the bit.
+    #[inline]
+    #[must_use]
+    pub fn is_identity(&self) -> bool {
+        self.to_local == Affine3A::IDENTITY
+    }
 }
 
 impl NodeKind {
