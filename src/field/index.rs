@@ -564,6 +564,28 @@ mod tests {
     }
 
     #[test]
+    fn a_cell_is_packed_by_its_first_sum_and_no_other_cell_is() {
+        let ix = cluster();
+        let points = ix.points.as_ref().expect("all leaves are points");
+        let Some(cells) = &points.cells else {
+            eprintln!("this processor lacks AVX2 or FMA: no cell is ever packed");
+            return;
+        };
+        let packed = || cells.iter().filter(|c| c.get().is_some()).count();
+        assert_eq!(packed(), 0, "packed before any sum");
+        let q = Vec3A::new(0.1, 0.2, 0.05);
+        let c = ix.grid.cell_of(q).expect("inside the cluster");
+        let (value, gradient) = ix.point_sum_and_gradient(q).expect("all leaves are points");
+        assert_eq!(packed(), 1);
+        // Eight points to a chunk, the list's own points in its order.
+        let chunks = cells[c].get().expect("the cell summed in is packed");
+        assert_eq!(chunks.len(), ix.cell_items(c).len().div_ceil(8));
+        // Sums in the packed cell repeat the first to the bit.
+        assert_eq!(ix.point_sum(q).map(f64::to_bits), Some(value.to_bits()));
+        assert_eq!(ix.point_gradient(q), Some(gradient));
+        assert_eq!(packed(), 1);
+    }
+    #[test]
     fn the_lists_over_a_box_hold_every_leaf_reaching_it() {
         let ix = cluster();
         let (mut by_blocks, mut by_cells) = (0, 0);
