@@ -601,6 +601,9 @@ impl Model {
         if ix.cells_overlapped(b) > MAX_CELLS_FOR_LEAF_BOUNDS {
             return ix.interval(b);
         }
+        if let Some(range) = ix.point_interval(b) {
+            return range;
+        }
         let mut total = Interval::ZERO;
         for_each_unique_leaf(ix, &Region::Box(*b), |i| {
             total = total + self.leaf_interval(&ix.leaves[i as usize], b, mode)

@@ -409,6 +409,40 @@ impl BlendIndex {
         Some(cell.map_or((0.0, Vec3A::ZERO), |c| points.sum_and_gradient(c, || self.cell_items(c), p)))
     }
 
+    /// Bounds of the blend's value over box `b` when all its leaves are
+    /// points and the eight-wide sums run (`None` otherwise): the hull, over
+    /// the cells `b` meets, of the sum of each cell's points over the part of
+    /// `b` in that cell. Every point of `b` lies in one of those cells, where
+    /// only the cell's points reach it, so the hull holds the field there;
+    /// and it is no looser than the points' own bounds over all of `b`
+    /// summed, with no point to count once across cells.
+    #[must_use]
+    pub fn point_interval(&self, b: &Aabb) -> Option<Interval> {
+        let points = self.points.as_ref().filter(|p| p.cells.is_some())?;
+        let Some((lo, hi, outside)) = self.grid.cell_range_of(b) else { return Some(Interval::ZERO) };
+        let g = &self.grid;
+        let mut acc = outside.then_some(Interval::ZERO);
+        for z in lo.z..=hi.z {
+            for y in lo.y..=hi.y {
+                for x in lo.x..=hi.x {
+                    let i = UVec3::new(x, y, z);
+                    let c = g.linear(i);
+                    let items = self.cell_items(c);
+                    let range = if items.is_empty() {
+                        Interval::ZERO
+                    } else {
+                        let cell_min = g.origin + i.as_vec3a() * g.cell;
+                        let (from, to) = (b.min.max(cell_min), b.max.min(cell_min + Vec3A::splat(g.cell)));
+                        let (low, high) = wide::interval(points.packed(c, || items)?, from, to)?;
+                        outward(low, high)
+                    };
+                    acc = Some(acc.map_or(range, |a| a.join(range)));
+                }
+            }
+        }
+        Some(acc.unwrap_or(Interval::ZERO))
+    }
+
     /// True when some leaf is a node rather than a primitive.
     #[must_use]
     pub fn has_node_leaves(&self) -> bool {
@@ -491,6 +525,18 @@ impl BlendIndex {
         });
         acc.unwrap_or(Interval::ZERO)
     }
+}
+
+/// The interval `low..high` rounded outwards to single precision.
+fn outward(low: f64, high: f64) -> Interval {
+    let (mut lo, mut hi) = (low as f32, high as f32);
+    if f64::from(lo) > low {
+        lo = lo.next_down();
+    }
+    if f64::from(hi) < high {
+        hi = hi.next_up();
+    }
+    Interval::new(lo, hi)
 }
 
 /// Half the median leaf size, so a leaf spans about three cells per axis and a
@@ -607,6 +653,42 @@ mod tests {
             }
         }
         assert!(by_blocks > 100 && by_cells > 20, "{by_blocks} boxes by blocks, {by_cells} by cells");
+    }
+
+    #[test]
+    fn the_cells_sums_over_a_box_hold_the_field_and_are_no_looser_than_the_leaves_bounds() {
+        let ix = cluster();
+        if ix.point_interval(&Aabb::around(Vec3A::ZERO, 0.1)).is_none() {
+            eprintln!("this processor lacks AVX2 or FMA: boxes take the leaves' bounds");
+            return;
+        }
+        let prims: Vec<Primitive> = ix
+            .leaves
+            .iter()
+            .map(|l| match &l.leaf {
+                Leaf::Primitive(p) => *p,
+                Leaf::Node(_) => unreachable!("the cluster holds primitives only"),
+            })
+            .collect();
+        let (mut tighter, mut zero) = (0, 0);
+        for k in 0..300 {
+            let f = k as f32;
+            let center = Vec3A::new((f * 0.61).sin(), (f * 0.37).cos(), (f * 0.83).sin() * 0.6) * 1.6;
+            let b = Aabb::around(center, ix.grid.cell * (0.1 + 0.04 * (k % 50) as f32));
+            let range = ix.point_interval(&b).expect("the eight-wide sums run");
+            let leaves = prims.iter().fold(Interval::ZERO, |s, p| s + p.interval(&b));
+            assert!(range.hi <= leaves.hi * (1.0 + 1e-6) + 1e-7, "{b:?}: {range:?} looser than {leaves:?}");
+            tighter += usize::from(range.hi < leaves.hi * 0.99);
+            zero += usize::from(range == Interval::ZERO);
+            // Every sampled value lies inside, corners and faces included.
+            for s in 0..64 {
+                let t = Vec3A::new((s & 3) as f32 / 3.0, ((s >> 2) & 3) as f32 / 3.0, (s >> 4) as f32 / 3.0);
+                let q = b.min + t * b.size();
+                let v: f32 = prims.iter().map(|p| p.value(q)).sum();
+                assert!(range.lo - 1e-6 <= v && v <= range.hi + 1e-6, "{v} at {q} outside {range:?}");
+            }
+        }
+        assert!(tighter > 30 && zero > 5, "{tighter} boxes bounded tighter, {zero} found zero");
     }
 
     #[test]

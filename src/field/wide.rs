@@ -80,6 +80,20 @@ pub fn sum_and_gradient(chunks: &[Chunk], p: Vec3A) -> Option<(f64, Vec3A)> {
     None
 }
 
+/// Bounds of the sum of the packed points' values over the box `lo..hi`:
+/// each point between its values at the box's nearest and farthest points,
+/// the bounds summed in double precision; `None` where [`available`] is false.
+#[inline]
+pub fn interval(chunks: &[Chunk], lo: Vec3A, hi: Vec3A) -> Option<(f64, f64)> {
+    #[cfg(target_arch = "x86_64")]
+    if available() {
+        // SAFETY: as in `sum`.
+        return Some(unsafe { avx2::interval(chunks, lo, hi) });
+    }
+    let _ = (chunks, lo, hi);
+    None
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::*;
@@ -96,6 +110,50 @@ mod avx2 {
     #[target_feature(enable = "avx2,fma")]
     pub fn sum_and_gradient(chunks: &[Chunk], p: Vec3A) -> (f64, Vec3A) {
         accumulate::<true>(chunks, p)
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    pub fn interval(chunks: &[Chunk], lo: Vec3A, hi: Vec3A) -> (f64, f64) {
+        let lo = [_mm256_set1_ps(lo.x), _mm256_set1_ps(lo.y), _mm256_set1_ps(lo.z)];
+        let hi = [_mm256_set1_ps(hi.x), _mm256_set1_ps(hi.y), _mm256_set1_ps(hi.z)];
+        let zero = _mm256_setzero_ps();
+        let (mut lows, mut highs) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+        for chunk in chunks {
+            let (mut near2, mut far2) = (zero, zero);
+            for (axis, row) in [&chunk.x, &chunk.y, &chunk.z].into_iter().enumerate() {
+                // SAFETY: reads the eight floats of a row, aligned with the chunk.
+                let c = unsafe { _mm256_load_ps(row.as_ptr()) };
+                let (below, above) = (_mm256_sub_ps(lo[axis], c), _mm256_sub_ps(c, hi[axis]));
+                // The gap to the slab (zero inside it), and the distance to its farther face.
+                let near = _mm256_max_ps(_mm256_max_ps(below, above), zero);
+                let far = _mm256_max_ps(_mm256_sub_ps(zero, below), _mm256_sub_ps(zero, above));
+                near2 = _mm256_fmadd_ps(near, near, near2);
+                far2 = _mm256_fmadd_ps(far, far, far2);
+            }
+            // SAFETY: as above.
+            let (inv_r2, weight) =
+                unsafe { (_mm256_load_ps(chunk.inv_r2.as_ptr()), _mm256_load_ps(chunk.weight.as_ptr())) };
+            let (at_near, at_far) = (wyvill(near2, inv_r2, weight), wyvill(far2, inv_r2, weight));
+            lows = add_halves(lows, _mm256_min_ps(at_near, at_far));
+            highs = add_halves(highs, _mm256_max_ps(at_near, at_far));
+        }
+        (total(lows), total(highs))
+    }
+
+    /// `w·(1 − d²/R²)³` per lane, zero past the support.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn wyvill(d2: __m256, inv_r2: __m256, weight: __m256) -> __m256 {
+        let s = _mm256_max_ps(_mm256_fnmadd_ps(d2, inv_r2, _mm256_set1_ps(1.0)), _mm256_setzero_ps());
+        _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(s, s), s), weight)
+    }
+
+    /// `acc` plus the eight lanes of `v`, paired into four double lanes.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn add_halves(acc: __m256d, v: __m256) -> __m256d {
+        let halves = (_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
+        _mm256_add_pd(acc, _mm256_add_pd(_mm256_cvtps_pd(halves.0), _mm256_cvtps_pd(halves.1)))
     }
 
     /// The sum of the packed points' values at `p` and, with `GRADIENT`, of
