@@ -50,6 +50,17 @@ fn samples_evaluated(model: &Model) -> u64 {
     model.cache_stats().iter().map(|(_, _, s)| s.samples_evaluated).sum()
 }
 
+/// The model's cache node, and `n` random points of its bounds at which it
+/// was evaluated (filling the samples around them).
+fn warm_cache(model: &Model, n: usize, seed: u64) -> (NodeId, Vec<Vec3A>) {
+    let (cache, _, _) = cache_node(model);
+    let points = random_points(model, n, seed);
+    for &p in &points {
+        model.node_value(cache, p, EvalMode::Cached);
+    }
+    (cache, points)
+}
+
 fn random_points(model: &Model, n: usize, seed: u64) -> Vec<Vec3A> {
     let b = model.bounds();
     let mut rng = Rng(seed);
@@ -282,11 +293,7 @@ fn slope_floors_bound_the_cached_values_derivative_along_segments() {
 #[test]
 fn invalidation_after_an_edit_matches_a_fresh_cache_and_spares_the_rest() {
     let mut scene = default_scene(32);
-    let (cache, _, _) = cache_node(&scene.model);
-    let points = random_points(&scene.model, 5000, 5);
-    for &p in &points {
-        scene.model.node_value(cache, p, EvalMode::Cached);
-    }
+    let (cache, points) = warm_cache(&scene.model, 5000, 5);
     let segments = short_segments(&points);
     for s in &segments {
         scene.model.node_lipschitz(cache, s, EvalMode::Cached);
@@ -504,11 +511,7 @@ fn warm_caches_after_random_edits_equal_fresh_ones() {
 #[test]
 fn a_clone_has_cold_caches_on_the_same_lattices() {
     let mut scene = default_scene(32);
-    let (cache, _, _) = cache_node(&scene.model);
-    let points = random_points(&scene.model, 3000, 41);
-    for &p in &points {
-        scene.model.node_value(cache, p, EvalMode::Cached);
-    }
+    let (cache, points) = warm_cache(&scene.model, 3000, 41);
     // The probe moved outward: the bounds grow, the cell size is kept.
     let outward = Primitive::new(Skeleton::Point { center: Vec3A::new(1.8, 0.3, 0.3) }, 0.5, 1.0, Default::default());
     scene.model.set_primitive(probe(&scene.model), outward).unwrap();

@@ -352,7 +352,7 @@ impl BlendIndex {
     #[must_use]
     pub fn changed_since(&self, old: &BlendIndex) -> Aabb {
         // A node among the leaves sends every point down the general
-        // per-leaf sum instead of the packed four-lane one, and back.
+        // per-leaf sum instead of the packed point sums, and back.
         let path_changed = self.points.is_some() != old.points.is_some();
         if path_changed || self.grid != old.grid || self.blocks.grid != old.blocks.grid {
             return self.grid.bounds().union(&old.grid.bounds());

@@ -121,18 +121,15 @@ mod avx2 {
         for chunk in chunks {
             let (mut near2, mut far2) = (zero, zero);
             for (axis, row) in [&chunk.x, &chunk.y, &chunk.z].into_iter().enumerate() {
-                // SAFETY: reads the eight floats of a row, aligned with the chunk.
-                let c = unsafe { _mm256_load_ps(row.as_ptr()) };
+                let c = load(row);
                 let (below, above) = (_mm256_sub_ps(lo[axis], c), _mm256_sub_ps(c, hi[axis]));
                 // The gap to the slab (zero inside it), and the distance to its farther face.
                 let near = _mm256_max_ps(_mm256_max_ps(below, above), zero);
-                let far = _mm256_max_ps(_mm256_sub_ps(zero, below), _mm256_sub_ps(zero, above));
+                let far = _mm256_max_ps(_mm256_sub_ps(c, lo[axis]), _mm256_sub_ps(hi[axis], c));
                 near2 = _mm256_fmadd_ps(near, near, near2);
                 far2 = _mm256_fmadd_ps(far, far, far2);
             }
-            // SAFETY: as above.
-            let (inv_r2, weight) =
-                unsafe { (_mm256_load_ps(chunk.inv_r2.as_ptr()), _mm256_load_ps(chunk.weight.as_ptr())) };
+            let (inv_r2, weight) = (load(&chunk.inv_r2), load(&chunk.weight));
             let (at_near, at_far) = (wyvill(near2, inv_r2, weight), wyvill(far2, inv_r2, weight));
             lows = add_halves(lows, _mm256_min_ps(at_near, at_far));
             highs = add_halves(highs, _mm256_max_ps(at_near, at_far));
@@ -148,6 +145,14 @@ mod avx2 {
         _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(s, s), s), weight)
     }
 
+    /// One row of a chunk.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn load(row: &[f32; 8]) -> __m256 {
+        // SAFETY: reads the eight floats of a row, aligned with its chunk.
+        unsafe { _mm256_load_ps(row.as_ptr()) }
+    }
+
     /// `acc` plus the eight lanes of `v`, paired into four double lanes.
     #[inline]
     #[target_feature(enable = "avx2,fma")]
@@ -157,8 +162,8 @@ mod avx2 {
     }
 
     /// The sum of the packed points' values at `p` and, with `GRADIENT`, of
-    /// their gradients. One loop body with no closures, so that nothing is
-    /// left out of line (a `target_feature` function cannot be forced inline,
+    /// their gradients. One loop body with no closures (only functions with
+    /// the same target features), so that nothing is left out of line (a `target_feature` function cannot be forced inline,
     /// and one the compiler left out of line ran without the features, at
     /// half the speed).
     #[inline]
@@ -169,21 +174,18 @@ mod avx2 {
         let mut values = _mm256_setzero_pd();
         let mut gradient = [zero; 3];
         for chunk in chunks {
-            // SAFETY: each reads the eight floats of a row, aligned with the chunk.
-            let (x, y, z) = unsafe {
-                (_mm256_load_ps(chunk.x.as_ptr()), _mm256_load_ps(chunk.y.as_ptr()), _mm256_load_ps(chunk.z.as_ptr()))
-            };
-            // SAFETY: as above.
-            let (inv_r2, weight) =
-                unsafe { (_mm256_load_ps(chunk.inv_r2.as_ptr()), _mm256_load_ps(chunk.weight.as_ptr())) };
-            let to_center = [_mm256_sub_ps(x, p[0]), _mm256_sub_ps(y, p[1]), _mm256_sub_ps(z, p[2])];
+            let (inv_r2, weight) = (load(&chunk.inv_r2), load(&chunk.weight));
+            let to_center = [
+                _mm256_sub_ps(load(&chunk.x), p[0]),
+                _mm256_sub_ps(load(&chunk.y), p[1]),
+                _mm256_sub_ps(load(&chunk.z), p[2]),
+            ];
             let [dx, dy, dz] = to_center;
             let d2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dx, dx)));
             let s = _mm256_max_ps(_mm256_fnmadd_ps(d2, inv_r2, one), zero);
             let s2 = _mm256_mul_ps(s, s);
             let value = _mm256_mul_ps(_mm256_mul_ps(s2, s), weight);
-            let halves = (_mm256_castps256_ps128(value), _mm256_extractf128_ps::<1>(value));
-            values = _mm256_add_pd(values, _mm256_add_pd(_mm256_cvtps_pd(halves.0), _mm256_cvtps_pd(halves.1)));
+            values = add_halves(values, value);
             if GRADIENT {
                 // The gradient of w·g(|c − p|²) is 6·w·s²/R² times c − p.
                 let pull = _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(six, s2), inv_r2), weight);
