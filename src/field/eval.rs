@@ -138,7 +138,7 @@ impl Model {
     /// test them once, there, and not at every level above (four times for
     /// each of Medusa's components).
     #[inline]
-    fn past_pass_throughs(&self, mut id: NodeId, mode: EvalMode) -> NodeId {
+    pub(super) fn past_pass_throughs(&self, mut id: NodeId, mode: EvalMode) -> NodeId {
         loop {
             match &self.node(id).kind {
                 NodeKind::Named { child, .. } => id = *child,
@@ -454,10 +454,16 @@ impl Model {
     /// multiplies by its inverse's norm; children whose support misses the
     /// region are constant (zero) there and add nothing.
     pub fn node_lipschitz(&self, id: NodeId, region: &Region, mode: EvalMode) -> f32 {
-        let node = self.node(self.past_pass_throughs(id, mode));
-        if !region.meets(&node.bounds) {
+        let id = self.past_pass_throughs(id, mode);
+        if !region.meets(&self.node(id).bounds) {
             return 0.0;
         }
+        self.met_node_lipschitz(id, region, mode)
+    }
+
+    /// [`Self::node_lipschitz`] of a node that is no pass-through and whose bounds `region` meets.
+    pub(super) fn met_node_lipschitz(&self, id: NodeId, region: &Region, mode: EvalMode) -> f32 {
+        let node = self.node(id);
         let sum = |cs: &[NodeId]| cs.iter().map(|&c| self.node_lipschitz(c, region, mode)).sum::<f32>();
         let max = |cs: &[NodeId]| cs.iter().map(|&c| self.node_lipschitz(c, region, mode)).fold(0.0, f32::max);
         match &node.kind {
@@ -535,10 +541,16 @@ impl Model {
     /// infinite where the gradient may jump (the creases of unions,
     /// intersections and differences, a cache's cell faces).
     pub fn node_curvature(&self, id: NodeId, region: &Region, mode: EvalMode) -> f32 {
-        let node = self.node(self.past_pass_throughs(id, mode));
-        if !region.meets(&node.bounds) {
+        let id = self.past_pass_throughs(id, mode);
+        if !region.meets(&self.node(id).bounds) {
             return 0.0;
         }
+        self.met_node_curvature(id, region, mode)
+    }
+
+    /// [`Self::node_curvature`] of a node that is no pass-through and whose bounds `region` meets.
+    pub(super) fn met_node_curvature(&self, id: NodeId, region: &Region, mode: EvalMode) -> f32 {
+        let node = self.node(id);
         match &node.kind {
             NodeKind::Primitive(prim) => prim.curvature_over(region),
             NodeKind::Blend { children, index } => match (mode, index) {

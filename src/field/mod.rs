@@ -16,6 +16,7 @@ mod model;
 mod node;
 mod primitive;
 mod region;
+mod root;
 pub mod spline;
 mod wide;
 
@@ -29,6 +30,8 @@ pub use model::{Change, Model, ModelBuilder, ModelCounts, ModelError};
 pub use node::{Node, NodeId, NodeKind, Placement};
 pub use primitive::{Primitive, Skeleton};
 pub use region::Region;
+
+use root::RootParts;
 
 use crate::geom::{Aabb, Interval, Ray};
 
@@ -146,13 +149,17 @@ pub struct ModelField<'a> {
     model: &'a Model,
     mode: EvalMode,
     empty: Option<&'a EmptySpace>,
+    /// The root's components, where it splits into them (indexed and cached
+    /// modes; the naive baseline walks the tree as it stands).
+    root: Option<RootParts>,
 }
 
 impl<'a> ModelField<'a> {
     /// Evaluation of `model` in `mode`.
     #[must_use]
     pub fn new(model: &'a Model, mode: EvalMode) -> Self {
-        Self { model, mode, empty: None }
+        let root = if mode.indexed() { RootParts::of(model, mode) } else { None };
+        Self { model, mode, empty: None, root }
     }
 
     /// The same evaluation, skipping the cells `empty` marks (built from this
@@ -165,10 +172,16 @@ impl<'a> ModelField<'a> {
 
 impl Field for ModelField<'_> {
     fn value(&self, p: Vec3A) -> f32 {
-        self.model.node_value(self.model.root(), p, self.mode)
+        match &self.root {
+            Some(parts) => parts.value(self.model, p, self.mode),
+            None => self.model.node_value(self.model.root(), p, self.mode),
+        }
     }
     fn gradient(&self, p: Vec3A) -> Vec3A {
-        self.model.node_gradient(self.model.root(), p, self.mode)
+        match &self.root {
+            Some(parts) => parts.gradient(self.model, p, self.mode),
+            None => self.model.node_gradient(self.model.root(), p, self.mode),
+        }
     }
     fn uphill(&self, p: Vec3A) -> Vec3A {
         // Through the caches, a gradient fills the 27 samples of each one's
@@ -178,7 +191,10 @@ impl Field for ModelField<'_> {
         self.model.node_gradient(self.model.root(), p, mode)
     }
     fn value_and_gradient(&self, p: Vec3A) -> (f32, Vec3A) {
-        self.model.node_value_and_gradient(self.model.root(), p, self.mode)
+        match &self.root {
+            Some(parts) => parts.value_and_gradient(self.model, p, self.mode),
+            None => self.model.node_value_and_gradient(self.model.root(), p, self.mode),
+        }
     }
     fn color(&self, p: Vec3A) -> Vec3 {
         self.model.node_color(self.model.root(), p, self.mode)
@@ -187,7 +203,10 @@ impl Field for ModelField<'_> {
         self.model.node_gradient_and_color(self.model.root(), p, self.mode)
     }
     fn interval(&self, b: &Aabb) -> Interval {
-        self.model.node_interval(self.model.root(), b, self.mode)
+        match &self.root {
+            Some(parts) => parts.interval(self.model, b, self.mode),
+            None => self.model.node_interval(self.model.root(), b, self.mode),
+        }
     }
     fn slope_floor(&self, a: Vec3A, b: Vec3A) -> Option<f32> {
         let u = (b - a).normalize_or_zero();
@@ -200,10 +219,16 @@ impl Field for ModelField<'_> {
         self.mode == EvalMode::Cached && self.model.counts().caches > 0
     }
     fn lipschitz(&self, region: &Region) -> f32 {
-        self.model.node_lipschitz(self.model.root(), region, self.mode)
+        match &self.root {
+            Some(parts) => parts.lipschitz(self.model, region, self.mode),
+            None => self.model.node_lipschitz(self.model.root(), region, self.mode),
+        }
     }
     fn curvature(&self, region: &Region) -> f32 {
-        self.model.node_curvature(self.model.root(), region, self.mode)
+        match &self.root {
+            Some(parts) => parts.curvature(self.model, region, self.mode),
+            None => self.model.node_curvature(self.model.root(), region, self.mode),
+        }
     }
     fn bounds(&self) -> Aabb {
         self.model.bounds()
