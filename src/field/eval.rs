@@ -375,12 +375,25 @@ impl Model {
     /// The gradient of a blend without an index and its colour (see
     /// [`mix`]), each child's value and gradient taken together.
     fn blend_gradient_and_color(&self, children: &[NodeId], p: Vec3A, mode: EvalMode) -> (Vec3A, Vec3) {
+        self.mixed_gradient_and_color(children.iter().map(|&c| (c, c)), p, mode)
+    }
+
+    /// The summed gradient of some of a blend's children and their colours'
+    /// mix, given each child as the node that answers for its value and the
+    /// node that colours it (the child itself, or past its pass-throughs and
+    /// itself: see [`super::root`]).
+    pub(super) fn mixed_gradient_and_color(
+        &self,
+        children: impl Iterator<Item = (NodeId, NodeId)>,
+        p: Vec3A,
+        mode: EvalMode,
+    ) -> (Vec3A, Vec3) {
         let (mut gradient, mut acc, mut total) = (Vec3A::ZERO, Vec3::ZERO, 0.0f32);
-        for &c in children {
-            let (v, g) = self.node_value_and_gradient(c, p, mode);
+        for (valued, colored) in children {
+            let (v, g) = self.node_value_and_gradient(valued, p, mode);
             gradient += g;
             if v > 0.0 {
-                acc += self.node_color(c, p, mode) * v;
+                acc += self.node_color(colored, p, mode) * v;
                 total += v;
             }
         }

@@ -200,7 +200,8 @@ impl Field for ModelField<'_> {
         self.model.node_color(self.model.root(), p, self.mode)
     }
     fn gradient_and_color(&self, p: Vec3A) -> (Vec3A, Vec3) {
-        self.model.node_gradient_and_color(self.model.root(), p, self.mode)
+        let parts = self.root.as_ref().and_then(|parts| parts.gradient_and_color(self.model, p, self.mode));
+        parts.unwrap_or_else(|| self.model.node_gradient_and_color(self.model.root(), p, self.mode))
     }
     fn interval(&self, b: &Aabb) -> Interval {
         match &self.root {

@@ -9,7 +9,7 @@
 //! answer is summed in the order and precision of the root blend's own, so
 //! it is the tree's to the bit: a component left out would have added zero.
 
-use glam::Vec3A;
+use glam::{Vec3, Vec3A};
 
 use super::node::{NodeId, NodeKind};
 use super::{EvalMode, Model, Region};
@@ -24,6 +24,12 @@ pub struct RootParts {
     len: usize,
     bounds: [Aabb; MAX_PARTS],
     ids: [NodeId; MAX_PARTS],
+    /// The children themselves, which colour their parts (a colouring
+    /// frame that moves nothing is a pass-through for every other answer).
+    children: [NodeId; MAX_PARTS],
+    /// Whether the root node is the blend itself, uncoloured: then its colour
+    /// is its children's mix, and the parts give it.
+    mixes_colors: bool,
 }
 
 impl RootParts {
@@ -39,10 +45,13 @@ impl RootParts {
         if children.len() > MAX_PARTS || nested {
             return None;
         }
-        let mut parts = Self { len: children.len(), bounds: [Aabb::EMPTY; MAX_PARTS], ids: [0; MAX_PARTS] };
+        let top = model.node(model.root());
+        let mixes_colors = matches!(top.kind, NodeKind::Blend { .. }) && top.color.is_none();
+        let (bounds, ids) = ([Aabb::EMPTY; MAX_PARTS], [0; MAX_PARTS]);
+        let mut parts = Self { len: children.len(), bounds, ids, children: ids, mixes_colors };
         for (k, &c) in children.iter().enumerate() {
             let id = model.past_pass_throughs(c, mode);
-            (parts.bounds[k], parts.ids[k]) = (model.node(id).bounds, id);
+            (parts.bounds[k], parts.ids[k], parts.children[k]) = (model.node(id).bounds, id, c);
         }
         Some(parts)
     }
@@ -72,6 +81,17 @@ impl RootParts {
             (s + f64::from(v), g + dv)
         });
         (sum as f32, gradient)
+    }
+
+    /// The root's gradient and colour at `p` (the blend's mix of its
+    /// children's colours, weighted by their values), where the root node is
+    /// the uncoloured blend; `None` otherwise.
+    pub fn gradient_and_color(&self, model: &Model, p: Vec3A, mode: EvalMode) -> Option<(Vec3A, Vec3)> {
+        if !self.mixes_colors {
+            return None;
+        }
+        let admitted = (0..self.len).filter(|&k| self.bounds[k].contains(p));
+        Some(model.mixed_gradient_and_color(admitted.map(|k| (self.ids[k], self.children[k])), p, mode))
     }
 
     /// The root's value range over `b`.
@@ -132,6 +152,7 @@ mod tests {
         for mode in [EvalMode::Indexed, EvalMode::Cached] {
             let parts = RootParts::of(model, mode).expect("the root splits into its components");
             assert_eq!(parts.len, 3);
+            assert!(parts.mixes_colors, "the parts shade too");
             let field = ModelField::new(model, mode);
             let root = model.root();
             let mut inside = 0;
@@ -143,6 +164,8 @@ mod tests {
                 assert_eq!(field.gradient(p), model.node_gradient(root, p, mode), "gradient at {p}");
                 let (tree_v, tree_g) = model.node_value_and_gradient(root, p, mode);
                 assert_eq!(field.value_and_gradient(p), (tree_v, tree_g), "value and gradient at {p}");
+                let shading = model.node_gradient_and_color(root, p, mode);
+                assert_eq!(field.gradient_and_color(p), shading, "gradient and colour at {p}");
                 // Short segments, as the tracer's, and long ones.
                 let near = p + (q - p) * 0.05;
                 for region in [Region::Segment(p, near), Region::Segment(p, q)] {
