@@ -800,8 +800,8 @@ impl CacheGrid {
     pub fn slope_floor(&self, (a, b): (Vec3A, Vec3A), u: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> f32 {
         let on_lattice = self.lattice.bounds();
         let mut floor = if on_lattice.contains(a) && on_lattice.contains(b) { f32::INFINITY } else { 0.0 };
-        self.lattice.walk_segment(a, b, |c| {
-            let i = self.lattice_lo + self.lattice.coords(c).as_ivec3();
+        self.lattice.walk_segment_coords(a, b, |c| {
+            let i = self.lattice_lo + c.as_ivec3();
             floor = floor.min(self.cell_slope_floor(i, u, pool, eval));
         });
         if floor.is_finite() { floor } else { 0.0 }
@@ -848,9 +848,8 @@ impl CacheGrid {
     /// The largest sampled cell bound along `a..b`.
     fn segment_slope_from_samples(&self, a: Vec3A, b: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> f32 {
         let mut l = 0.0f32;
-        self.lattice.walk_segment(a, b, |c| {
-            let i = self.lattice_lo + self.lattice.coords(c).as_ivec3();
-            l = l.max(self.kept_cell_slope(i, pool, eval));
+        self.lattice.walk_segment_coords(a, b, |c| {
+            l = l.max(self.kept_cell_slope(self.lattice_lo + c.as_ivec3(), pool, eval));
         });
         l
     }

@@ -127,10 +127,25 @@ impl UniformGrid {
         });
     }
 
+    /// Visits the coordinates of the cells the segment `a..b` passes through,
+    /// in order: for callers that need them, which a linear index would give
+    /// only through a division per axis.
+    pub fn walk_segment_coords(&self, a: Vec3A, b: Vec3A, mut f: impl FnMut(UVec3)) {
+        self.walk_cells_while(a, b, |cell, _| {
+            f(cell);
+            true
+        });
+    }
+
     /// Walks the cells the segment `a..b` passes through, in order, while `f`
     /// returns true; `f` gets each cell and the segment parameter (0 at `a`,
     /// 1 at `b`) where the walk leaves it.
     pub fn walk_segment_while(&self, a: Vec3A, b: Vec3A, mut f: impl FnMut(usize, f32) -> bool) {
+        self.walk_cells_while(a, b, |cell, exit| f(self.linear(cell), exit));
+    }
+
+    /// [`Self::walk_segment_while`], giving each cell's coordinates.
+    fn walk_cells_while(&self, a: Vec3A, b: Vec3A, mut f: impl FnMut(UVec3, f32) -> bool) {
         let d = b - a;
         let inv = d.recip();
         let Some((t0, t1)) = self.bounds().clip_ray(a, inv, 0.0, 1.0) else {
@@ -156,7 +171,7 @@ impl UniformGrid {
             } else {
                 (2, tz)
             };
-            if !f(self.linear(cell.as_uvec3()), t_cross.min(t1)) || t_cross > t1 {
+            if !f(cell.as_uvec3(), t_cross.min(t1)) || t_cross > t1 {
                 return;
             }
             // An axis the segment does not move along is chosen only when the
