@@ -200,6 +200,19 @@ impl PackedPoints {
         Some(list.get_or_init(|| wide::pack(&self.terms, &self.weights, items()).collect()))
     }
 
+    /// The slope, curvature and value bounds over `cell` of the points
+    /// `items` (a cell's list), eight at a time, packed into the scratch
+    /// `chunks`: the per-cell bounds of an index of points, each rounded
+    /// outwards from its sum in double precision. `None` where the
+    /// eight-wide sums do not run.
+    fn cell_bounds(&self, items: &[u32], cell: &Aabb, chunks: &mut Vec<wide::Chunk>) -> Option<(f32, f32, Interval)> {
+        chunks.clear();
+        chunks.extend(wide::pack(&self.terms, &self.weights, items));
+        let (slope, bend) = wide::slope_bounds(chunks, cell.min, cell.max)?;
+        let (low, high) = wide::interval(chunks, cell.min, cell.max)?;
+        Some((outward(slope, slope).hi, outward(bend, bend).hi, outward(low, high)))
+    }
+
     /// Calls `f` with the listed points four at a time, laid out by lane.
     /// The tail repeats a listed point with its weight masked to zero.
     #[inline]
@@ -320,8 +333,12 @@ impl BlendIndex {
     ) {
         let bounds: Vec<(f32, f32, Interval)> = (0..self.grid.cell_count())
             .into_par_iter()
-            .map(|c| {
+            .map_init(Vec::new, |chunks, c| {
                 let cell_box = self.grid.cell_box(c);
+                let packed = self.points.as_ref().and_then(|p| p.cell_bounds(self.cell_items(c), &cell_box, chunks));
+                if let Some(bounds) = packed {
+                    return bounds;
+                }
                 let region = Region::Box(cell_box);
                 let (mut l, mut m, mut range) = (0.0, 0.0, Interval::ZERO);
                 for &i in self.cell_items(c) {
@@ -607,6 +624,46 @@ mod tests {
             }
         }
         assert!(checked > 1000, "only {checked} points near support boundaries were checked");
+    }
+
+    #[test]
+    fn the_cells_packed_bounds_are_the_leaves_bounds_summed() {
+        // One negative weight among the points, for the curvature's other branch.
+        let mut ix = cluster();
+        if let Leaf::Primitive(p) = &mut ix.leaves[4].leaf {
+            p.weight = -0.6;
+        }
+        let points = PackedPoints::pack(&ix.leaves, ix.grid.cell_count()).expect("all leaves are points");
+        let (mut scratch, mut compared) = (vec![], 0);
+        for c in 0..ix.grid.cell_count() {
+            let cell = ix.grid.cell_box(c);
+            let Some((slope, bend, range)) = points.cell_bounds(ix.cell_items(c), &cell, &mut scratch) else {
+                eprintln!("this processor lacks AVX2 or FMA: the leaves' own bounds serve");
+                return;
+            };
+            let region = Region::Box(cell);
+            let prims = ix.cell_items(c).iter().map(|&i| match &ix.leaves[i as usize].leaf {
+                Leaf::Primitive(p) => *p,
+                Leaf::Node(_) => unreachable!("the cluster holds primitives only"),
+            });
+            let (mut plain_slope, mut plain_bend, mut plain_range) = (0.0f32, 0.0f32, Interval::ZERO);
+            // Terms of either sign, each rounding by up to its profile's
+            // largest value (8·|w|/R²) times a rounding of `d²/R²`.
+            let mut sizes = 0.0f32;
+            for p in prims {
+                plain_slope += p.lipschitz_over(&region);
+                let b = p.curvature_over(&region);
+                (plain_bend, sizes) = (plain_bend + b, sizes + 8.0 * p.weight.abs() / (p.radius * p.radius));
+                plain_range = plain_range + p.interval(&cell);
+            }
+            let near = |a: f32, b: f32, size: f32| (a - b).abs() <= 1e-5 * (1.0 + size);
+            assert!(near(slope, plain_slope, plain_slope), "cell {c}: slope {slope} against {plain_slope}");
+            assert!(near(bend, plain_bend, sizes), "cell {c}: curvature {bend} against {plain_bend}");
+            let ends = near(range.lo, plain_range.lo, plain_range.hi) && near(range.hi, plain_range.hi, plain_range.hi);
+            assert!(ends, "cell {c}: {range:?} against {plain_range:?}");
+            compared += usize::from(plain_slope > 0.0 && plain_bend != 0.0);
+        }
+        assert!(compared > 100, "{compared} cells with points reaching them");
     }
 
     #[test]

@@ -94,6 +94,22 @@ pub fn interval(chunks: &[Chunk], lo: Vec3A, hi: Vec3A) -> Option<(f64, f64)> {
     None
 }
 
+/// Bounds over the box `lo..hi` of the packed points' summed slope (`|∇f|`)
+/// and of their summed second derivative along any line, each point's taken
+/// over its range of distances to the box as [`crate::field::Kernel::lipschitz`]
+/// and [`crate::field::Primitive::curvature_over`] take them, summed in double
+/// precision; `None` where [`available`] is false.
+#[inline]
+pub fn slope_bounds(chunks: &[Chunk], lo: Vec3A, hi: Vec3A) -> Option<(f64, f64)> {
+    #[cfg(target_arch = "x86_64")]
+    if available() {
+        // SAFETY: as in `sum`.
+        return Some(unsafe { avx2::slope_bounds(chunks, lo, hi) });
+    }
+    let _ = (chunks, lo, hi);
+    None
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::*;
@@ -116,25 +132,67 @@ mod avx2 {
     pub fn interval(chunks: &[Chunk], lo: Vec3A, hi: Vec3A) -> (f64, f64) {
         let lo = [_mm256_set1_ps(lo.x), _mm256_set1_ps(lo.y), _mm256_set1_ps(lo.z)];
         let hi = [_mm256_set1_ps(hi.x), _mm256_set1_ps(hi.y), _mm256_set1_ps(hi.z)];
-        let zero = _mm256_setzero_ps();
         let (mut lows, mut highs) = (_mm256_setzero_pd(), _mm256_setzero_pd());
         for chunk in chunks {
-            let (mut near2, mut far2) = (zero, zero);
-            for (axis, row) in [&chunk.x, &chunk.y, &chunk.z].into_iter().enumerate() {
-                let c = load(row);
-                let (below, above) = (_mm256_sub_ps(lo[axis], c), _mm256_sub_ps(c, hi[axis]));
-                // The gap to the slab (zero inside it), and the distance to its farther face.
-                let near = _mm256_max_ps(_mm256_max_ps(below, above), zero);
-                let far = _mm256_max_ps(_mm256_sub_ps(c, lo[axis]), _mm256_sub_ps(hi[axis], c));
-                near2 = _mm256_fmadd_ps(near, near, near2);
-                far2 = _mm256_fmadd_ps(far, far, far2);
-            }
+            let (near2, far2) = box_distances(chunk, &lo, &hi);
             let (inv_r2, weight) = (load(&chunk.inv_r2), load(&chunk.weight));
             let (at_near, at_far) = (wyvill(near2, inv_r2, weight), wyvill(far2, inv_r2, weight));
             lows = add_halves(lows, _mm256_min_ps(at_near, at_far));
             highs = add_halves(highs, _mm256_max_ps(at_near, at_far));
         }
         (total(lows), total(highs))
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    pub fn slope_bounds(chunks: &[Chunk], lo: Vec3A, hi: Vec3A) -> (f64, f64) {
+        let lo = [_mm256_set1_ps(lo.x), _mm256_set1_ps(lo.y), _mm256_set1_ps(lo.z)];
+        let hi = [_mm256_set1_ps(hi.x), _mm256_set1_ps(hi.y), _mm256_set1_ps(hi.z)];
+        let (zero, one, six) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0), _mm256_set1_ps(6.0));
+        let (mut slopes, mut bends) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+        for chunk in chunks {
+            let (near2, far2) = box_distances(chunk, &lo, &hi);
+            let (inv_r2, weight) = (load(&chunk.inv_r2), load(&chunk.weight));
+            let (x_near, x_far) = (_mm256_mul_ps(near2, inv_r2), _mm256_mul_ps(far2, inv_r2));
+            // `x = d²/R²` clamped into the range: where the profile peaks, or its nearer end.
+            let at = |peak: f32| _mm256_min_ps(_mm256_max_ps(_mm256_set1_ps(peak), x_near), x_far);
+            let inside = |x: __m256| _mm256_max_ps(_mm256_sub_ps(one, x), zero);
+            // The slope `6·√(x)/R·(1 − x)²`, steepest at x = 1/5.
+            let x = at(0.2);
+            let s = inside(x);
+            let slope =
+                _mm256_mul_ps(_mm256_mul_ps(six, _mm256_sqrt_ps(_mm256_mul_ps(x, inv_r2))), _mm256_mul_ps(s, s));
+            let size = _mm256_andnot_ps(_mm256_set1_ps(-0.0), weight);
+            slopes = add_halves(slopes, _mm256_mul_ps(size, slope));
+            // A point of positive weight bends by `6·(1 − x)(5x − 1)/R²`
+            // (largest at x = 3/5), one of negative weight by at most
+            // `6·(1 − x)(1 + 3x)/R²` (largest at x = 1/3) times its size.
+            let (x, xk) = (at(0.6), at(1.0 / 3.0));
+            let bend = _mm256_mul_ps(inside(x), _mm256_fmsub_ps(_mm256_set1_ps(5.0), x, one));
+            let sag = _mm256_mul_ps(inside(xk), _mm256_fmadd_ps(_mm256_set1_ps(3.0), xk, one));
+            let negative = _mm256_cmp_ps::<_CMP_LT_OQ>(weight, zero);
+            let (term, factor) = (_mm256_blendv_ps(bend, sag, negative), _mm256_blendv_ps(weight, size, negative));
+            bends = add_halves(bends, _mm256_mul_ps(_mm256_mul_ps(six, inv_r2), _mm256_mul_ps(term, factor)));
+        }
+        (total(slopes), total(bends))
+    }
+
+    /// Per lane, the squared distances from the point to the box `lo..hi`
+    /// (zero inside it) and to the box's farthest corner.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    fn box_distances(chunk: &Chunk, lo: &[__m256; 3], hi: &[__m256; 3]) -> (__m256, __m256) {
+        let zero = _mm256_setzero_ps();
+        let (mut near2, mut far2) = (zero, zero);
+        for (axis, row) in [&chunk.x, &chunk.y, &chunk.z].into_iter().enumerate() {
+            let c = load(row);
+            let (below, above) = (_mm256_sub_ps(lo[axis], c), _mm256_sub_ps(c, hi[axis]));
+            // The gap to the slab (zero inside it), and the distance to its farther face.
+            let near = _mm256_max_ps(_mm256_max_ps(below, above), zero);
+            let far = _mm256_max_ps(_mm256_sub_ps(c, lo[axis]), _mm256_sub_ps(hi[axis], c));
+            near2 = _mm256_fmadd_ps(near, near, near2);
+            far2 = _mm256_fmadd_ps(far, far, far2);
+        }
+        (near2, far2)
     }
 
     /// `w·(1 − d²/R²)³` per lane, zero past the support.
