@@ -122,10 +122,10 @@ impl Lists {
 /// twice the ball, so a dense model's cells list about half as many leaves).
 fn reached_cells(grid: &UniformGrid, leaf: &IndexedLeaf) -> Vec<u32> {
     let mut cells = Vec::with_capacity(grid.cells_overlapped(&leaf.bounds));
-    grid.for_each_cell(&leaf.bounds, |c| {
+    grid.for_each_cell_at(&leaf.bounds, |i, c| {
         let reached = match &leaf.leaf {
             // A hair wider than the support, against rounding in the value.
-            Leaf::Primitive(p) => p.support_reaches(&grid.cell_box(c), SUPPORT_SLACK),
+            Leaf::Primitive(p) => p.support_reaches(&grid.box_at(i), SUPPORT_SLACK),
             Leaf::Node(_) => true,
         };
         if reached {

@@ -54,7 +54,14 @@ impl UniformGrid {
     /// The box of the cell with linear index `c`.
     #[must_use]
     pub fn cell_box(&self, c: usize) -> Aabb {
-        let min = self.origin + self.coords(c).as_vec3a() * self.cell;
+        self.box_at(self.coords(c))
+    }
+
+    /// The box of the cell at coordinates `i`.
+    #[inline]
+    #[must_use]
+    pub fn box_at(&self, i: UVec3) -> Aabb {
+        let min = self.origin + i.as_vec3a() * self.cell;
         Aabb::new(min, min + Vec3A::splat(self.cell))
     }
 
@@ -95,11 +102,17 @@ impl UniformGrid {
 
     /// Visits every cell a box overlaps.
     pub fn for_each_cell(&self, b: &Aabb, mut f: impl FnMut(usize)) {
+        self.for_each_cell_at(b, |_, c| f(c));
+    }
+
+    /// Visits every cell a box overlaps, with its coordinates and linear index.
+    pub fn for_each_cell_at(&self, b: &Aabb, mut f: impl FnMut(UVec3, usize)) {
         if let Some((lo, hi, _)) = self.cell_range_of(b) {
             for z in lo.z..=hi.z {
                 for y in lo.y..=hi.y {
                     for x in lo.x..=hi.x {
-                        f(self.linear(UVec3::new(x, y, z)));
+                        let i = UVec3::new(x, y, z);
+                        f(i, self.linear(i));
                     }
                 }
             }
