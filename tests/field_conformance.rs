@@ -249,6 +249,30 @@ fn indexed_intervals_over_small_boxes_are_as_tight_as_naive_ones() {
     assert!(near_surface > 100, "too few boxes near the surface: {near_surface}");
 }
 
+#[test]
+fn a_node_is_zero_over_a_box_exactly_where_its_interval_is_zero() {
+    let (mut zero, mut nonzero) = (0, 0);
+    for (scene, seed) in [(every_node(), 1), (signed(), 2), (nested(), 3), (medusa(), 4)] {
+        let m = &scene.model;
+        let mut rng = Rng(seed);
+        let ids: Vec<NodeId> =
+            (0..m.nodes().len() as NodeId).step_by(m.nodes().len().div_ceil(60)).chain([m.root()]).collect();
+        for id in ids {
+            let b = m.node(id).bounds.padded(0.2);
+            for k in 0..60 {
+                let side = b.size().max_element() * [0.01, 0.05, 0.2][k % 3];
+                let bx = Aabb::around(rng.point_in(b.min, b.max), side);
+                for mode in [EvalMode::Naive, EvalMode::Indexed, EvalMode::Cached] {
+                    let is_zero = m.node_interval(id, &bx, mode) == blobtrace::geom::Interval::ZERO;
+                    assert_eq!(m.node_is_zero_over(id, &bx, mode), is_zero, "node {id} over {bx:?} ({mode:?})");
+                    (zero, nonzero) = (zero + usize::from(is_zero), nonzero + usize::from(!is_zero));
+                }
+            }
+        }
+    }
+    assert!(zero > 500 && nonzero > 500, "{zero} boxes zero, {nonzero} not");
+}
+
 /// A random box or segment inside the scene bounds, from unit-cube parameters.
 fn region_from(b: &Aabb, t: [f32; 6], thin: f32) -> (Vec3A, Vec3A) {
     let a = b.min + b.size() * Vec3A::new(t[0], t[1], t[2]);

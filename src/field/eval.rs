@@ -83,7 +83,7 @@ impl Sampled for CachedSubtree<'_> {
     }
 
     fn is_zero_over(&self, b: &Aabb) -> bool {
-        self.model.node_interval(self.child, b, self.mode) == Interval::ZERO
+        self.model.node_is_zero_over(self.child, b, self.mode)
     }
 }
 
@@ -446,6 +446,30 @@ impl Model {
             }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_interval(*child, b, mode),
         }
+    }
+
+    /// Whether node `id`'s [`Self::node_interval`] over `b` is zero. Blends
+    /// and moves answer for their parts, and a blend of points indexed asks
+    /// only whether a point reaches `b` ([`BlendIndex::points_miss`]), which
+    /// sums nothing and packs no cell.
+    pub fn node_is_zero_over(&self, id: NodeId, b: &Aabb, mode: EvalMode) -> bool {
+        let node = self.node(self.past_pass_throughs(id, mode));
+        if !node.bounds.overlaps(b) {
+            return true;
+        }
+        let miss = match &node.kind {
+            NodeKind::Blend { index: Some(ix), .. } if mode.indexed() => {
+                (ix.cells_overlapped(b) <= MAX_CELLS_FOR_LEAF_BOUNDS).then(|| ix.points_miss(b)).flatten()
+            }
+            // A sum of intervals is zero where each is (no field here is a
+            // nonzero constant over a box, to cancel another).
+            NodeKind::Blend { children, .. } => Some(children.iter().all(|&c| self.node_is_zero_over(c, b, mode))),
+            NodeKind::Transform { placement, child } => {
+                Some(self.node_is_zero_over(*child, &b.transformed(&placement.to_local), mode))
+            }
+            _ => None,
+        };
+        miss.unwrap_or_else(|| self.node_interval(id, b, mode) == Interval::ZERO)
     }
 
     pub(super) fn leaf_interval(&self, leaf: &IndexedLeaf, b: &Aabb, mode: EvalMode) -> Interval {

@@ -200,6 +200,18 @@ impl PackedPoints {
         Some(list.get_or_init(|| wide::pack(&self.terms, &self.weights, items()).collect()))
     }
 
+    /// Point `i`'s value at the nearest point of box `lo..hi`, in the
+    /// operations of the eight-wide [`wide::interval`], so that it is zero
+    /// exactly where that bound's lane for `i` is.
+    fn value_at_nearest(&self, i: usize, lo: Vec3A, hi: Vec3A) -> f32 {
+        let t = self.terms[i];
+        let c = t.truncate();
+        let near = (lo - Vec3A::from(c)).max(Vec3A::from(c) - hi).max(Vec3A::ZERO);
+        let d2 = near.z.mul_add(near.z, near.y.mul_add(near.y, near.x * near.x));
+        let s = (-d2).mul_add(t.w, 1.0).max(0.0);
+        s * s * s * self.weights[i]
+    }
+
     /// The slope, curvature and value bounds over `cell` of the points
     /// `items` (a cell's list), eight at a time, packed into the scratch
     /// `chunks`: the per-cell bounds of an index of points, each rounded
@@ -436,28 +448,56 @@ impl BlendIndex {
     #[must_use]
     pub fn point_interval(&self, b: &Aabb) -> Option<Interval> {
         let points = self.points.as_ref().filter(|p| p.cells.is_some())?;
-        let Some((lo, hi, outside)) = self.grid.cell_range_of(b) else { return Some(Interval::ZERO) };
-        let g = &self.grid;
+        let (outside, cells) = self.clipped_cells(b);
         let mut acc = outside.then_some(Interval::ZERO);
-        for z in lo.z..=hi.z {
-            for y in lo.y..=hi.y {
-                for x in lo.x..=hi.x {
-                    let i = UVec3::new(x, y, z);
-                    let c = g.linear(i);
-                    let items = self.cell_items(c);
-                    let range = if items.is_empty() {
-                        Interval::ZERO
-                    } else {
-                        let cell_min = g.origin + i.as_vec3a() * g.cell;
-                        let (from, to) = (b.min.max(cell_min), b.max.min(cell_min + Vec3A::splat(g.cell)));
-                        let (low, high) = wide::interval(points.packed(c, || items)?, from, to)?;
-                        outward(low, high)
-                    };
-                    acc = Some(acc.map_or(range, |a| a.join(range)));
-                }
-            }
+        for (c, items, from, to) in cells {
+            let range = if items.is_empty() {
+                Interval::ZERO
+            } else {
+                let (low, high) = wide::interval(points.packed(c, || items)?, from, to)?;
+                outward(low, high)
+            };
+            acc = Some(acc.map_or(range, |a| a.join(range)));
         }
         Some(acc.unwrap_or(Interval::ZERO))
+    }
+
+    /// Whether [`Self::point_interval`] over `b` is zero because no point
+    /// reaches `b` (`None` where that bound is not taken): each listed
+    /// point's value at the nearest point of the part of `b` in its cell, in
+    /// the eight-wide bound's own operations, is zero. It asks no more than
+    /// that, and packs no cell: a cold cache asks this of every part of its
+    /// blocks, most of them in cells where no value is ever summed, and
+    /// packing those lists costs more than the rest of its work when the
+    /// mesh is coarse.
+    #[must_use]
+    pub fn points_miss(&self, b: &Aabb) -> Option<bool> {
+        let points = self.points.as_ref().filter(|p| p.cells.is_some())?;
+        let mut cells = self.clipped_cells(b).1;
+        Some(
+            cells.all(|(_, items, from, to)| {
+                items.iter().all(|&i| points.value_at_nearest(i as usize, from, to) == 0.0)
+            }),
+        )
+    }
+
+    /// Whether part of `b` lies outside the grid, and the cells `b` meets,
+    /// each with its linear index, its list and the part `from..to` of `b`
+    /// inside it.
+    fn clipped_cells<'a>(&'a self, b: &'a Aabb) -> (bool, impl Iterator<Item = (usize, &'a [u32], Vec3A, Vec3A)> + 'a) {
+        let g = &self.grid;
+        let range = g.cell_range_of(b);
+        let outside = range.is_none_or(|(_, _, outside)| outside);
+        let coords = range.into_iter().flat_map(|(lo, hi, _)| {
+            (lo.z..=hi.z)
+                .flat_map(move |z| (lo.y..=hi.y).flat_map(move |y| (lo.x..=hi.x).map(move |x| UVec3::new(x, y, z))))
+        });
+        let cells = coords.map(move |i| {
+            let c = g.linear(i);
+            let cell_min = g.origin + i.as_vec3a() * g.cell;
+            (c, self.cell_items(c), b.min.max(cell_min), b.max.min(cell_min + Vec3A::splat(g.cell)))
+        });
+        (outside, cells)
     }
 
     /// True when some leaf is a node rather than a primitive.
@@ -746,6 +786,48 @@ mod tests {
             }
         }
         assert!(tighter > 30 && zero > 5, "{tighter} boxes bounded tighter, {zero} found zero");
+    }
+
+    #[test]
+    fn a_box_is_missed_exactly_where_its_cells_bound_is_zero_and_asking_packs_nothing() {
+        let ix = cluster();
+        let Some(cells) = ix.points.as_ref().and_then(|p| p.cells.as_ref()) else {
+            eprintln!("this processor lacks AVX2 or FMA: boxes take the leaves' bounds");
+            return;
+        };
+        // Boxes whose nearest corner sits within a few ulps of a support's
+        // edge, inside and out, and boxes anywhere.
+        let mut boxes = vec![];
+        for leaf in &ix.leaves {
+            let Leaf::Primitive(p) = &leaf.leaf else { unreachable!("the cluster holds primitives only") };
+            let Skeleton::Point { center } = p.skeleton else { unreachable!("the cluster holds points only") };
+            for (axis, sign) in (0..3).flat_map(|axis| [(axis, -1.0f32), (axis, 1.0)]) {
+                for ulps in -12i32..=12 {
+                    let mut corner = center;
+                    corner[axis] += sign * p.radius;
+                    for _ in 0..ulps.unsigned_abs() {
+                        corner[axis] = if ulps < 0 { corner[axis].next_down() } else { corner[axis].next_up() };
+                    }
+                    let mut far = corner;
+                    far[axis] += sign * ix.grid.cell * 0.3;
+                    boxes.push(Aabb::new(corner.min(far), corner.max(far)));
+                }
+            }
+        }
+        for k in 0..200 {
+            let f = k as f32;
+            let center = Vec3A::new((f * 0.29).sin(), (f * 0.53).cos(), (f * 0.97).sin()) * 1.8;
+            boxes.push(Aabb::around(center, ix.grid.cell * (0.05 + 0.02 * (k % 40) as f32)));
+        }
+        let misses: Vec<bool> = boxes.iter().map(|b| ix.points_miss(b).expect("the eight-wide bounds run")).collect();
+        assert!(cells.iter().all(|c| c.get().is_none()), "asking whether a box is missed packed a cell");
+        let (mut missed, mut reached) = (0, 0);
+        for (b, miss) in boxes.iter().zip(misses) {
+            let zero = ix.point_interval(b).expect("the eight-wide bounds run") == Interval::ZERO;
+            assert_eq!(miss, zero, "{b:?}");
+            (missed, reached) = (missed + usize::from(miss), reached + usize::from(!miss));
+        }
+        assert!(missed > 100 && reached > 100, "{missed} boxes missed, {reached} reached");
     }
 
     #[test]
