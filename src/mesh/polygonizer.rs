@@ -559,13 +559,12 @@ impl Polygonizer {
                 crossed
             })
             .collect();
-        // Sorted by position, neighbouring edges ask the caches for samples
-        // in the blocks the edges before them just read; in the cells' hash
-        // order each lookup missed the processor's caches (in a cached
+        // Sorted by position, each edge reads cache samples from the blocks
+        // the edges before it just read; in the cells' hash order nearly
+        // every lookup missed the processor's caches (in a cached
         // polygonization at res 512, reaching sample blocks took an eighth
-        // of the time).
-        // An edge's key names it alone, so sorting also brings each edge
-        // listed twice together.
+        // of the time). An edge's key names it alone, so the sort also
+        // brings an edge listed twice together.
         edges.par_sort_unstable_by_key(|&[a, b]| sort_key(edge_key(a, b)));
         if !shape.lists_each_edge_once() {
             edges.dedup();
