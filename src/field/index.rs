@@ -448,18 +448,18 @@ impl BlendIndex {
     #[must_use]
     pub fn point_interval(&self, b: &Aabb) -> Option<Interval> {
         let points = self.points.as_ref().filter(|p| p.cells.is_some())?;
-        let (outside, cells) = self.clipped_cells(b);
-        let mut acc = outside.then_some(Interval::ZERO);
-        for (c, items, from, to) in cells {
+        let mut hull: Option<Interval> = None;
+        let outside = self.visit_clipped_cells(b, |c, items, from, to| {
             let range = if items.is_empty() {
-                Interval::ZERO
+                Some(Interval::ZERO)
             } else {
-                let (low, high) = wide::interval(points.packed(c, || items)?, from, to)?;
-                outward(low, high)
+                let chunks = points.packed(c, || items);
+                chunks.and_then(|chunks| wide::interval(chunks, from, to)).map(|(low, high)| outward(low, high))
             };
-            acc = Some(acc.map_or(range, |a| a.join(range)));
-        }
-        Some(acc.unwrap_or(Interval::ZERO))
+            range.map(|r| hull = Some(hull.map_or(r, |h| h.join(r)))).is_some()
+        })?;
+        let hull = hull.unwrap_or(Interval::ZERO);
+        Some(if outside { hull.join(Interval::ZERO) } else { hull })
     }
 
     /// Whether [`Self::point_interval`] over `b` is zero because no point
@@ -473,31 +473,33 @@ impl BlendIndex {
     #[must_use]
     pub fn points_miss(&self, b: &Aabb) -> Option<bool> {
         let points = self.points.as_ref().filter(|p| p.cells.is_some())?;
-        let mut cells = self.clipped_cells(b).1;
-        Some(
-            cells.all(|(_, items, from, to)| {
-                items.iter().all(|&i| points.value_at_nearest(i as usize, from, to) == 0.0)
-            }),
-        )
+        let visited = self.visit_clipped_cells(b, |_, items, from, to| {
+            items.iter().all(|&i| points.value_at_nearest(i as usize, from, to) == 0.0)
+        });
+        Some(visited.is_some())
     }
 
-    /// Whether part of `b` lies outside the grid, and the cells `b` meets,
-    /// each with its linear index, its list and the part `from..to` of `b`
-    /// inside it.
-    fn clipped_cells<'a>(&'a self, b: &'a Aabb) -> (bool, impl Iterator<Item = (usize, &'a [u32], Vec3A, Vec3A)> + 'a) {
+    /// Calls `f(cell, list, from, to)` for each grid cell `b` meets, with its
+    /// linear index, its list and the part `from..to` of `b` inside it, while
+    /// `f` returns true. Returns whether part of `b` lies outside the grid,
+    /// or `None` where `f` stopped the visit. (Plain loops: as an iterator of
+    /// nested ranges, bounding boxes for the empty-space grid took 4% more
+    /// instructions.)
+    fn visit_clipped_cells(&self, b: &Aabb, mut f: impl FnMut(usize, &[u32], Vec3A, Vec3A) -> bool) -> Option<bool> {
         let g = &self.grid;
-        let range = g.cell_range_of(b);
-        let outside = range.is_none_or(|(_, _, outside)| outside);
-        let coords = range.into_iter().flat_map(|(lo, hi, _)| {
-            (lo.z..=hi.z)
-                .flat_map(move |z| (lo.y..=hi.y).flat_map(move |y| (lo.x..=hi.x).map(move |x| UVec3::new(x, y, z))))
-        });
-        let cells = coords.map(move |i| {
-            let c = g.linear(i);
-            let cell_min = g.origin + i.as_vec3a() * g.cell;
-            (c, self.cell_items(c), b.min.max(cell_min), b.max.min(cell_min + Vec3A::splat(g.cell)))
-        });
-        (outside, cells)
+        let Some((lo, hi, outside)) = g.cell_range_of(b) else { return Some(true) };
+        for z in lo.z..=hi.z {
+            for y in lo.y..=hi.y {
+                for x in lo.x..=hi.x {
+                    let i = UVec3::new(x, y, z);
+                    let (c, cell) = (g.linear(i), g.box_at(i));
+                    if !f(c, self.cell_items(c), b.min.max(cell.min), b.max.min(cell.max)) {
+                        return None;
+                    }
+                }
+            }
+        }
+        Some(outside)
     }
 
     /// True when some leaf is a node rather than a primitive.

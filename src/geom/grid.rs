@@ -106,6 +106,10 @@ impl UniformGrid {
     }
 
     /// Visits every cell a box overlaps, with its coordinates and linear index.
+    /// Inlined into its callers, an index's build puts each leaf in its cells'
+    /// lists as plain loops; left to the compiler, loading Medusa took 14%
+    /// more instructions.
+    #[inline]
     pub fn for_each_cell_at(&self, b: &Aabb, mut f: impl FnMut(UVec3, usize)) {
         if let Some((lo, hi, _)) = self.cell_range_of(b) {
             for z in lo.z..=hi.z {
