@@ -456,7 +456,9 @@ impl BlendIndex {
                 let chunks = points.packed(c, || items);
                 chunks.and_then(|chunks| wide::interval(chunks, from, to)).map(|(low, high)| outward(low, high))
             };
-            range.map(|r| hull = Some(hull.map_or(r, |h| h.join(r)))).is_some()
+            let Some(r) = range else { return false };
+            hull = Some(hull.map_or(r, |h| h.join(r)));
+            true
         })?;
         let hull = hull.unwrap_or(Interval::ZERO);
         Some(if outside { hull.join(Interval::ZERO) } else { hull })
