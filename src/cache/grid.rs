@@ -60,6 +60,18 @@ impl<F: Fn(Vec3A) -> f32> Sampled for F {
     }
 }
 
+/// Word offsets within a block of the `N³ = M` samples of a cube, x fastest.
+const fn cube_offsets<const N: usize, const M: usize>() -> [u16; M] {
+    let mut offsets = [0; M];
+    let mut m = 0;
+    while m < M {
+        let (x, y, z) = (m % N, (m / N) % N, m / (N * N));
+        offsets[m] = (x | y << BLOCK_SHIFT | z << (2 * BLOCK_SHIFT)) as u16;
+        m += 1;
+    }
+    offsets
+}
+
 /// A block's eight parts (halves along each axis): whether each is known to
 /// hold only zero samples, two bits per part.
 const PART_UNKNOWN: u16 = 0;
@@ -390,8 +402,48 @@ impl CacheGrid {
     fn gather(&self, filter: Filter, u: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> [f32; 27] {
         let (first, n) = filter.footprint(u);
         let mut s = [0.0; 27];
-        self.gather_cube(first, n, &mut s, pool, eval);
+        let held = match n {
+            2 => self.held_cube::<2, 8>(first, pool).map(|c| s[..8].copy_from_slice(&c)),
+            _ => self.held_cube::<3, 27>(first, pool).map(|c| s = c),
+        };
+        if held.is_none() {
+            self.gather_cube(first, n, &mut s, pool, eval);
+        }
         s
+    }
+
+    /// The warm lookup: the `N³ = M` samples from lattice point `first`, x
+    /// fastest, when every one is held in 32-bit storage. A held sample is
+    /// what every path returns for its point, so this asks nothing of the
+    /// block parts that are zero: a cube whose samples are all held has
+    /// none in a zero part.
+    #[inline]
+    fn held_cube<const N: usize, const M: usize>(&self, first: IVec3, pool: &SamplePool) -> Option<[f32; M]> {
+        let last = first + IVec3::splat(N as i32 - 1);
+        // Past the subtree's bounds `gather_cube` answers zeros unread, whatever a block holds.
+        let reach = Aabb::new(first.as_vec3a() * self.cell, last.as_vec3a() * self.cell);
+        if self.spec.storage != Storage::F32 || !reach.overlaps(&self.child_bounds) {
+            return None;
+        }
+        let mut words = [UNSET; M];
+        let block = self.block_of(first);
+        if block == self.block_of(last) {
+            let base = self.word_of(first).0 as u16;
+            let at = cube_offsets::<N, M>().map(|o| base + o);
+            if !self.read_block(block, &at, &mut words, pool) {
+                return None;
+            }
+        } else {
+            // Across blocks, sample by sample, each read consistent on its own.
+            for (m, word) in words.iter_mut().enumerate() {
+                let i = first + IVec3::new((m % N) as i32, ((m / N) % N) as i32, (m / (N * N)) as i32);
+                let at = [self.word_of(i).0 as u16];
+                if !self.read_block(self.block_of(i), &at, std::slice::from_mut(word), pool) {
+                    return None;
+                }
+            }
+        }
+        (!words.contains(&UNSET)).then(|| words.map(f32::from_bits))
     }
 
     /// The `n³` samples from lattice point `first`, x fastest, into `out`. The
@@ -561,11 +613,7 @@ impl CacheGrid {
         pool: &SamplePool,
         eval: &impl Sampled,
     ) {
-        // Word offsets of the samples (x fastest) within a block.
-        let offsets: [u16; M] = std::array::from_fn(|m| {
-            let (x, y, z) = (m % N, (m / N) % N, m / (N * N));
-            (x | y << BLOCK_SHIFT | z << (2 * BLOCK_SHIFT)) as u16
-        });
+        let offsets = cube_offsets::<N, M>();
         let base = self.word_of(first).0 as u16;
         let at = offsets.map(|o| base + o);
         let mut words = [UNSET; M];
@@ -580,6 +628,7 @@ impl CacheGrid {
 
     /// Reads the words `at` of `block` into `words` in one consistent read;
     /// false when the block holds no slot or the read raced a reassignment.
+    #[inline]
     fn read_block(&self, block: IVec3, at: &[u16], words: &mut [u32], pool: &SamplePool) -> bool {
         self.table_index(block).is_some_and(|t| {
             // SAFETY: as in `sample`.
