@@ -818,7 +818,14 @@ impl CacheGrid {
         };
         let n = 2 + 2 * reach;
         let mut s = [0.0f32; 64];
-        self.gather_cube(i - IVec3::splat(reach as i32), n, &mut s, pool, eval);
+        let first = i - IVec3::splat(reach as i32);
+        let held = match reach {
+            0 => self.held_cube::<2, 8>(first, pool).map(|c| s[..8].copy_from_slice(&c)),
+            _ => self.held_cube::<4, 64>(first, pool).map(|c| s = c),
+        };
+        if held.is_none() {
+            self.gather_cube(first, n, &mut s, pool, eval);
+        }
         let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
         for (at, v) in s.iter().enumerate().take(n * n * n) {
             let (x, y, z) = (at % n, (at / n) % n, at / (n * n));
@@ -894,37 +901,70 @@ impl CacheGrid {
         l
     }
 
-    /// The largest sampled cell bound along `a..b`.
+    /// The largest sampled cell bound along `a..b`. Kept bounds are half
+    /// bits, which for the non-negative slopes order as their values do: the
+    /// walk keeps the largest bits (passing over NaNs, as `f32::max` does)
+    /// and converts them once, and looks each block's bounds up once.
     fn segment_slope_from_samples(&self, a: Vec3A, b: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> f32 {
-        let mut l = 0.0f32;
+        const INFINITY_BITS: u16 = 0x7c00;
+        let mut largest = 0u16;
+        let mut last_block: Option<(IVec3, Option<&[AtomicU16]>)> = None;
         self.lattice.walk_segment_coords(a, b, |c| {
-            l = l.max(self.kept_cell_slope(self.lattice_lo + c.as_ivec3(), pool, eval));
+            let i = self.lattice_lo + c.as_ivec3();
+            let block = self.block_of(i);
+            let words = match last_block {
+                Some((b, words)) if b == block => words,
+                _ => {
+                    let words = self.cell_slopes_of_block(block, pool);
+                    last_block = Some((block, words));
+                    words
+                }
+            };
+            let bits = self.kept_slope_bits(words, i, pool, eval);
+            if bits <= INFINITY_BITS {
+                largest = largest.max(bits);
+            }
         });
-        l
+        half::f16::from_bits(largest).to_f32()
     }
 
-    /// [`Self::cell_slope`], kept once computed (in half precision, rounded
-    /// up, as it is always returned: kept or not, the same bound). Under a
-    /// budget nothing is kept, so the budget bounds all the memory the cache holds.
-    fn kept_cell_slope(&self, i: IVec3, pool: &SamplePool, eval: &impl Sampled) -> f32 {
-        let Some((t, w)) = self.cell_slope_word(i).filter(|_| pool.budget_slots().is_none()) else {
-            return half::f16::from_bits(half_up(self.cell_slope(i, pool, eval))).to_f32();
-        };
-        let words = self.cell_slopes[t]
-            .get_or_init(|| (0..self.block_volume()).map(|_| AtomicU16::new(UNSET_CELL_SLOPE)).collect());
-        let mut bits = words[w].load(Ordering::Relaxed);
+    /// The kept slope bounds of `block`'s cells, allocated on first use;
+    /// `None` off the table, and under a budget, where nothing is kept, so
+    /// the budget bounds all the memory the cache holds.
+    #[inline]
+    fn cell_slopes_of_block(&self, block: IVec3, pool: &SamplePool) -> Option<&[AtomicU16]> {
+        let t = self.table_index(block).filter(|_| pool.budget_slots().is_none())?;
+        Some(
+            self.cell_slopes[t]
+                .get_or_init(|| (0..self.block_volume()).map(|_| AtomicU16::new(UNSET_CELL_SLOPE)).collect()),
+        )
+    }
+
+    /// [`Self::cell_slope`] of cell `i` in half precision, rounded up, from
+    /// `words`, its block's kept bounds (computed and kept there if unset):
+    /// kept or not, the same bound.
+    #[inline]
+    fn kept_slope_bits(&self, words: Option<&[AtomicU16]>, i: IVec3, pool: &SamplePool, eval: &impl Sampled) -> u16 {
+        let Some(words) = words else { return half_up(self.cell_slope(i, pool, eval)) };
+        let word = &words[self.cell_in_block(i)];
+        let mut bits = word.load(Ordering::Relaxed);
         if bits == UNSET_CELL_SLOPE {
             bits = half_up(self.cell_slope(i, pool, eval));
-            words[w].store(bits, Ordering::Relaxed);
+            word.store(bits, Ordering::Relaxed);
         }
-        half::f16::from_bits(bits).to_f32()
+        bits
     }
 
     /// The table entry of cell `i`'s block and the cell's place in it.
     fn cell_slope_word(&self, i: IVec3) -> Option<(usize, usize)> {
-        let t = self.table_index(self.block_of(i))?;
+        Some((self.table_index(self.block_of(i))?, self.cell_in_block(i)))
+    }
+
+    /// Cell `i`'s place in its block.
+    #[inline]
+    fn cell_in_block(&self, i: IVec3) -> usize {
         let (mask, z_mask) = ((1 << BLOCK_SHIFT) - 1, (1 << (BLOCK_SHIFT + self.spec.storage.z_extra_shift())) - 1);
-        Some((t, ((i.x & mask) | ((i.y & mask) << BLOCK_SHIFT) | ((i.z & z_mask) << (2 * BLOCK_SHIFT))) as usize))
+        ((i.x & mask) | ((i.y & mask) << BLOCK_SHIFT) | ((i.z & z_mask) << (2 * BLOCK_SHIFT))) as usize
     }
 
     /// Lattice points (and cells) per block.
