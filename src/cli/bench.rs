@@ -206,7 +206,7 @@ pub struct LookupCost {
     pub cached_ns: f64,
     /// Nanoseconds per exact (indexed) value of the subtree at the same points.
     pub exact_ns: f64,
-    /// Bytes held against a dense four-byte grid over the subtree.
+    /// Bytes of samples the warm render's cache holds.
     pub bytes: u64,
     /// Bytes a dense grid of four-byte samples would take.
     pub dense_bytes: u64,
@@ -233,7 +233,12 @@ fn cache(a: &EvalBenchArgs) -> anyhow::Result<()> {
         "internal error: the warm cached render differs from the cold one"
     );
     let diff = warm_frame.geometry_difference(&exact_frame);
-    let lookups = with_threads(Some(1), || lookup_costs(&scene.model))?;
+    let mut lookups = with_threads(Some(1), || lookup_costs(&scene.model))?;
+    // What each cache holds is what the renders filled, not the few lookups timed.
+    let held = warm.caches.iter().flat_map(|c| &c.per_cache);
+    for (lookup, cache) in lookups.iter_mut().zip(held) {
+        lookup.bytes = cache.stats.bytes;
+    }
     let cache_bytes = warm.caches.as_ref().map_or(0, |c| c.bytes);
     let report = CacheBenchReport {
         exact_naive_s: naive.seconds,
@@ -331,7 +336,8 @@ fn lookup_costs(model: &Model) -> Vec<LookupCost> {
                 primitives: model.primitives_under(id),
                 cached_ns: time(EvalMode::Cached, id),
                 exact_ns: time(EvalMode::Indexed, child),
-                bytes: stats.bytes,
+                // Filled in from the warm render by the caller.
+                bytes: 0,
                 dense_bytes: stats.grid_points * 4,
             })
         })
