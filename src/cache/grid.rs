@@ -463,11 +463,15 @@ impl CacheGrid {
         }
         let (b0, b1) = (self.block_of(first), self.block_of(last));
         if b0 == b1 && self.spec.storage == Storage::F32 {
-            return match n {
-                2 => self.gather_in_block::<2, 8>(b0, first, out, pool, eval),
-                // The quadratic filter's three taps.
-                _ => self.gather_in_block::<3, 27>(b0, first, out, pool, eval),
-            };
+            // A tri-linear cell's corners, the quadratic filter's three taps,
+            // and the quadratic filter's reach over a whole cell (its slope
+            // bounds); any other edge takes the general path below.
+            match n {
+                2 => return self.gather_in_block::<2, 8>(b0, first, out, pool, eval),
+                3 => return self.gather_in_block::<3, 27>(b0, first, out, pool, eval),
+                4 => return self.gather_in_block::<4, 64>(b0, first, out, pool, eval),
+                _ => {}
+            }
         }
         let block_cells = self.block_cells();
         for bz in b0.z..=b1.z {
@@ -1180,7 +1184,128 @@ impl ShardedCounter {
 
 #[cfg(test)]
 mod tests {
-    use super::half_up;
+    use super::*;
+    use crate::cache::CacheSpec;
+
+    /// Deterministic points in `[-r, r]³`.
+    fn points(n: usize, r: f32) -> Vec<Vec3A> {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32 * 2.0 * r - r
+        };
+        (0..n).map(|_| Vec3A::new(next(), next(), next())).collect()
+    }
+
+    /// Warm lookups read held samples straight from their blocks; cold ones
+    /// gather part by part, asking which parts are zero. A ball's field,
+    /// zero outside it, puts cubes across block faces, in zero parts and
+    /// past the subtree's bounds: each warm answer must equal, to the bit,
+    /// what a fresh cache computes for that point alone.
+    #[test]
+    fn warm_lookups_and_slope_walks_read_what_a_fresh_cache_computes() {
+        let ball = |p: Vec3A| 0.9 * (1.0 - p.length_squared()).max(0.0).powi(3);
+        let bounds = Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0));
+        let (no_slope, no_range) = (|_: &Aabb| f32::INFINITY, |_: &Aabb| Interval::new(0.0, 1.0));
+        for value in [Filter::Trilinear, Filter::Triquadratic] {
+            let spec = CacheSpec { res: 20, value, gradient: Filter::Triquadratic, storage: Storage::F32 };
+            let pool = SamplePool::default();
+            let warm = CacheGrid::new(spec, bounds, &pool);
+            let answers = |grid: &CacheGrid, p: Vec3A| {
+                let segment = Region::Segment(p, p + Vec3A::new(0.21, -0.13, 0.17));
+                let slope = grid.lipschitz(&segment, &no_slope, &no_range, (&pool, &ball));
+                let (v, g) = grid.value_and_gradient(p, &pool, &ball);
+                [grid.value(p, &pool, &ball), slope, v, g.x, g.y, g.z].map(f32::to_bits)
+            };
+            let points = points(1500, 1.25);
+            for &p in &points {
+                answers(&warm, p);
+            }
+            for &p in &points {
+                let fresh = CacheGrid::new(spec, bounds, &pool);
+                assert_eq!(answers(&warm, p), answers(&fresh, p), "{value:?} at {p}");
+            }
+        }
+    }
+
+    /// The sampled slope bound over a short segment holds for the
+    /// reconstruction along it, for both value filters (the quadratic one
+    /// reads a 4×4×4 cube per cell, often inside one block), and so does
+    /// the floor on its derivative along the segment.
+    #[test]
+    fn sampled_slope_bounds_hold_along_their_segments() {
+        let ball = |p: Vec3A| 0.9 * (1.0 - p.length_squared()).max(0.0).powi(3);
+        let bounds = Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0));
+        let (no_slope, no_range) = (|_: &Aabb| f32::INFINITY, |_: &Aabb| Interval::new(0.0, 1.0));
+        for value in [Filter::Trilinear, Filter::Triquadratic] {
+            let spec = CacheSpec { res: 20, value, gradient: Filter::Triquadratic, storage: Storage::F32 };
+            let pool = SamplePool::default();
+            let grid = CacheGrid::new(spec, bounds, &pool);
+            let ends = points(800, 1.1);
+            for pair in ends.chunks(2) {
+                let (a, b) = (pair[0], pair[0] + (pair[1] - pair[0]).normalize() * 0.25);
+                let slope = grid.lipschitz(&Region::Segment(a, b), &no_slope, &no_range, (&pool, &ball));
+                let dir = (b - a).normalize();
+                let floor = grid.slope_floor((a, b), dir, &pool, &ball);
+                let steps = 400;
+                let h = (b - a).length() / steps as f32;
+                let at = |k: usize| grid.value(a + (b - a) * (k as f32 / steps as f32), &pool, &ball);
+                for k in 0..steps {
+                    let rise = at(k + 1) - at(k);
+                    assert!(
+                        rise.abs() <= slope * h * 1.001 + 1e-6,
+                        "{value:?} {a}..{b}: rise {rise} over {h}, bound {slope}"
+                    );
+                    assert!(
+                        rise >= floor * h * 1.001 - 1e-6,
+                        "{value:?} {a}..{b}: rise {rise} over {h}, floor {floor}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// A cell's sample differences are those of the samples its value
+    /// filter reads (the quadratic filter's 4×4×4 cube around it), whether
+    /// that cube lies inside one block or across several, cold or warm.
+    #[test]
+    fn cell_differences_are_those_of_the_cells_samples() {
+        let ball = |p: Vec3A| 0.9 * (1.0 - p.length_squared()).max(0.0).powi(3);
+        let bounds = Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0));
+        let spec =
+            CacheSpec { res: 20, value: Filter::Triquadratic, gradient: Filter::Triquadratic, storage: Storage::F32 };
+        let pool = SamplePool::default();
+        let grid = CacheGrid::new(spec, bounds, &pool);
+        let sample = |i: IVec3| {
+            let p = i.as_vec3a() * grid.cell();
+            if grid.child_bounds.contains(p) { ball(p) } else { 0.0 }
+        };
+        for round in 0..2 {
+            for p in points(300, 1.0) {
+                let i = (p / grid.cell()).floor().as_ivec3();
+                let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+                for o in (0..64).map(|m| IVec3::new(m % 4, m / 4 % 4, m / 16) - IVec3::ONE) {
+                    for axis in 0..3 {
+                        if o[axis] < 2 {
+                            let d = sample(i + o + IVec3::AXES[axis]) - sample(i + o);
+                            (lo[axis], hi[axis]) = (lo[axis].min(d), hi[axis].max(d));
+                        }
+                    }
+                }
+                let (got_lo, got_hi) = grid.cell_differences(i, &pool, &ball);
+                assert_eq!((got_lo, got_hi), (lo, hi), "cell {i}, round {round}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_slope_walk_keeps_no_nan_and_every_infinity() {
+        // The walk compares half bits: NaNs are passed over as `f32::max` passes them.
+        let (nan, inf) = (half::f16::NAN.to_bits(), half::f16::INFINITY.to_bits());
+        assert!(nan > inf && half_up(f32::INFINITY) == inf && half_up(f32::NAN) > inf);
+    }
 
     #[test]
     fn half_up_never_rounds_a_slope_down() {
