@@ -1199,23 +1199,34 @@ mod tests {
         (0..n).map(|_| Vec3A::new(next(), next(), next())).collect()
     }
 
+    /// A ball's field, zero outside it: cubes across block faces, in zero
+    /// parts and past the subtree's bounds.
+    fn ball(p: Vec3A) -> f32 {
+        0.9 * (1.0 - p.length_squared()).max(0.0).powi(3)
+    }
+
+    /// An empty cache of [`ball`] at resolution 20 with `value` for values.
+    fn ball_cache(value: Filter, pool: &SamplePool) -> CacheGrid {
+        let spec = CacheSpec { res: 20, value, gradient: Filter::Triquadratic, storage: Storage::F32 };
+        CacheGrid::new(spec, Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0)), pool)
+    }
+
+    /// [`CacheGrid::lipschitz`] over a segment short enough to be bounded from samples alone.
+    fn sampled_slope(grid: &CacheGrid, (a, b): (Vec3A, Vec3A), pool: &SamplePool) -> f32 {
+        let (no_slope, no_range) = (|_: &Aabb| f32::INFINITY, |_: &Aabb| Interval::new(0.0, 1.0));
+        grid.lipschitz(&Region::Segment(a, b), &no_slope, &no_range, (pool, &ball))
+    }
+
     /// Warm lookups read held samples straight from their blocks; cold ones
-    /// gather part by part, asking which parts are zero. A ball's field,
-    /// zero outside it, puts cubes across block faces, in zero parts and
-    /// past the subtree's bounds: each warm answer must equal, to the bit,
-    /// what a fresh cache computes for that point alone.
+    /// gather part by part, asking which parts are zero. Each warm answer
+    /// must equal, to the bit, what a fresh cache computes for that point alone.
     #[test]
     fn warm_lookups_and_slope_walks_read_what_a_fresh_cache_computes() {
-        let ball = |p: Vec3A| 0.9 * (1.0 - p.length_squared()).max(0.0).powi(3);
-        let bounds = Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0));
-        let (no_slope, no_range) = (|_: &Aabb| f32::INFINITY, |_: &Aabb| Interval::new(0.0, 1.0));
         for value in [Filter::Trilinear, Filter::Triquadratic] {
-            let spec = CacheSpec { res: 20, value, gradient: Filter::Triquadratic, storage: Storage::F32 };
             let pool = SamplePool::default();
-            let warm = CacheGrid::new(spec, bounds, &pool);
+            let warm = ball_cache(value, &pool);
             let answers = |grid: &CacheGrid, p: Vec3A| {
-                let segment = Region::Segment(p, p + Vec3A::new(0.21, -0.13, 0.17));
-                let slope = grid.lipschitz(&segment, &no_slope, &no_range, (&pool, &ball));
+                let slope = sampled_slope(grid, (p, p + Vec3A::new(0.21, -0.13, 0.17)), &pool);
                 let (v, g) = grid.value_and_gradient(p, &pool, &ball);
                 [grid.value(p, &pool, &ball), slope, v, g.x, g.y, g.z].map(f32::to_bits)
             };
@@ -1224,7 +1235,7 @@ mod tests {
                 answers(&warm, p);
             }
             for &p in &points {
-                let fresh = CacheGrid::new(spec, bounds, &pool);
+                let fresh = ball_cache(value, &pool);
                 assert_eq!(answers(&warm, p), answers(&fresh, p), "{value:?} at {p}");
             }
         }
@@ -1236,17 +1247,13 @@ mod tests {
     /// the floor on its derivative along the segment.
     #[test]
     fn sampled_slope_bounds_hold_along_their_segments() {
-        let ball = |p: Vec3A| 0.9 * (1.0 - p.length_squared()).max(0.0).powi(3);
-        let bounds = Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0));
-        let (no_slope, no_range) = (|_: &Aabb| f32::INFINITY, |_: &Aabb| Interval::new(0.0, 1.0));
         for value in [Filter::Trilinear, Filter::Triquadratic] {
-            let spec = CacheSpec { res: 20, value, gradient: Filter::Triquadratic, storage: Storage::F32 };
             let pool = SamplePool::default();
-            let grid = CacheGrid::new(spec, bounds, &pool);
+            let grid = ball_cache(value, &pool);
             let ends = points(800, 1.1);
             for pair in ends.chunks(2) {
                 let (a, b) = (pair[0], pair[0] + (pair[1] - pair[0]).normalize() * 0.25);
-                let slope = grid.lipschitz(&Region::Segment(a, b), &no_slope, &no_range, (&pool, &ball));
+                let slope = sampled_slope(&grid, (a, b), &pool);
                 let dir = (b - a).normalize();
                 let floor = grid.slope_floor((a, b), dir, &pool, &ball);
                 let steps = 400;
@@ -1272,12 +1279,8 @@ mod tests {
     /// that cube lies inside one block or across several, cold or warm.
     #[test]
     fn cell_differences_are_those_of_the_cells_samples() {
-        let ball = |p: Vec3A| 0.9 * (1.0 - p.length_squared()).max(0.0).powi(3);
-        let bounds = Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0));
-        let spec =
-            CacheSpec { res: 20, value: Filter::Triquadratic, gradient: Filter::Triquadratic, storage: Storage::F32 };
         let pool = SamplePool::default();
-        let grid = CacheGrid::new(spec, bounds, &pool);
+        let grid = ball_cache(Filter::Triquadratic, &pool);
         let sample = |i: IVec3| {
             let p = i.as_vec3a() * grid.cell();
             if grid.child_bounds.contains(p) { ball(p) } else { 0.0 }
