@@ -1304,9 +1304,11 @@ mod tests {
     }
 
     #[test]
-    fn a_slope_walk_keeps_no_nan_and_every_infinity() {
-        // The walk compares half bits: NaNs are passed over as `f32::max` passes them.
+    fn half_bits_of_slopes_order_nans_above_infinity() {
+        // The slope walk compares half bits up to infinity's (0x7c00) and
+        // passes over anything above, as `f32::max` passes over NaNs.
         let (nan, inf) = (half::f16::NAN.to_bits(), half::f16::INFINITY.to_bits());
+        assert_eq!(inf, 0x7c00);
         assert!(nan > inf && half_up(f32::INFINITY) == inf && half_up(f32::NAN) > inf);
     }
 
