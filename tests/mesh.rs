@@ -7,6 +7,7 @@ use blobtrace::field::{Edit, EvalMode, Field, ModelField, NodeKind, Placement};
 use blobtrace::mesh::{Cell, CellShape, Lattice, PolygonizeOptions, Polygonizer, VertexPlacement, skeleton_seeds};
 use blobtrace::scene::{Scene, load_script};
 use common::{EVERY_NODE, bundled, polygonize};
+use blobtrace::geom::{Aabb, Support};
 use glam::{IVec3, Vec3};
 
 const SHAPES: [CellShape; 2] = [CellShape::Cubes, CellShape::Bcc];
@@ -276,6 +277,9 @@ fn moving_a_part_without_support_leaves_the_mesh_a_full_polygonization_finds() {
         Segment(a: (-1.499, -1.014, -0.334), b: (-1.495, 1.575, -1.421), radius: 0.683, weight: 0.56)])))]))))";
     let mut scene = Scene::parse(scene, "carved").unwrap();
     let (mut local, _) = polygonize(&scene.model, EvalMode::Indexed, 12, PolygonizeOptions::default());
+    // The same updates bounded by the changed supports (balls that the
+    // rotations keep and the stretches turn to boxes) instead of one box.
+    let mut within_supports = local.clone();
     let edits = [
         Edit::Scale { node: "n3".into(), by: Vec3::new(1.24, 0.77, 0.92) },
         Edit::Scale { node: "n1".into(), by: Vec3::new(0.94, 0.86, 0.86) },
@@ -288,10 +292,47 @@ fn moving_a_part_without_support_leaves_the_mesh_a_full_polygonization_finds() {
         let field = ModelField::new(&scene.model, EvalMode::Indexed);
         let seeds = skeleton_seeds(&scene.model, scene.model.root());
         local.repolygonize(&field, &scene.model.change_region(&change, false), &seeds);
+        within_supports.repolygonize_within(&field, &scene.model.change_support_regions(&change, false), &seeds);
         let mut fresh = Polygonizer::new(local.lattice(), PolygonizeOptions::default());
         fresh.polygonize(&field, &seeds);
         assert!(!fresh.mesh().triangles.is_empty(), "frame {i}");
         assert_eq!(local.mesh().triangle_set(), fresh.mesh().triangle_set(), "frame {i}");
+        assert_eq!(within_supports.mesh().triangle_set(), fresh.mesh().triangle_set(), "frame {i}, within the supports");
+    }
+}
+
+/// Table 2's probe moving through the hair, re-polygonized within the balls
+/// of its old and new supports: each frame equals a fresh polygonization,
+/// exact and cached, cubes and tetrahedra, and redoes fewer cells than the
+/// box around the balls would.
+#[test]
+fn re_polygonizing_within_the_moved_probes_balls_equals_fresh_polygonizations() {
+    let script = load_script(&std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/hair-probe.ron")))
+        .expect("the probe script loads")
+        .frames;
+    for (mode, cells) in [(EvalMode::Indexed, CellShape::Cubes), (EvalMode::Cached, CellShape::Bcc)] {
+        let mut scene = bundled("hair_point.ron");
+        let options = PolygonizeOptions { cells, ..Default::default() };
+        let (mut within_balls, _) = polygonize(&scene.model, mode, 48, options);
+        let mut within_box = within_balls.clone();
+        for (frame, edits) in script.iter().take(5).enumerate() {
+            let mut supports = vec![];
+            for edit in edits {
+                let change = scene.model.apply(edit).expect("the script's edits apply");
+                supports.extend(scene.model.change_support_regions(&change, mode == EvalMode::Cached));
+            }
+            assert!(supports.iter().all(|s| matches!(s, Support::Ball { .. })), "{supports:?}");
+            let field = ModelField::new(&scene.model, mode);
+            let seeds = skeleton_seeds(&scene.model, scene.model.root());
+            let balls = within_balls.repolygonize_within(&field, &supports, &seeds);
+            let bounds = supports.iter().fold(Aabb::EMPTY, |u, s| u.union(&s.bounds()));
+            let boxed = within_box.repolygonize(&field, &bounds, &seeds);
+            let label = format!("{mode:?} {cells:?} frame {frame}");
+            assert!(balls.removed.len() * 10 < boxed.removed.len() * 9, "{label}: {} against {}", balls.removed.len(), boxed.removed.len());
+            let (_, fresh) = polygonize(&scene.model, mode, 48, options);
+            assert_eq!(within_balls.mesh().triangle_set(), fresh.triangle_set(), "{label}");
+            assert_eq!(within_box.mesh().triangle_set(), fresh.triangle_set(), "{label}, within the box");
+        }
     }
 }
 

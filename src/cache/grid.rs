@@ -695,7 +695,13 @@ impl CacheGrid {
     /// where an edit inside `b` can change the reconstruction or its gradient.
     #[must_use]
     pub fn sample_reach(&self, b: &Aabb) -> Aabb {
-        b.padded(MAX_SUPPORT_CELLS * self.cell)
+        b.padded(self.sample_reach_distance())
+    }
+
+    /// How far, along each axis, [`Self::sample_reach`] grows a region.
+    #[must_use]
+    pub fn sample_reach_distance(&self) -> f32 {
+        MAX_SUPPORT_CELLS * self.cell
     }
 
     /// The lattice points `lo..=hi` the value filter reads for points of `b`,

@@ -18,7 +18,7 @@ use crate::bvh::{BvhUpdate, DynamicMesh, render_mesh, rerender_mesh};
 use crate::compare::{Metric, Rgb8Image, difference_at, differences, frame_image, line_plot};
 use crate::field::{Edit, EmptySpace, EvalMode, ModelField};
 use crate::frame::Frame;
-use crate::geom::Aabb;
+use crate::geom::{Aabb, Support};
 use crate::mesh::{Polygonizer, canonical_triangles, skeleton_seeds};
 use crate::scene::{Scene, Script, Size, load_script};
 use crate::trace::{
@@ -291,15 +291,15 @@ pub(super) fn step(
 ) -> anyhow::Result<(FrameRow, Vec<PixelRect>)> {
     let mut row = FrameRow { frame, ..Default::default() };
     let clock = Instant::now();
-    let (mut regions, mut supports) = (vec![], vec![]);
+    let (mut regions, mut support_regions) = (vec![], vec![]);
     let cached = s.mode == EvalMode::Cached;
     for edit in edits {
         let change = scene.model.apply(edit)?;
         row.samples_cleared += change.samples_cleared;
         regions.push(scene.model.change_region(&change, cached));
-        supports.extend(scene.model.change_supports(&change, cached));
+        support_regions.extend(scene.model.change_support_regions(&change, cached));
     }
-    let region = regions.iter().fold(Aabb::EMPTY, |u, r| u.union(r));
+    let supports: Vec<Aabb> = support_regions.iter().map(Support::bounds).collect();
     row.apply_s = clock.elapsed().as_secs_f64();
     check_edited_model(&scene.model, s.polygonizer.lattice())?;
     let (w, h) = (s.settings.width, s.settings.height);
@@ -314,7 +314,8 @@ pub(super) fn step(
     row.retraced_fraction = retraced.rays as f64 / f64::from(w * h);
     row.field_evals = retraced.field_evals;
     let clock = Instant::now();
-    let remeshed = s.polygonizer.repolygonize(&field, &region, &skeleton_seeds(&scene.model, scene.model.root()));
+    let seeds = skeleton_seeds(&scene.model, scene.model.root());
+    let remeshed = s.polygonizer.repolygonize_within(&field, &support_regions, &seeds);
     row.polygonize_s = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     row.bvh_rebuilt = s.dynamic.update(&s.polygonizer, &remeshed) == BvhUpdate::Rebuilt;

@@ -6,7 +6,7 @@ use glam::{Affine3A, Mat3A, Vec3, Vec3A};
 
 use super::model::{Change, Model, ModelError};
 use super::node::{NodeId, NodeKind, Placement};
-use crate::geom::Aabb;
+use crate::geom::{Aabb, Support};
 use crate::scene::values::{self, MAX_MAGNITUDE};
 
 /// An edit of a named node. Read from a script, its numbers are checked as
@@ -172,9 +172,9 @@ impl Model {
             _ => named,
         };
         let mut supports = vec![];
-        self.support_boxes(scope, &mut supports);
+        self.supports(scope, &mut supports);
         let mut change = self.apply_found(edit, named, child)?;
-        self.support_boxes(scope, &mut supports);
+        self.supports(scope, &mut supports);
         change.supports = supports;
         change.scope = scope;
         Ok(change)
@@ -266,41 +266,53 @@ impl Model {
         self.set_placement(transform, Placement::from_affine(m).ok_or(ModelError::ZeroScale)?)
     }
 
-    /// Appends boxes holding the support of node `id`'s field, in the frame
-    /// `id` is evaluated in: each primitive's bounds, through the transforms
-    /// and, for the cached field, widened at each cache by its filters' reach.
-    /// Every operator's field is zero outside its children's supports.
-    pub fn support_boxes(&self, id: NodeId, out: &mut Vec<Aabb>) {
+    /// Appends regions holding the support of node `id`'s field, in the
+    /// frame `id` is evaluated in: each primitive's (a point's ball, any
+    /// other's box), through the transforms and, for the cached field,
+    /// widened at each cache by its filters' reach. Every operator's field is
+    /// zero outside its children's supports.
+    pub fn supports(&self, id: NodeId, out: &mut Vec<Support>) {
         let first = out.len();
         match &self.node(id).kind {
-            NodeKind::Primitive(_) => out.push(self.node(id).bounds),
+            NodeKind::Primitive(p) => out.push(match p.skeleton {
+                super::Skeleton::Point { center } => Support::ball(center, p.radius),
+                _ => Support::Box(self.node(id).bounds),
+            }),
             NodeKind::Transform { placement, child } => {
-                self.support_boxes(*child, out);
-                out[first..].iter_mut().for_each(|b| *b = b.transformed(&placement.to_world));
+                self.supports(*child, out);
+                out[first..].iter_mut().for_each(|s| *s = s.transformed(&placement.to_world));
             }
             NodeKind::Cache { child, grid, .. } => {
-                self.support_boxes(*child, out);
-                let cache = self.cache(*grid);
-                out[first..].iter_mut().for_each(|b| *b = cache.sample_reach(b));
+                self.supports(*child, out);
+                let reach = self.cache(*grid).sample_reach_distance();
+                out[first..].iter_mut().for_each(|s| *s = s.padded(reach));
             }
-            NodeKind::Difference(a, _) => self.support_boxes(*a, out),
-            kind => kind.children().into_iter().for_each(|c| self.support_boxes(c, out)),
+            NodeKind::Difference(a, _) => self.supports(*a, out),
+            kind => kind.children().into_iter().for_each(|c| self.supports(c, out)),
         }
     }
 
     /// Boxes in the world (the root's frame) holding everything `change` may
-    /// have changed in the field evaluated in `cached` or exact mode: its
+    /// have changed in the field evaluated in `cached` or exact mode: the
+    /// bounds of [`Self::change_support_regions`].
+    #[must_use]
+    pub fn change_supports(&self, change: &Change, cached: bool) -> Vec<Aabb> {
+        self.change_support_regions(change, cached).iter().map(Support::bounds).collect()
+    }
+
+    /// Regions in the world (the root's frame) holding everything `change`
+    /// may have changed in the field evaluated in `cached` or exact mode: its
     /// supports carried up like [`Self::change_region`], or that region alone
     /// when the change does not know its supports.
     #[must_use]
-    pub fn change_supports(&self, change: &Change, cached: bool) -> Vec<Aabb> {
+    pub fn change_support_regions(&self, change: &Change, cached: bool) -> Vec<Support> {
         if change.supports.is_empty() {
-            return vec![self.change_region(change, cached)];
+            return vec![Support::Box(self.change_region(change, cached))];
         }
-        let mut boxes = change.supports.clone();
-        self.carry_up(change.scope, &mut boxes, cached);
-        boxes.extend(self.replaced_regions(change, cached));
-        boxes
+        let mut regions = change.supports.clone();
+        self.carry_up(change.scope, &mut regions, cached);
+        regions.extend(self.replaced_regions(change, cached).map(Support::Box));
+        regions
     }
 
     /// The world box (the root's frame) holding everything `change` may have
@@ -310,9 +322,9 @@ impl Model {
     /// holding the whole of every cache the change rebuilt).
     #[must_use]
     pub fn change_region(&self, change: &Change, cached: bool) -> Aabb {
-        let mut region = [change.old.union(&change.new)];
+        let mut region = [Support::Box(change.old.union(&change.new))];
         self.carry_up(change.node, &mut region, cached);
-        self.replaced_regions(change, cached).fold(region[0], |u, b| u.union(&b))
+        self.replaced_regions(change, cached).fold(region[0].bounds(), |u, b| u.union(&b))
     }
 
     /// The world boxes of the caches `change` rebuilt, whose cached field
@@ -322,25 +334,25 @@ impl Model {
     fn replaced_regions<'a>(&'a self, change: &'a Change, cached: bool) -> impl Iterator<Item = Aabb> + 'a {
         let rebuilt = if cached { &change.rebuilt[..] } else { &[] };
         rebuilt.iter().chain(&change.reindexed).map(move |&(node, b)| {
-            let mut region = [b];
+            let mut region = [Support::Box(b)];
             self.carry_up(node, &mut region, cached);
-            region[0]
+            region[0].bounds()
         })
     }
 
-    /// Carries `boxes`, in the frame node `id`'s parent sees, up to the root's:
-    /// through the transforms above, and in cached mode widened at each cache
-    /// on the way by the reach of its filters.
-    fn carry_up(&self, id: NodeId, boxes: &mut [Aabb], cached: bool) {
+    /// Carries `regions`, in the frame node `id`'s parent sees, up to the
+    /// root's: through the transforms above, and in cached mode grown at each
+    /// cache on the way by the reach of its filters.
+    fn carry_up(&self, id: NodeId, regions: &mut [Support], cached: bool) {
         let mut at = id;
         while let Some(parent) = self.node(at).parent {
             match &self.node(parent).kind {
                 NodeKind::Transform { placement, .. } => {
-                    boxes.iter_mut().for_each(|b| *b = b.transformed(&placement.to_world))
+                    regions.iter_mut().for_each(|s| *s = s.transformed(&placement.to_world))
                 }
                 NodeKind::Cache { grid, .. } if cached => {
-                    let cache = self.cache(*grid);
-                    boxes.iter_mut().for_each(|b| *b = cache.sample_reach(b));
+                    let reach = self.cache(*grid).sample_reach_distance();
+                    regions.iter_mut().for_each(|s| *s = s.padded(reach));
                 }
                 _ => {}
             }

@@ -10,7 +10,7 @@ use super::node::{Node, NodeId, NodeKind, Placement};
 use super::primitive::Primitive;
 use super::region::Region;
 use crate::cache::{CacheGrid, CacheSpec, CacheStats, Refit, SLOT_BYTES, SamplePool};
-use crate::geom::{Aabb, Interval};
+use crate::geom::{Aabb, Interval, Support};
 
 /// Why a model could not be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -81,11 +81,11 @@ pub struct Change {
     pub new: Aabb,
     /// Cached samples cleared above it.
     pub samples_cleared: u64,
-    /// Boxes holding the support of the field that changed, before and after
-    /// (each primitive's, through transforms and caches), in the frame of
+    /// Regions holding the support of the field that changed, before and
+    /// after (each primitive's, through transforms and caches), in the frame of
     /// `scope`: much tighter than `old ∪ new` for a large moved subtree. Empty
     /// when unknown (a change made below [`Model::apply`]).
-    pub supports: Vec<Aabb>,
+    pub supports: Vec<Support>,
     /// The node in whose frame `supports` lie.
     pub scope: NodeId,
     /// Caches laid anew on a fresh lattice because their subtree's bounds

@@ -115,14 +115,20 @@ impl CornerValues {
         })
     }
 
-    /// Forgets every point whose position (`position(q)`) lies in `region`.
-    /// Bricks wholly outside it are passed over without reading their points.
-    pub fn forget_within(&mut self, region: &Aabb, position: impl Fn(LatticePoint) -> glam::Vec3A) {
+    /// Forgets every point `q` with `inside(position(q))`, a region held in
+    /// the box `bounds`. Bricks wholly outside the box are passed over
+    /// without reading their points.
+    pub fn forget_within(
+        &mut self,
+        bounds: &Aabb,
+        position: impl Fn(LatticePoint) -> glam::Vec3A,
+        inside: impl Fn(glam::Vec3A) -> bool,
+    ) {
         self.bricks.retain(|&key, brick| {
             let (lo, hi) = (point_of(key, 0), point_of(key, BRICK_POINTS - 1));
-            if region.overlaps(&Aabb::new(position(lo), position(hi))) {
+            if bounds.overlaps(&Aabb::new(position(lo), position(hi))) {
                 for slot in 0..BRICK_POINTS {
-                    if brick.get(slot).is_some() && region.contains(position(point_of(key, slot))) {
+                    if brick.get(slot).is_some() && inside(position(point_of(key, slot))) {
                         brick.forget(slot);
                     }
                 }
@@ -186,7 +192,7 @@ mod tests {
         assert_eq!(values.get(all[0]), Some(2.0), "a point set again takes the new value");
         let position = |q: IVec3| q.as_vec3a() * 0.25;
         let region = Aabb::new(Vec3A::new(-1.1, -3.0, 0.3), Vec3A::new(2.0, 0.2, 9.0));
-        values.forget_within(&region, position);
+        values.forget_within(&region, position, |p| region.contains(p));
         for &q in &all {
             assert_eq!(values.contains(q), !region.contains(position(q)), "at {q}");
         }

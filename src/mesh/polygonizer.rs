@@ -23,7 +23,7 @@ use super::seeds::{Evaluated, Marched, Rejoin, RowSpans, RowStarts, Seed, SeedMa
 use super::vertex::{VertexPlacement, place_on_edge};
 use super::{Mesh, bcc, cubes};
 use crate::field::{DEFAULT_COLOR, Field};
-use crate::geom::Aabb;
+use crate::geom::{Aabb, Support};
 
 /// The fewest cells, corners or edges a parallel task takes on: a local
 /// update grows through many small waves, which splitting among the threads
@@ -313,28 +313,45 @@ impl Polygonizer {
     }
 
     /// Re-polygonizes after the field changed inside `region` (and nowhere
-    /// else): forgets every corner, vertex and cell within one cell of it, then
-    /// grows back from the surface around the hole and from the `seeds`. The
-    /// result equals a fresh polygonization of the changed field.
+    /// else): see [`Self::repolygonize_within`].
     pub fn repolygonize<F: Field + ?Sized>(&mut self, field: &F, region: &Aabb, seeds: &[Seed]) -> Repolygonized {
+        self.repolygonize_within(field, &[Support::Box(*region)], seeds)
+    }
+
+    /// Re-polygonizes after the field changed inside the regions `changed`
+    /// (and nowhere else): forgets every corner, vertex and cell within one
+    /// cell of them, then grows back from the surface around the hole and
+    /// from the `seeds`. The result equals a fresh polygonization of the
+    /// changed field.
+    pub fn repolygonize_within<F: Field + ?Sized>(
+        &mut self,
+        field: &F,
+        changed: &[Support],
+        seeds: &[Seed],
+    ) -> Repolygonized {
         self.with_colors = field.varies_in_color();
         self.threshold = field.threshold();
         let cell = self.lattice.cell;
-        let near = region.padded(cell);
+        let near = HoleShape::new(changed).padded(cell);
         let lattice = self.lattice;
         // An edge meeting `near` has its midpoint within one cell of it.
         let midpoints = near.padded(cell);
         // A cell with a vertex in `near` has its cube (or, for a tetrahedron, its
         // owning cube) within one cube of it.
-        let (lo, hi) = lattice.cubes_overlapping(&near.padded(cell));
+        let dropped = near.padded(cell);
+        let (lo, hi) = lattice.cubes_overlapping(&dropped.bounds);
+        let meets = |cube: IVec3, margin: f32| {
+            let min = cube.as_vec3a() * cell;
+            dropped.meets(&Aabb::new(min, min + Vec3A::splat(cell)).padded(margin * cell))
+        };
         // The three maps are dropped from in parallel, each in one pass.
         let (corners, vertices, cells) = (&mut self.corners, &mut self.vertices, &mut self.cells);
         let ((), ((), hole_cells)) = rayon::join(
-            || corners.forget_within(&near, |q| lattice.position(q)),
+            || corners.forget_within(&near.bounds, |q| lattice.position(q), |p| near.contains(p)),
             || {
                 rayon::join(
                     || vertices.retain(|&k, _| !midpoints.contains(lattice.position(k) * 0.5)),
-                    || HoleCells::drop_from(cells, self.options.cells, (lo, hi)),
+                    || HoleCells::drop_from(cells, self.options.cells, (lo, hi), meets),
                 )
             },
         );
@@ -706,9 +723,18 @@ struct HoleCells {
 }
 
 impl HoleCells {
-    /// Drops from `cells` those whose cube lies in `lo..=hi`, in one pass.
-    fn drop_from(cells: &mut FxHashMap<Cell, u8>, shape: CellShape, (lo, hi): (IVec3, IVec3)) -> Self {
-        let inside = |c: IVec3, margin: i32| c.cmpge(lo - margin).all() && c.cmple(hi + margin).all();
+    /// Drops from `cells` those whose cube lies in `lo..=hi` and meets the
+    /// hole (`meets(cube, 0.0)`), in one pass; the border is the crossed
+    /// cells kept within two cubes of it (`meets(cube, 2.0)`).
+    fn drop_from(
+        cells: &mut FxHashMap<Cell, u8>,
+        shape: CellShape,
+        (lo, hi): (IVec3, IVec3),
+        meets: impl Fn(IVec3, f32) -> bool,
+    ) -> Self {
+        let inside = |c: IVec3, margin: i32| {
+            c.cmpge(lo - margin).all() && c.cmple(hi + margin).all() && meets(c, margin as f32)
+        };
         let mut hole = Self { removed: vec![], border: vec![], around: vec![] };
         cells.retain(|&c, &mut mask| {
             let keep = !inside(c.cube, 0);
@@ -723,6 +749,41 @@ impl HoleCells {
             keep
         });
         hole
+    }
+}
+
+/// Most supports a local update tests each cell against; past it, their
+/// bounding box stands for them (a moved subtree of hundreds of primitives
+/// fills most of it anyway, and each test would try them all).
+const MAX_HOLE_SUPPORTS: usize = 8;
+
+/// The space a local update redoes: the changed supports, grown alike, and
+/// a box holding them (which most tests need go no further than).
+#[derive(Clone, Debug)]
+struct HoleShape {
+    parts: Vec<Support>,
+    bounds: Aabb,
+}
+
+impl HoleShape {
+    fn new(changed: &[Support]) -> Self {
+        let parts: Vec<Support> = changed.iter().filter(|s| !s.bounds().is_empty()).copied().collect();
+        let bounds = parts.iter().fold(Aabb::EMPTY, |u, s| u.union(&s.bounds()));
+        let parts = if parts.len() > MAX_HOLE_SUPPORTS { vec![Support::Box(bounds)] } else { parts };
+        Self { parts, bounds }
+    }
+
+    /// The shape grown by a cube of half-side `r`.
+    fn padded(&self, r: f32) -> Self {
+        Self { parts: self.parts.iter().map(|s| s.padded(r)).collect(), bounds: self.bounds.padded(r) }
+    }
+
+    fn contains(&self, p: Vec3A) -> bool {
+        self.bounds.contains(p) && self.parts.iter().any(|s| s.contains(p))
+    }
+
+    fn meets(&self, b: &Aabb) -> bool {
+        self.bounds.overlaps(b) && self.parts.iter().any(|s| s.meets(b))
     }
 }
 
