@@ -4,10 +4,10 @@
 mod common;
 
 use blobtrace::field::{Edit, EvalMode, Field, ModelField, NodeKind, Placement};
+use blobtrace::geom::{Aabb, Support};
 use blobtrace::mesh::{Cell, CellShape, Lattice, PolygonizeOptions, Polygonizer, VertexPlacement, skeleton_seeds};
 use blobtrace::scene::{Scene, load_script};
 use common::{EVERY_NODE, bundled, polygonize};
-use blobtrace::geom::{Aabb, Support};
 use glam::{IVec3, Vec3};
 
 const SHAPES: [CellShape; 2] = [CellShape::Cubes, CellShape::Bcc];
@@ -297,7 +297,11 @@ fn moving_a_part_without_support_leaves_the_mesh_a_full_polygonization_finds() {
         fresh.polygonize(&field, &seeds);
         assert!(!fresh.mesh().triangles.is_empty(), "frame {i}");
         assert_eq!(local.mesh().triangle_set(), fresh.mesh().triangle_set(), "frame {i}");
-        assert_eq!(within_supports.mesh().triangle_set(), fresh.mesh().triangle_set(), "frame {i}, within the supports");
+        assert_eq!(
+            within_supports.mesh().triangle_set(),
+            fresh.mesh().triangle_set(),
+            "frame {i}, within the supports"
+        );
     }
 }
 
@@ -328,7 +332,12 @@ fn re_polygonizing_within_the_moved_probes_balls_equals_fresh_polygonizations() 
             let bounds = supports.iter().fold(Aabb::EMPTY, |u, s| u.union(&s.bounds()));
             let boxed = within_box.repolygonize(&field, &bounds, &seeds);
             let label = format!("{mode:?} {cells:?} frame {frame}");
-            assert!(balls.removed.len() * 10 < boxed.removed.len() * 9, "{label}: {} against {}", balls.removed.len(), boxed.removed.len());
+            assert!(
+                balls.removed.len() * 10 < boxed.removed.len() * 9,
+                "{label}: {} against {}",
+                balls.removed.len(),
+                boxed.removed.len()
+            );
             let (_, fresh) = polygonize(&scene.model, mode, 48, options);
             assert_eq!(within_balls.mesh().triangle_set(), fresh.triangle_set(), "{label}");
             assert_eq!(within_box.mesh().triangle_set(), fresh.triangle_set(), "{label}, within the box");

@@ -63,6 +63,41 @@ impl Support {
         self.meets(&Aabb::new(p, p))
     }
 
+    /// True when some point of the region lies within distance `d` of `p`.
+    #[must_use]
+    pub fn within(&self, p: Vec3A, d: f32) -> bool {
+        match self {
+            Support::Box(b) => b.distance_squared(p) <= d * d,
+            // The points within `d` of the grown ball are the ball of radius
+            // `radius + d` grown by the same cube.
+            Support::Ball { center, radius, pad } => {
+                Aabb::around(p, *pad).distance_squared(*center) <= (radius + d) * (radius + d)
+            }
+        }
+    }
+
+    /// The stretch `(x0, x1)` of the line through `(·, y, z)` along x that
+    /// holds every point it shares with the region, or `None` when it
+    /// shares none.
+    #[must_use]
+    pub fn row_span(&self, y: f32, z: f32) -> Option<(f32, f32)> {
+        match *self {
+            Support::Box(b) => {
+                ((b.min.y..=b.max.y).contains(&y) && (b.min.z..=b.max.z).contains(&z)).then_some((b.min.x, b.max.x))
+            }
+            Support::Ball { center, radius, pad } => {
+                // The line's nearest approach to the ball, across the cube.
+                let dy = ((y - center.y).abs() - pad).max(0.0);
+                let dz = ((z - center.z).abs() - pad).max(0.0);
+                let left = radius * radius - dy * dy - dz * dz;
+                // Widened by a few roundings of the terms.
+                let half =
+                    (left.max(0.0).sqrt() + pad) * (1.0 + 8.0 * f32::EPSILON) + 8.0 * f32::EPSILON * center.x.abs();
+                (left >= 0.0).then_some((center.x - half, center.x + half))
+            }
+        }
+    }
+
     /// The region grown by a cube of half-side `r` (as [`Aabb::padded`] grows a box).
     #[must_use]
     pub fn padded(&self, r: f32) -> Self {
@@ -187,6 +222,59 @@ mod tests {
         let stretch = Affine3A::from_scale(glam::Vec3::new(1.0, 3.0, 1.0));
         let stretched = Support::ball(center, radius).transformed(&stretch);
         assert_eq!(stretched, Support::Box(Aabb::around(center, radius).transformed(&stretch)));
+    }
+
+    #[test]
+    fn a_rows_span_holds_every_point_it_shares_with_the_region() {
+        let ball = Support::Ball { center: Vec3A::new(0.3, -0.2, 0.1), radius: 0.8, pad: 0.2 };
+        let cube = Support::Box(Aabb::new(Vec3A::new(-0.5, -0.4, 0.0), Vec3A::new(0.7, 0.6, 0.9)));
+        let (mut rows_met, mut rows_missed) = (0, 0);
+        for region in [ball, cube] {
+            for p in points(3000, 1.4) {
+                let span = region.row_span(p.y, p.z);
+                // The row's points on a fine comb of x.
+                let inside: Vec<f32> = (0..=400)
+                    .map(|i| -1.6 + 3.2 * i as f32 / 400.0)
+                    .filter(|&x| region.contains(Vec3A::new(x, p.y, p.z)))
+                    .collect();
+                match span {
+                    Some((x0, x1)) => {
+                        assert!(
+                            inside.iter().all(|&x| x0 <= x && x <= x1),
+                            "{region:?} row {p}: {inside:?} outside {x0}..{x1}"
+                        );
+                        rows_met += 1;
+                    }
+                    None => {
+                        assert!(inside.is_empty(), "{region:?} row {p} has no span but meets it");
+                        rows_missed += 1;
+                    }
+                }
+            }
+        }
+        assert!(rows_met > 1000 && rows_missed > 1000, "{rows_met} rows met, {rows_missed} missed");
+        // A row past the ball's box corner meets its box but not the ball.
+        assert_eq!(ball.row_span(0.7, 0.9), None);
+        assert!(ball.bounds().overlaps(&Aabb::new(Vec3A::new(-5.0, 0.7, 0.9), Vec3A::new(5.0, 0.7, 0.9))));
+    }
+
+    #[test]
+    fn a_point_is_within_a_distance_of_the_region_where_a_nearby_point_lies_in_it() {
+        let ball = Support::Ball { center: Vec3A::new(0.1, 0.0, -0.2), radius: 0.5, pad: 0.1 };
+        let cube = Support::Box(Aabb::around(Vec3A::new(0.2, 0.1, 0.0), 0.4));
+        for region in [ball, cube] {
+            let probes = points(400, 0.4);
+            for p in points(3000, 1.5) {
+                let d = 0.3;
+                // A point of the region within `d` of `p`, among those tried, means `within`.
+                let near = probes.iter().any(|&o| o.length() <= d && region.contains(p + o));
+                if near {
+                    assert!(region.within(p, d), "{region:?}: {p} has a point of the region within {d}");
+                }
+            }
+            assert!(!region.within(Vec3A::splat(1.5), 0.3), "{region:?}: a far point");
+            assert!(region.within(Vec3A::new(0.1, 0.0, -0.2), 0.0), "{region:?}: a point inside");
+        }
     }
 
     #[test]

@@ -19,7 +19,7 @@ use rustc_hash::FxHashMap;
 
 use super::corners::CornerValues;
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, ordered_edge, sort_key};
-use super::seeds::{Evaluated, Marched, Rejoin, RowSpans, RowStarts, Seed, SeedMarch, SeedStarts, Start, row_passes};
+use super::seeds::{Evaluated, Marched, Rejoin, RowSpans, RowStarts, Seed, SeedMarch, SeedStarts, Start};
 use super::vertex::{VertexPlacement, place_on_edge};
 use super::{Mesh, bcc, cubes};
 use crate::field::{DEFAULT_COLOR, Field};
@@ -357,8 +357,8 @@ impl Polygonizer {
         );
         let HoleCells { removed, mut border, around } = hole_cells;
         let mut frontier = self.claim(around);
-        let hole = Aabb::new(lo.as_vec3a() * cell, (hi + IVec3::ONE).as_vec3a() * cell);
-        frontier.extend(self.seed(field, seeds, Some(&hole)));
+        // `dropped` holds every corner dropped (those in `near`).
+        frontier.extend(self.seed(field, seeds, Some(&dropped)));
         let added = self.grow(field, frontier);
         // Every other crossed cell kept all its vertices.
         border.extend(added.iter().map(|c| (*c, self.cells[c])));
@@ -377,23 +377,25 @@ impl Polygonizer {
     /// then walks uphill to the first sign change within its reach (see
     /// [`super::seeds`]).
     ///
-    /// With `hole`, the box of the cells just dropped (holding every corner
-    /// dropped), only marches that can come within a cell of it run: every
-    /// other march reads only corners kept from before and finds the
-    /// crossings it found then, whose cells (all within a cell of the march)
-    /// are kept and visited already.
-    fn seed<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Seed], hole: Option<&Aabb>) -> Vec<Cell> {
+    /// With `hole`, a region holding every corner just dropped, only
+    /// marches that can come within a cell of it run: every other march
+    /// reads only corners kept from before and finds the crossings it found
+    /// then, whose cells (all within a cell of the march) are kept and
+    /// visited already.
+    fn seed<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Seed], hole: Option<&HoleShape>) -> Vec<Cell> {
         let lattice = self.lattice;
         // A cell on either side, and half a cell against rounding in positions.
-        let near_hole = hole.map(|b| b.padded(1.5 * lattice.cell));
+        let near_hole = hole.map(|h| h.padded(1.5 * lattice.cell));
         // Marches past the hole find what they found, but which of them run
         // depends on the marches before them: rows keep their starts there.
-        let in_row = |q: LatticePoint| near_hole.is_none_or(|b| row_passes(&b, lattice.position(q)));
+        let in_row = |q: LatticePoint| {
+            let p = lattice.position(q);
+            near_hole.as_ref().is_none_or(|h| h.row_span(p.y, p.z).is_some())
+        };
         // An uphill walk goes no farther than its reach (plus a cell, the
         // staircase's offset from its ray).
         let walks_near_hole = |q: LatticePoint, reach: i32| {
-            near_hole
-                .is_none_or(|b| b.distance_squared(lattice.position(q)) <= ((reach + 1) as f32 * lattice.cell).powi(2))
+            near_hole.as_ref().is_none_or(|h| h.within(lattice.position(q), (reach + 1) as f32 * lattice.cell))
         };
         // Only starts that can come near the hole are kept (in a local update,
         // a few of thousands); neither test fails for a longer reach where it
@@ -403,9 +405,9 @@ impl Polygonizer {
         let along_x: Vec<Start> = starts.iter().copied().filter(|&(q, _)| in_row(q)).collect();
         let rows: Vec<(&RowStarts, Option<Rejoin>)> = along_x
             .chunk_by(|a, b| (a.0.y, a.0.z) == (b.0.y, b.0.z))
-            .filter_map(|row| match near_hole {
+            .filter_map(|row| match &near_hole {
                 None => Some((row, None)),
-                Some(near) => self.changed_part(row, &near),
+                Some(near) => self.changed_part(row, near),
             })
             .collect();
         let marched: Vec<Marched> = rows
@@ -435,17 +437,25 @@ impl Polygonizer {
     /// those lie in the hole. Past the hole the marches may stop where they
     /// rejoin the ones recorded before. A row never marched before is
     /// marched whole.
-    fn changed_part<'s>(&'s self, row: &'s RowStarts, near_hole: &Aabb) -> Option<(&'s RowStarts, Option<Rejoin<'s>>)> {
+    fn changed_part<'s>(
+        &'s self,
+        row: &'s RowStarts,
+        near_hole: &HoleShape,
+    ) -> Option<(&'s RowStarts, Option<Rejoin<'s>>)> {
         let (y, z) = (row[0].0.y, row[0].0.z);
         let Some(spans) = self.row_spans.get(&(y, z)) else {
             return Some((row, None));
         };
         let at = |x: i32| self.lattice.position(IVec3::new(x, y, z));
-        let from_spans = spans.iter().filter(|&&(lo, hi)| near_hole.overlaps(&Aabb::new(at(lo), at(hi)))).map(|s| s.0);
-        let from_starts = row.iter().map(|&(q, _)| q.x).filter(|&x| near_hole.contains(at(x)));
+        // The stretch of the row the hole reaches: its values changed only there.
+        let row_point = at(0);
+        let (x0, x1) = near_hole.row_span(row_point.y, row_point.z)?;
+        let near = |x: i32| (x0..=x1).contains(&at(x).x);
+        let from_spans = spans.iter().filter(|&&(lo, hi)| at(lo).x <= x1 && at(hi).x >= x0).map(|s| s.0);
+        let from_starts = row.iter().map(|&(q, _)| q.x).filter(|&x| near(x));
         let first = from_spans.chain(from_starts).min()?;
-        // A lattice step (two half cells) past the corner nearest the hole's end.
-        let past = self.lattice.nearest_corner(near_hole.max).x + 2;
+        // A lattice step (two half cells) past the corner nearest the stretch's end.
+        let past = self.lattice.nearest_corner(Vec3A::new(x1, row_point.y, row_point.z)).x + 2;
         let part = &row[row.partition_point(|&(q, _)| q.x < first)..];
         (!part.is_empty()).then_some((part, Some(Rejoin { first, past, before: spans })))
     }
@@ -732,9 +742,8 @@ impl HoleCells {
         (lo, hi): (IVec3, IVec3),
         meets: impl Fn(IVec3, f32) -> bool,
     ) -> Self {
-        let inside = |c: IVec3, margin: i32| {
-            c.cmpge(lo - margin).all() && c.cmple(hi + margin).all() && meets(c, margin as f32)
-        };
+        let inside =
+            |c: IVec3, margin: i32| c.cmpge(lo - margin).all() && c.cmple(hi + margin).all() && meets(c, margin as f32);
         let mut hole = Self { removed: vec![], border: vec![], around: vec![] };
         cells.retain(|&c, &mut mask| {
             let keep = !inside(c.cube, 0);
@@ -780,6 +789,18 @@ impl HoleShape {
 
     fn contains(&self, p: Vec3A) -> bool {
         self.bounds.contains(p) && self.parts.iter().any(|s| s.contains(p))
+    }
+
+    /// Whether some point of the shape lies within `d` of `p`.
+    fn within(&self, p: Vec3A, d: f32) -> bool {
+        self.bounds.distance_squared(p) <= d * d && self.parts.iter().any(|s| s.within(p, d))
+    }
+
+    /// The stretch of the row through `(·, y, z)` holding every point it
+    /// shares with the shape (see [`Support::row_span`]).
+    fn row_span(&self, y: f32, z: f32) -> Option<(f32, f32)> {
+        let spans = self.parts.iter().filter_map(|s| s.row_span(y, z));
+        spans.reduce(|(a0, a1), (b0, b1)| (a0.min(b0), a1.max(b1)))
     }
 
     fn meets(&self, b: &Aabb) -> bool {
@@ -847,11 +868,14 @@ mod tests {
         polygonizer.polygonize(&field, &seeds);
         let mut row: Vec<Start> = seeds.iter().map(|s| (lattice.nearest_corner(s.point), 9)).collect();
         row.sort_by_key(|(q, _)| q.x);
-        let around = |x: f32| Aabb::around(Vec3A::new(x, 0.0, 0.0), 0.3);
-        let part = |x: f32| polygonizer.changed_part(&row, &around(x)).map(|(part, _)| part);
-        assert_eq!(part(2.0), Some(&row[1..]));
-        assert_eq!(part(-2.0), Some(&row[..]));
-        assert_eq!(part(0.0), None);
+        let boxed = |x: f32| HoleShape::new(&[Support::Box(Aabb::around(Vec3A::new(x, 0.0, 0.0), 0.3))]);
+        let ball = |x: f32| HoleShape::new(&[Support::ball(Vec3A::new(x, 0.0, 0.0), 0.3)]);
+        for around in [&boxed as &dyn Fn(f32) -> HoleShape, &ball] {
+            let part = |x: f32| polygonizer.changed_part(&row, &around(x)).map(|(part, _)| part);
+            assert_eq!(part(2.0), Some(&row[1..]));
+            assert_eq!(part(-2.0), Some(&row[..]));
+            assert_eq!(part(0.0), None);
+        }
     }
 
     /// Three blobs on one lattice row, the middle one moved a little: the
@@ -875,6 +899,7 @@ mod tests {
             &ModelField::new(&scene.model, EvalMode::Indexed),
             &skeleton_seeds(&scene.model, scene.model.root()),
         );
+        let mut within_balls = local.clone();
         for by in [Vec3A::new(0.0, 0.0, 0.03), Vec3A::new(0.45, 0.0, -0.03)] {
             let change =
                 scene.model.apply(&crate::field::Edit::Translate { node: "mid".into(), by: by.into() }).unwrap();
@@ -882,6 +907,7 @@ mod tests {
             let field = ModelField::new(&scene.model, EvalMode::Indexed);
             let seeds = skeleton_seeds(&scene.model, scene.model.root());
             local.repolygonize(&field, &region, &seeds);
+            within_balls.repolygonize_within(&field, &scene.model.change_support_regions(&change, false), &seeds);
             let mut fresh = Polygonizer::new(lattice, PolygonizeOptions::default());
             fresh.polygonize(&field, &seeds);
             let row = |p: &Polygonizer| {
@@ -892,6 +918,7 @@ mod tests {
             };
             assert!(fresh.row_spans[&(0, 0)].len() >= 3, "{:?}", fresh.row_spans[&(0, 0)]);
             assert_eq!(row(&local), row(&fresh), "moved by {by}");
+            assert_eq!(row(&within_balls), row(&fresh), "moved by {by}, within the balls");
         }
     }
 }

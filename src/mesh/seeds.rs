@@ -470,11 +470,6 @@ impl<'a, F: Field + ?Sized> SeedMarch<'a, F> {
     }
 }
 
-/// True when the line through `p` along x meets box `b`.
-pub(super) fn row_passes(b: &Aabb, p: Vec3A) -> bool {
-    (b.min.y..=b.max.y).contains(&p.y) && (b.min.z..=b.max.z).contains(&p.z)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
