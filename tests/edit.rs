@@ -6,6 +6,7 @@ mod common;
 
 use blobtrace::field::{Edit, EmptySpace, EvalMode, Field, Model, ModelField};
 use blobtrace::frame::Frame;
+use blobtrace::geom::{Aabb, Support};
 use blobtrace::mesh::{PolygonizeOptions, Polygonizer, skeleton_seeds};
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::{PixelRect, RenderSettings, changed_space, render, render_model, rerender};
@@ -25,9 +26,10 @@ fn rerender_after(
     empty: &mut EmptySpace,
 ) -> Vec<PixelRect> {
     let field = ModelField::new(model, mode);
-    let supports = model.change_supports(change, mode == EvalMode::Cached);
+    let regions = model.change_support_regions(change, mode == EvalMode::Cached);
+    let supports: Vec<Aabb> = regions.iter().map(Support::bounds).collect();
     empty.update(&supports);
-    let space = changed_space(&field, settings, &supports);
+    let space = changed_space(&field, settings, &regions);
     rerender(&field.skipping(empty), settings, frame, &space);
     space.screen_rect(&settings.camera, settings.width, settings.height).into_iter().collect()
 }
@@ -295,9 +297,9 @@ fn rays_traced_again_count_whether_or_not_their_pixels_change() {
     let before = frame.clone();
     let change = scene.model.apply(&Edit::Translate { node: "faint".into(), by: Vec3::new(0.1, 0.0, 0.0) }).unwrap();
     let field = ModelField::new(&scene.model, mode);
-    let supports = scene.model.change_supports(&change, false);
-    empty.update(&supports);
-    let space = changed_space(&field, &settings, &supports);
+    let regions = scene.model.change_support_regions(&change, false);
+    empty.update(&scene.model.change_supports(&change, false));
+    let space = changed_space(&field, &settings, &regions);
     let stats = rerender(&field.skipping(&empty), &settings, &mut frame, &space);
     assert!(frame.same_image(&before), "the faint point shows nowhere, before or after");
     assert!(stats.rays > 20, "{} rays traced again through the faint point's support", stats.rays);

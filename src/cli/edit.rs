@@ -306,7 +306,7 @@ pub(super) fn step(
     let field = ModelField::new(&scene.model, s.mode);
     let clock = Instant::now();
     s.empty.update(&supports);
-    let changed = changed_space(&field, &s.settings, &supports);
+    let changed = changed_space(&field, &s.settings, &support_regions);
     let rects: Vec<PixelRect> = changed.screen_rect(&s.settings.camera, w, h).into_iter().collect();
     row.dirty_fraction = rects.iter().map(PixelRect::area).sum::<u64>() as f64 / f64::from(w * h);
     let retraced = rerender(&field.skipping(&s.empty), &s.settings, &mut s.field_frame, &changed);

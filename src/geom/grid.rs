@@ -4,7 +4,7 @@
 
 use glam::{IVec3, UVec3, Vec3A};
 
-use super::Aabb;
+use super::{Aabb, Support};
 
 /// `dims` cubic cells of edge `cell`, the first with its minimum corner at `origin`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -132,6 +132,30 @@ impl UniformGrid {
                     let first = self.linear(UVec3::new(lo.x, y, z));
                     f(first..first + (hi.x - lo.x) as usize + 1);
                 }
+            }
+        }
+    }
+
+    /// Visits the cells `region` meets as runs along x, as
+    /// [`Self::for_each_row`] visits a box's (every cell of a row whose slab
+    /// the region meets, between the ends of the region's stretch there).
+    pub fn for_each_row_meeting(&self, region: &Support, mut f: impl FnMut(std::ops::Range<usize>)) {
+        let Support::Ball { .. } = region else {
+            return self.for_each_row(&region.bounds(), f);
+        };
+        let Some((lo, hi, _)) = self.cell_range_of(&region.bounds()) else { return };
+        // Truncation floors the non-negative offsets (a library call spared per row).
+        let x_cell = |x: f32| (((x - self.origin.x) * self.inv_cell).max(0.0) as u32).clamp(lo.x, hi.x);
+        for z in lo.z..=hi.z {
+            let z0 = self.origin.z + z as f32 * self.cell;
+            for y in lo.y..=hi.y {
+                let y0 = self.origin.y + y as f32 * self.cell;
+                let Some((x0, x1)) = region.slab_span((y0, y0 + self.cell), (z0, z0 + self.cell)) else {
+                    continue;
+                };
+                let (from, to) = (x_cell(x0), x_cell(x1));
+                let first = self.linear(UVec3::new(from, y, z));
+                f(first..first + (to - from) as usize + 1);
             }
         }
     }

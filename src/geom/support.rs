@@ -81,14 +81,22 @@ impl Support {
     /// shares none.
     #[must_use]
     pub fn row_span(&self, y: f32, z: f32) -> Option<(f32, f32)> {
+        self.slab_span((y, y), (z, z))
+    }
+
+    /// The stretch `(x0, x1)` along x holding every point the region shares
+    /// with the slab of `y` in `ys` and `z` in `zs` (each `(lo, hi)`), or
+    /// `None` when it shares none.
+    #[inline]
+    #[must_use]
+    pub fn slab_span(&self, (y0, y1): (f32, f32), (z0, z1): (f32, f32)) -> Option<(f32, f32)> {
         match *self {
-            Support::Box(b) => {
-                ((b.min.y..=b.max.y).contains(&y) && (b.min.z..=b.max.z).contains(&z)).then_some((b.min.x, b.max.x))
-            }
+            Support::Box(b) => (b.min.y <= y1 && y0 <= b.max.y && b.min.z <= z1 && z0 <= b.max.z && !b.is_empty())
+                .then_some((b.min.x, b.max.x)),
             Support::Ball { center, radius, pad } => {
-                // The line's nearest approach to the ball, across the cube.
-                let dy = ((y - center.y).abs() - pad).max(0.0);
-                let dz = ((z - center.z).abs() - pad).max(0.0);
+                // The slab's nearest approach to the ball, across the cube.
+                let dy = ((y0 - center.y).max(center.y - y1) - pad).max(0.0);
+                let dz = ((z0 - center.z).max(center.z - z1) - pad).max(0.0);
                 let left = radius * radius - dy * dy - dz * dz;
                 // Widened by a few roundings of the terms.
                 let half =
@@ -256,6 +264,31 @@ mod tests {
         // A row past the ball's box corner meets its box but not the ball.
         assert_eq!(ball.row_span(0.7, 0.9), None);
         assert!(ball.bounds().overlaps(&Aabb::new(Vec3A::new(-5.0, 0.7, 0.9), Vec3A::new(5.0, 0.7, 0.9))));
+    }
+
+    #[test]
+    fn a_slabs_span_holds_the_spans_of_its_rows() {
+        let ball = Support::Ball { center: Vec3A::new(0.3, -0.2, 0.1), radius: 0.8, pad: 0.2 };
+        let cube = Support::Box(Aabb::new(Vec3A::new(-0.5, -0.4, 0.0), Vec3A::new(0.7, 0.6, 0.9)));
+        for region in [ball, cube] {
+            for p in points(500, 1.4) {
+                let (ys, zs) = ((p.y, p.y + 0.3), (p.z - 0.2, p.z));
+                let slab = region.slab_span(ys, zs);
+                for i in 0..=20 {
+                    for j in 0..=20 {
+                        let (y, z) = (ys.0 + 0.3 * i as f32 / 20.0, zs.0 + 0.2 * j as f32 / 20.0);
+                        if let Some((x0, x1)) = region.row_span(y, z) {
+                            let (s0, s1) =
+                                slab.unwrap_or_else(|| panic!("{region:?}: row {y},{z} meets, its slab not"));
+                            assert!(
+                                s0 <= x0 && x1 <= s1,
+                                "{region:?}: row {y},{z} spans {x0}..{x1}, its slab {s0}..{s1}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]

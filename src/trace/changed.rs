@@ -1,11 +1,12 @@
-//! The space an edit changed: boxes around the field's supports before and
-//! after, marked on a coarse grid, so each primary ray learns the one stretch
-//! along it where the field may differ. A moved subtree of hundreds of
-//! primitives fills much less of its bounding box than the box itself.
+//! The space an edit changed: the field's supports before and after (a
+//! point's ball, another primitive's box), marked on a coarse grid, so each
+//! primary ray learns the one stretch along it where the field may differ. A
+//! moved subtree of hundreds of primitives fills much less of its bounding box
+//! than the box itself, and a ball a little over half of its own.
 
 use super::dirty::{PixelRect, screen_rect};
 use crate::camera::Camera;
-use crate::geom::{Aabb, Ray, UniformGrid};
+use crate::geom::{Aabb, Ray, Support, UniformGrid};
 
 /// Grid cells along the longest side of the changed space.
 const CELLS_ALONG_LONGEST_SIDE: f32 = 32.0;
@@ -22,11 +23,11 @@ pub struct ChangedSpace {
 }
 
 impl ChangedSpace {
-    /// The space within `boxes` (world frame), each padded by `pad`.
+    /// The space within `regions` (world frame), each padded by `pad`.
     #[must_use]
-    pub fn new(boxes: &[Aabb], pad: f32) -> Self {
-        let boxes: Vec<Aabb> = boxes.iter().filter(|b| !b.is_empty()).copied().collect();
-        let core = boxes.iter().fold(Aabb::EMPTY, |u, b| u.union(b));
+    pub fn new(regions: &[Support], pad: f32) -> Self {
+        let regions: Vec<Support> = regions.iter().filter(|s| !s.bounds().is_empty()).copied().collect();
+        let core = regions.iter().fold(Aabb::EMPTY, |u, s| u.union(&s.bounds()));
         if core.is_empty() {
             return Self {
                 grid: UniformGrid::new(glam::Vec3A::ZERO, 1.0, glam::UVec3::ONE),
@@ -40,8 +41,8 @@ impl ChangedSpace {
         let dims = (bounds.size() / cell).ceil().as_uvec3().max(glam::UVec3::ONE);
         let grid = UniformGrid::new(bounds.min, cell, dims);
         let mut marked = vec![false; grid.cell_count()];
-        for b in &boxes {
-            grid.for_each_row(&b.padded(pad), |row| marked[row].fill(true));
+        for s in &regions {
+            grid.for_each_row_meeting(&s.padded(pad), |row| marked[row].fill(true));
         }
         Self { grid, marked, bounds }
     }
@@ -84,28 +85,43 @@ mod tests {
     use super::*;
     use glam::Vec3A;
 
+    /// The stretch of `ray` (with `t ≥ 0`) inside the ball of `radius` about `center`.
+    fn ball_stretch(ray: &Ray, center: Vec3A, radius: f32) -> Option<(f32, f32)> {
+        let (a, o) = (ray.dir.length_squared(), ray.origin - center);
+        let (b, c) = (o.dot(ray.dir), o.length_squared() - radius * radius);
+        let disc = b * b - a * c;
+        (disc >= 0.0)
+            .then(|| ((-b - disc.sqrt()) / a, (-b + disc.sqrt()) / a))
+            .filter(|s| s.1 >= 0.0)
+            .map(|s| (s.0.max(0.0), s.1))
+    }
+
     #[test]
-    fn every_point_a_ray_shares_with_a_box_lies_in_its_span() {
-        let boxes: Vec<Aabb> = (0..40)
+    fn every_point_a_ray_shares_with_a_box_or_a_ball_lies_in_its_span() {
+        let regions: Vec<Support> = (0..40)
             .map(|i| {
                 let a = i as f32 * 0.7;
-                Aabb::around(Vec3A::new(a.cos() * 2.0, (a * 0.3).sin(), a.sin() * 2.0), 0.15 + 0.01 * (i % 5) as f32)
+                let (c, r) = (Vec3A::new(a.cos() * 2.0, (a * 0.3).sin(), a.sin() * 2.0), 0.15 + 0.01 * (i % 5) as f32);
+                if i % 2 == 0 { Support::Box(Aabb::around(c, r)) } else { Support::ball(c, r) }
             })
             .collect();
-        let space = ChangedSpace::new(&boxes, 0.0);
+        let space = ChangedSpace::new(&regions, 0.0);
         let (mut met, mut missed) = (0, 0);
         for i in 0..4000 {
             let u = i as f32 * 0.618_034;
             let target = Vec3A::new((u * 3.1).sin() * 2.5, (u * 1.7).cos() * 1.2, (u * 2.3).cos() * 2.5);
             let ray = Ray::new(Vec3A::new(0.3, 4.0, 6.0), target - Vec3A::new(0.3, 4.0, 6.0));
-            let meets = boxes.iter().filter_map(|b| b.clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY));
+            let meets = regions.iter().filter_map(|s| match *s {
+                Support::Box(b) => b.clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY),
+                Support::Ball { center, radius, .. } => ball_stretch(&ray, center, radius),
+            });
             let Some((t0, t1)) = space.span(&ray) else {
-                assert_eq!(meets.count(), 0, "ray {i} meets a box but has no span");
+                assert_eq!(meets.count(), 0, "ray {i} meets a region but has no span");
                 missed += 1;
                 continue;
             };
             for (a, b) in meets {
-                assert!(t0 <= a && b <= t1, "ray {i}: box stretch {a}..{b} outside the span {t0}..{t1}");
+                assert!(t0 <= a + 1e-5 && b <= t1 + 1e-5, "ray {i}: stretch {a}..{b} outside the span {t0}..{t1}");
             }
             met += 1;
         }
@@ -115,12 +131,17 @@ mod tests {
     #[test]
     fn a_ray_through_the_gap_between_two_boxes_has_no_span() {
         let boxes = [Aabb::around(Vec3A::new(-2.0, 0.0, 0.0), 0.5), Aabb::around(Vec3A::new(2.0, 0.0, 0.0), 0.5)];
-        let space = ChangedSpace::new(&boxes, 0.01);
+        let space = ChangedSpace::new(&boxes.map(Support::Box), 0.01);
         let gap = Ray::new(Vec3A::new(0.0, 0.0, 5.0), -Vec3A::Z);
         assert!(space.bounds().clip_ray(gap.origin, gap.dir.recip(), 0.0, f32::INFINITY).is_some());
         assert_eq!(space.span(&gap), None);
         let through = Ray::new(Vec3A::new(2.0, 0.0, 5.0), -Vec3A::Z);
         let (t0, t1) = space.span(&through).unwrap();
         assert!(t0 <= 4.49 && t1 >= 5.51 && t1 - t0 < 1.2, "{t0}..{t1}");
+        // A ray through the corner of a ball's box, clear of the ball.
+        let ball = ChangedSpace::new(&[Support::ball(Vec3A::ZERO, 1.0)], 0.01);
+        let corner = Ray::new(Vec3A::new(0.85, 0.85, 5.0), -Vec3A::Z);
+        assert!(ball.bounds().clip_ray(corner.origin, corner.dir.recip(), 0.0, f32::INFINITY).is_some());
+        assert_eq!(ball.span(&corner), None);
     }
 }

@@ -13,7 +13,7 @@ use super::shade::Lighting;
 use crate::camera::Camera;
 use crate::field::{EmptySpace, EvalMode, Field, Model, ModelField};
 use crate::frame::Frame;
-use crate::geom::{Aabb, Ray};
+use crate::geom::{Ray, Support};
 use crate::scene::{Scene, Size};
 
 /// Everything a field render needs besides the field.
@@ -123,12 +123,12 @@ pub fn render_model(
     (frame, stats, empty)
 }
 
-/// The space an edit changed, as the tracer must see it: `boxes` (holding
+/// The space an edit changed, as the tracer must see it: `regions` (holding
 /// every change of the field, world frame) padded by how far a change can
 /// reach to move a snapped hit.
 #[must_use]
-pub fn changed_space<F: Field + ?Sized>(field: &F, settings: &RenderSettings, boxes: &[Aabb]) -> ChangedSpace {
-    ChangedSpace::new(boxes, snap_reach(&settings.trace, field.bounds().diagonal()))
+pub fn changed_space<F: Field + ?Sized>(field: &F, settings: &RenderSettings, regions: &[Support]) -> ChangedSpace {
+    ChangedSpace::new(regions, snap_reach(&settings.trace, field.bounds().diagonal()))
 }
 
 /// Updates `frame`, a render of `field` with `settings` before an edit that
