@@ -1195,14 +1195,7 @@ mod tests {
 
     /// Deterministic points in `[-r, r]³`.
     fn points(n: usize, r: f32) -> Vec<Vec3A> {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32 * 2.0 * r - r
-        };
-        (0..n).map(|_| Vec3A::new(next(), next(), next())).collect()
+        crate::geom::scattered_points(n, r, 0x2545_f491_4f6c_dd1d)
     }
 
     /// A ball's field, zero outside it: cubes across block faces, in zero
