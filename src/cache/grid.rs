@@ -402,13 +402,7 @@ impl CacheGrid {
     fn gather(&self, filter: Filter, u: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> [f32; 27] {
         let (first, n) = filter.footprint(u);
         let mut s = [0.0; 27];
-        let held = match n {
-            2 => self.held_cube::<2, 8>(first, pool).map(|c| s[..8].copy_from_slice(&c)),
-            _ => self.held_cube::<3, 27>(first, pool).map(|c| s = c),
-        };
-        if held.is_none() {
-            self.gather_cube(first, n, &mut s, pool, eval);
-        }
+        self.gather_cube(first, n, &mut s, pool, eval);
         s
     }
 
@@ -446,10 +440,20 @@ impl CacheGrid {
         (!words.contains(&UNSET)).then(|| words.map(f32::from_bits))
     }
 
-    /// The `n³` samples from lattice point `first`, x fastest, into `out`. The
-    /// cube spans at most two blocks per axis; each block's part is fetched in
-    /// one consistent read, and only samples not yet held go one by one.
+    /// The `n³` samples from lattice point `first`, x fastest, into `out`:
+    /// held ones first (see [`Self::held_cube`]). Otherwise the cube spans at
+    /// most two blocks per axis; each block's part is fetched in one
+    /// consistent read, and only samples not yet held go one by one.
     fn gather_cube(&self, first: IVec3, n: usize, out: &mut [f32], pool: &SamplePool, eval: &impl Sampled) {
+        let held = match n {
+            2 => self.held_cube::<2, 8>(first, pool).map(|c| out[..8].copy_from_slice(&c)),
+            3 => self.held_cube::<3, 27>(first, pool).map(|c| out[..27].copy_from_slice(&c)),
+            4 => self.held_cube::<4, 64>(first, pool).map(|c| out[..64].copy_from_slice(&c)),
+            _ => None,
+        };
+        if held.is_some() {
+            return;
+        }
         let last = first + IVec3::splat(n as i32 - 1);
         let reach = Aabb::new(first.as_vec3a() * self.cell, last.as_vec3a() * self.cell);
         if !reach.overlaps(&self.child_bounds) {
@@ -828,14 +832,7 @@ impl CacheGrid {
         };
         let n = 2 + 2 * reach;
         let mut s = [0.0f32; 64];
-        let first = i - IVec3::splat(reach as i32);
-        let held = match reach {
-            0 => self.held_cube::<2, 8>(first, pool).map(|c| s[..8].copy_from_slice(&c)),
-            _ => self.held_cube::<4, 64>(first, pool).map(|c| s = c),
-        };
-        if held.is_none() {
-            self.gather_cube(first, n, &mut s, pool, eval);
-        }
+        self.gather_cube(i - IVec3::splat(reach as i32), n, &mut s, pool, eval);
         let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
         for (at, v) in s.iter().enumerate().take(n * n * n) {
             let (x, y, z) = (at % n, (at / n) % n, at / (n * n));
