@@ -265,6 +265,13 @@ fn bench_cache_reports_its_keys() {
     }
     assert!(v["mismatch_px"].as_u64() < Some(32 * 24 / 20), "{}", v["mismatch_px"]);
     assert_eq!(v["lookups"].as_array().map(Vec::len), Some(7));
+    // The ratio's parts: both renders' statistics, the exact one the fastest round's.
+    assert_eq!(v["exact"]["seconds"].as_f64(), v["exact_s"].as_f64());
+    assert_eq!(v["exact"]["eval"], "indexed");
+    assert_eq!(v["cached"]["eval"], "cached");
+    for kind in ["exact", "cached"] {
+        assert!(v[kind]["field_evals"].as_u64() > Some(0), "{kind}: {}", v[kind]);
+    }
     // Two rounds of each render, and the fastest counts.
     for (key, best) in
         [("exact_naive", "exact_naive_s"), ("cached_cold", "cached_cold_s"), ("cached_warm", "cached_warm_s")]

@@ -176,6 +176,10 @@ pub struct CacheBenchReport {
     pub cold_vs_exact: f64,
     /// The cached render's statistics.
     pub cached: RenderReport,
+    /// The exact indexed render's statistics: with the cached render's,
+    /// where the ratio between the two comes from (evaluations asked, and
+    /// the time each costs).
+    pub exact: RenderReport,
     /// Per cache: the cost of one lookup against one exact evaluation of its subtree.
     pub lookups: Vec<LookupCost>,
     /// Seconds of each round's renders, by kind.
@@ -253,6 +257,7 @@ fn cache(a: &EvalBenchArgs) -> anyhow::Result<()> {
         warm_vs_exact: exact.seconds / warm.seconds.max(1e-9),
         cold_vs_exact: exact.seconds / cold.seconds.max(1e-9),
         cached: warm,
+        exact,
         lookups,
         runs_s: CacheBenchRuns {
             exact_naive: naive_runs,
@@ -283,6 +288,16 @@ fn print_cache_report(a: &EvalBenchArgs, size: Size, r: &CacheBenchReport, rays:
     println!(
         "  warm cached is {:.1}x faster than naive, {:.1}x faster than indexed; cold is {:.2}x indexed's speed",
         r.warm_vs_naive, r.warm_vs_exact, r.cold_vs_exact
+    );
+    let per_eval_ns = |r: &RenderReport| 1e9 * r.seconds / r.stats.field_evals.max(1) as f64;
+    println!(
+        "  field work: exact indexed {} evaluations in {} steps ({:.0} ns each), cached warm {} in {} steps ({:.0} ns each)",
+        r.exact.stats.field_evals,
+        r.exact.stats.steps,
+        per_eval_ns(&r.exact),
+        r.cached.stats.field_evals,
+        r.cached.stats.steps,
+        per_eval_ns(&r.cached),
     );
     println!(
         "  accuracy: {} pixels differ in hit/miss ({:.3}%), mean depth error {:.2e}, p99 normal error {:.2} deg",
