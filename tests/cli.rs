@@ -786,12 +786,14 @@ fn outputs_must_be_named_for_their_format_and_are_checked_before_any_work() {
     let k = keep.to_str().unwrap();
     let exr_dir = dir.join("a.exr");
     std::fs::create_dir_all(&exr_dir).unwrap();
-    let cases: [(&[&str], &str); 5] = [
+    let cases: [(&[&str], &str); 7] = [
         (&["render", "scenes/sphere.ron", "-o", "out.exr"], "must end in .png"),
         (&["render", "scenes/sphere.ron", "-o", k, "--exr", k], "must end in .exr"),
         (&["render", "scenes/sphere.ron", "-o", k, "--exr", exr_dir.to_str().unwrap()], "is a directory"),
         (&["render", "scenes/sphere.ron", "-o", k, "--threads", "5000"], "--threads must be between"),
         (&["bench", "mesh", "--res", "0"], "--res and --detail-res must be between"),
+        (&["bench", "mesh", "--threads", "0"], "--threads must be between"),
+        (&["bench", "edit", "--threads", "0", "-o", "f8.png"], "--threads must be between"),
     ];
     for (args, words) in cases {
         let out = blobtrace(args);
@@ -819,6 +821,35 @@ fn outputs_must_be_named_for_their_format_and_are_checked_before_any_work() {
 }
 
 #[test]
+fn bench_mesh_reports_table_1_and_both_cells_costs() {
+    let out = blobtrace(&[
+        "bench",
+        "mesh",
+        "--res",
+        "8,12",
+        "--detail-res",
+        "12",
+        "--size",
+        "16x12",
+        "--threads",
+        "1",
+        "--json",
+    ]);
+    let v = json(&out);
+    assert_eq!(v["threads"], 1);
+    let rows = v["table1"].as_array().unwrap();
+    assert_eq!(rows.iter().map(|r| r["res"].as_u64().unwrap()).collect::<Vec<_>>(), [8, 12]);
+    // Cubes and the tetrahedra, whatever --cells says; linear placement
+    // spends no evaluation on the edges, so it costs less per triangle.
+    let costs = v["evals_per_triangle"].as_array().unwrap();
+    assert_eq!(costs.iter().map(|c| c["cells"].as_str().unwrap()).collect::<Vec<_>>(), ["cubes", "bcc"]);
+    for c in costs {
+        let (root, linear) = (c["root"].as_f64().unwrap(), c["linear"].as_f64().unwrap());
+        assert!(0.0 < linear && linear < root, "{c}");
+    }
+}
+
+#[test]
 fn bench_edit_reports_figure_8_and_plots_it() {
     let dir = scratch("bench-edit");
     let script = dir.join("s.ron");
@@ -840,12 +871,15 @@ fn bench_edit_reports_figure_8_and_plots_it() {
         "32x24",
         "--repeat",
         "2",
+        "--threads",
+        "1",
         "-o",
         plot.to_str().unwrap(),
         "--json",
     ]);
     let v = json(&out);
     assert_eq!(v["frames"], 3);
+    assert_eq!(v["threads"], 1);
     for key in ["local_polygonize_ratio", "dirty_render_speedup"] {
         assert!(v[key].as_f64().is_some_and(|x| x > 0.0), "{key} in {v}");
     }

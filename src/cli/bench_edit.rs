@@ -38,6 +38,9 @@ pub struct EditBenchArgs {
     /// Rounds of replays, each mode once per round; the fastest of each measure counts.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
     pub repeat: u32,
+    /// Worker threads (default: all cores; the paper's timings ran on one processor).
+    #[arg(long)]
+    pub threads: Option<usize>,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -63,6 +66,8 @@ pub struct EditBenchReport {
     pub frames: usize,
     /// Mesh resolution.
     pub res: u32,
+    /// Worker threads the replays ran on.
+    pub threads: usize,
     /// With caches.
     pub cached: ModeTotals,
     /// Exact naive evaluation.
@@ -125,6 +130,7 @@ pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
     let report = EditBenchReport {
         frames: script.frames.len(),
         res: a.res,
+        threads: with_threads(a.threads, rayon::current_num_threads)?,
         local_polygonize_ratio: naive.local_polygonize_s / cached.local_polygonize_s.max(1e-9),
         dirty_render_speedup: cached.full_render_s / cached.dirty_render_s.max(1e-9),
         cached,
@@ -135,9 +141,10 @@ pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
     } else {
         println!(
-            "{} frames at res {}: local polygonization {:.3} s cached, {:.3} s naive ({:.1}x); from scratch {:.3} s cached, {:.3} s naive",
+            "{} frames at res {}, {} threads: local polygonization {:.3} s cached, {:.3} s naive ({:.1}x); from scratch {:.3} s cached, {:.3} s naive",
             report.frames,
             report.res,
+            report.threads,
             report.cached.local_polygonize_s,
             report.naive.local_polygonize_s,
             report.local_polygonize_ratio,
@@ -173,8 +180,8 @@ fn replay_both_ways(
         Ok(scene)
     };
     let (local, _) =
-        with_threads(None, || replay(&mut load()?, mode, script, polygonize, a.size, false, |_, _, _| Ok(())))??;
-    let scratch = with_threads(None, || replay_from_scratch(&mut load()?, mode, script, polygonize, a.size))??;
+        with_threads(a.threads, || replay(&mut load()?, mode, script, polygonize, a.size, false, |_, _, _| Ok(())))??;
+    let scratch = with_threads(a.threads, || replay_from_scratch(&mut load()?, mode, script, polygonize, a.size))??;
     Ok((local, scratch))
 }
 

@@ -33,6 +33,9 @@ pub struct MeshBenchArgs {
     /// Cell decomposition.
     #[arg(long, value_enum, default_value_t = CellsArg::Cubes)]
     pub cells: CellsArg,
+    /// Worker threads (default: all cores; the paper's timings ran on one processor).
+    #[arg(long)]
+    pub threads: Option<usize>,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -66,6 +69,8 @@ pub struct TableRow {
 /// Evaluations per triangle by vertex placement, on the exact field.
 #[derive(Debug, Serialize)]
 pub struct PlacementCost {
+    /// Cell decomposition: `cubes` or `bcc`.
+    pub cells: &'static str,
     /// Resolution.
     pub res: u32,
     /// With root finding (vertices to 1e-4 of an edge).
@@ -109,12 +114,15 @@ pub struct RayRate {
 /// What `bench mesh --json` prints.
 #[derive(Debug, Serialize)]
 pub struct MeshBenchReport {
+    /// Worker threads of Table 1, the ray casting and the sphere's second run.
+    pub threads: usize,
     /// Table 1 rows.
     pub table1: Vec<TableRow>,
     /// Resolutions skipped for memory.
     pub skipped_res: Vec<u32>,
-    /// Evaluations per triangle, root finding against linear placement.
-    pub evals_per_triangle: PlacementCost,
+    /// Evaluations per triangle, root finding against linear placement, for
+    /// cubes and for the second paper's tetrahedra (whatever `--cells` says).
+    pub evals_per_triangle: Vec<PlacementCost>,
     /// Sphere triangle rate.
     pub sphere: TriangleRate,
     /// Mesh ray casting on the scene's mesh.
@@ -131,7 +139,7 @@ pub fn run(a: &MeshBenchArgs) -> anyhow::Result<()> {
         anyhow::bail!("--res and --detail-res must be between 1 and {max}, got {bad}");
     }
     let scene = Scene::load(&a.scene)?;
-    let report = with_threads(None, || measure(a, scene))??;
+    let report = with_threads(a.threads, || measure(a, scene))??;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
     } else {
@@ -154,12 +162,10 @@ fn measure(a: &MeshBenchArgs, mut scene: Scene) -> anyhow::Result<MeshBenchRepor
     }
     let detail = PolygonizeArgs { res: a.detail_res, cells: a.cells, vertex: VertexArg::Root, refine: 0 };
     detail.check(&scene)?;
-    let linear = PolygonizeArgs { vertex: VertexArg::Linear, ..detail };
-    let evals_per_triangle = PlacementCost {
-        res: detail.res,
-        root: polygonize_scene(&scene, EvalMode::Indexed, &detail).1.evals_per_triangle,
-        linear: polygonize_scene(&scene, EvalMode::Indexed, &linear).1.evals_per_triangle,
-    };
+    let evals_per_triangle = [(CellsArg::Cubes, "cubes"), (CellsArg::Bcc, "bcc")]
+        .into_iter()
+        .map(|(cells, name)| placement_cost(&scene, PolygonizeArgs { cells, ..detail }, name))
+        .collect();
     let sphere = triangle_rate(&detail)?;
     let (mesh, mesh_report) = polygonize_scene(&scene, EvalMode::Indexed, &detail);
     let (_, render) = render_polygonized(&scene, &mesh, mesh_report, a.size);
@@ -171,7 +177,8 @@ fn measure(a: &MeshBenchArgs, mut scene: Scene) -> anyhow::Result<MeshBenchRepor
         bvh_build_s: render.bvh_build_seconds,
         rays_per_second: render.rays_per_second,
     };
-    Ok(MeshBenchReport { table1, skipped_res, evals_per_triangle, sphere, ray_casting })
+    let threads = rayon::current_num_threads();
+    Ok(MeshBenchReport { threads, table1, skipped_res, evals_per_triangle, sphere, ray_casting })
 }
 
 fn table_row(scene: &mut Scene, args: &PolygonizeArgs) -> TableRow {
@@ -195,6 +202,17 @@ fn table_row(scene: &mut Scene, args: &PolygonizeArgs) -> TableRow {
     }
 }
 
+/// Evaluations per triangle of `args`'s cells with each vertex placement.
+fn placement_cost(scene: &Scene, args: PolygonizeArgs, cells: &'static str) -> PlacementCost {
+    let per_triangle = |vertex| polygonize_scene(scene, EvalMode::Indexed, &PolygonizeArgs { vertex, ..args }).1;
+    PlacementCost {
+        cells,
+        res: args.res,
+        root: per_triangle(VertexArg::Root).evals_per_triangle,
+        linear: per_triangle(VertexArg::Linear).evals_per_triangle,
+    }
+}
+
 /// The bundled sphere polygonized at `detail`'s resolution, on one thread and on all.
 fn triangle_rate(detail: &PolygonizeArgs) -> anyhow::Result<TriangleRate> {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/sphere.ron");
@@ -211,7 +229,7 @@ fn triangle_rate(detail: &PolygonizeArgs) -> anyhow::Result<TriangleRate> {
 }
 
 fn print_report(a: &MeshBenchArgs, r: &MeshBenchReport) {
-    println!("{}: polygonization seconds (Table 1), {} threads", a.scene.display(), rayon::current_num_threads());
+    println!("{}: polygonization seconds (Table 1), {} threads", a.scene.display(), r.threads);
     println!("  res     cached     naive   indexed  naive/cached (paper)  indexed/cached  triangles  evals/tri");
     for row in &r.table1 {
         println!(
@@ -231,8 +249,9 @@ fn print_report(a: &MeshBenchArgs, r: &MeshBenchReport) {
     if !r.skipped_res.is_empty() {
         println!("  skipped (would not fit in memory): {:?}", r.skipped_res);
     }
-    let e = &r.evals_per_triangle;
-    println!("evaluations per triangle at res {}: {:.2} root finding, {:.2} linear", e.res, e.root, e.linear);
+    let per_cells: Vec<String> =
+        r.evals_per_triangle.iter().map(|e| format!("{} {:.2} / {:.2}", e.cells, e.root, e.linear)).collect();
+    println!("evaluations per triangle at res {} (root finding / linear): {}", a.detail_res, per_cells.join(", "));
     let s = &r.sphere;
     println!(
         "sphere at res {}: {} triangles, {:.0} triangles/s on 1 thread, {:.0} on {}",
