@@ -76,6 +76,12 @@ pub struct EditBenchReport {
     pub local_polygonize_ratio: f64,
     /// Cached full render / cached dirty-rectangle render.
     pub dirty_render_speedup: f64,
+    /// Of the cached full renders' field evaluations, the share spent on
+    /// pixels that differ from the frame before's (the first round's).
+    pub changed_evaluation_share: f64,
+    /// Its inverse: the most a dirty-rectangle frame bit-identical to the full
+    /// one could save, were tracing the changed pixels all it did.
+    pub dirty_render_ceiling: f64,
     /// Each round's totals with caches, then without (the figures above are
     /// the fastest of each measure over the rounds).
     pub rounds: Vec<[ModeTotals; 2]>,
@@ -127,12 +133,17 @@ pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
         .min_by(|&i, &j| totals[i][0].local_polygonize_s.total_cmp(&totals[j][0].local_polygonize_s))
         .unwrap_or(0);
     plot(a, &rounds[shown])?;
+    let cached_full_frames = &rounds[0][0].1;
+    let changed: f64 = cached_full_frames.iter().map(|f| f.changed_evaluations).sum();
+    let all: f64 = cached_full_frames.iter().map(|f| f.evaluations).sum();
     let report = EditBenchReport {
         frames: script.frames.len(),
         res: a.res,
         threads: with_threads(a.threads, rayon::current_num_threads)?,
         local_polygonize_ratio: naive.local_polygonize_s / cached.local_polygonize_s.max(1e-9),
         dirty_render_speedup: cached.full_render_s / cached.dirty_render_s.max(1e-9),
+        changed_evaluation_share: changed / all.max(1.0),
+        dirty_render_ceiling: all / changed.max(1.0),
         cached,
         naive,
         rounds: totals,
@@ -158,6 +169,11 @@ pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
             report.cached.full_render_s,
             report.dirty_render_speedup,
             a.output.display()
+        );
+        println!(
+            "the pixels each frame changes take {:.1}% of the full frames' field evaluations: a bit-identical dirty frame saves at most {:.1}x",
+            100.0 * report.changed_evaluation_share,
+            report.dirty_render_ceiling
         );
     }
     Ok(())

@@ -194,12 +194,19 @@ pub struct ScratchFrame {
     pub render_s: f64,
     /// Polygonizing the field.
     pub polygonize_s: f64,
+    /// The full render's field evaluations.
+    pub evaluations: f64,
+    /// Those of them spent on pixels that differ from the frame before's:
+    /// what a dirty-rectangle frame, bit-identical to this one, must at least
+    /// trace again.
+    pub changed_evaluations: f64,
 }
 
 /// Replays the frames of `script` on `scene`, rendering and polygonizing every frame
 /// from scratch: the baseline of the incremental updates, with caches that only
 /// its own work has filled (a from-scratch frame run after an incremental one
-/// would find the samples that frame filled).
+/// would find the samples that frame filled). Like the incremental replay, it
+/// starts from the scene rendered and polygonized once, untimed.
 pub fn replay_from_scratch(
     scene: &mut Scene,
     mode: EvalMode,
@@ -209,21 +216,43 @@ pub fn replay_from_scratch(
 ) -> anyhow::Result<Vec<ScratchFrame>> {
     let settings = RenderSettings::for_scene(scene, size);
     let lattice = crate::mesh::Lattice::for_model(&scene.model, polygonize.res);
+    let polygonize_from_scratch = |scene: &Scene| {
+        let mut fresh = Polygonizer::new(lattice, polygonize.options());
+        fresh.polygonize(&ModelField::new(&scene.model, mode), &skeleton_seeds(&scene.model, scene.model.root()));
+    };
+    let mut before = render_model(&scene.model, mode, &settings, &|_| {}).0;
+    polygonize_from_scratch(scene);
     let mut rows = vec![];
     for (i, edits) in script.frames.iter().enumerate() {
         for edit in edits {
             scene.model.apply(edit).with_context(|| script.frame_label(i))?;
         }
         let clock = Instant::now();
-        render_model(&scene.model, mode, &settings, &|_| {});
+        let after = render_model(&scene.model, mode, &settings, &|_| {}).0;
         let render_s = clock.elapsed().as_secs_f64();
-        let field = ModelField::new(&scene.model, mode);
         let clock = Instant::now();
-        let mut fresh = Polygonizer::new(lattice, polygonize.options());
-        fresh.polygonize(&field, &skeleton_seeds(&scene.model, scene.model.root()));
-        rows.push(ScratchFrame { render_s, polygonize_s: clock.elapsed().as_secs_f64() });
+        polygonize_from_scratch(scene);
+        let polygonize_s = clock.elapsed().as_secs_f64();
+        let (evaluations, changed_evaluations) = evaluations_where_changed(&before, &after);
+        rows.push(ScratchFrame { render_s, polygonize_s, evaluations, changed_evaluations });
+        before = after;
     }
     Ok(rows)
+}
+
+/// The field evaluations of `after`'s pixels, all of them and those whose
+/// colour, depth or normal differ from `before`'s.
+fn evaluations_where_changed(before: &Frame, after: &Frame) -> (f64, f64) {
+    let Some(evals) = after.aov("evals.Y") else { return (0.0, 0.0) };
+    let differs = |i: usize| {
+        after.depth[i].to_bits() != before.depth[i].to_bits()
+            || after.color[i] != before.color[i]
+            || after.normal[i] != before.normal[i]
+    };
+    (0..evals.len()).fold((0.0, 0.0), |(all, changed), i| {
+        let e = f64::from(evals[i]);
+        (all + e, if differs(i) { changed + e } else { changed })
+    })
 }
 
 /// Replays the frames of `script` on `scene`, updating incrementally and timing each
