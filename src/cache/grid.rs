@@ -17,6 +17,7 @@ use std::sync::atomic::{AtomicPtr, AtomicU16, AtomicU32, AtomicU64, Ordering};
 use glam::{IVec3, UVec3, Vec3A};
 
 use super::filter::{Filter, MAX_SUPPORT_CELLS};
+use super::memo::{self, GatherId};
 use super::pool::{Read, SLOT_WORDS, SamplePool, Slot, UNSET, block_key};
 use super::{CacheSpec, Storage};
 use crate::field::Region;
@@ -88,6 +89,9 @@ fn part_bit(part: IVec3) -> u32 {
 pub struct CacheGrid {
     spec: CacheSpec,
     serial: u16,
+    /// This state's name for the footprints kept per thread: renewed by
+    /// every change (each takes `&mut self`).
+    gather_id: GatherId,
     cell: f32,
     inv_cell: f32,
     /// Bounds of the cached subtree: outside them every sample is zero.
@@ -164,6 +168,7 @@ impl CacheGrid {
         let mut grid = Self {
             spec,
             serial: pool.new_serial(),
+            gather_id: GatherId::fresh(),
             cell: 1.0,
             inv_cell: 1.0,
             child_bounds: Aabb::EMPTY,
@@ -228,6 +233,8 @@ impl CacheGrid {
     /// while the cell size the resolution asks for stays within `[c/2, 2c]`,
     /// growing the block table if needed; otherwise drops everything and rebuilds.
     pub fn fit(&mut self, child_bounds: Aabb, pool: &SamplePool) -> Refit {
+        // The bounds decide which samples read as zero unasked.
+        self.gather_id = GatherId::fresh();
         let ratio = self.cell_for(&child_bounds) / self.cell;
         if !(0.5..=2.0).contains(&ratio) {
             self.rebuild(child_bounds, pool);
@@ -401,8 +408,12 @@ impl CacheGrid {
     /// The footprint's samples for `filter` at lattice coordinate `u`, x fastest.
     fn gather(&self, filter: Filter, u: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> [f32; 27] {
         let (first, n) = filter.footprint(u);
+        if let Some(s) = memo::recall(self.gather_id, first, n) {
+            return s;
+        }
         let mut s = [0.0; 27];
         self.gather_cube(first, n, &mut s, pool, eval);
+        memo::keep(self.gather_id, first, n, &s);
         s
     }
 
@@ -1029,6 +1040,7 @@ impl CacheGrid {
     /// Clears the samples at lattice points inside `b` (cache frame) and the
     /// slope summaries that read them; returns how many held samples were cleared.
     pub fn invalidate(&mut self, b: &Aabb) -> u64 {
+        self.gather_id = GatherId::fresh();
         let lo = (b.min * self.inv_cell).ceil().as_ivec3();
         let hi = (b.max * self.inv_cell).floor().as_ivec3();
         let mut cleared = 0;

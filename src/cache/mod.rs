@@ -12,6 +12,7 @@
 
 pub mod filter;
 pub mod grid;
+mod memo;
 pub mod pool;
 
 pub use filter::Filter;
