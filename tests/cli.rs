@@ -886,7 +886,7 @@ fn bench_edit_reports_figure_8_and_plots_it() {
     // The probe changes some pixels of every frame, never all of the work.
     let share = v["changed_evaluation_share"].as_f64().unwrap();
     assert!(0.0 < share && share < 1.0, "{v}");
-    assert!((v["dirty_render_ceiling"].as_f64().unwrap() * share - 1.0).abs() < 1e-9, "{v}");
+    assert!((v["evaluation_ceiling"].as_f64().unwrap() * share - 1.0).abs() < 1e-9, "{v}");
     assert!(v["naive"]["full_render_s"].as_f64().unwrap() > 0.0);
     // Two rounds of each mode; each measure is the fastest of its rounds.
     let rounds = v["rounds"].as_array().unwrap();
