@@ -141,7 +141,7 @@ pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
     let report = EditBenchReport {
         frames: script.frames.len(),
         res: a.res,
-        threads: with_threads(a.threads, rayon::current_num_threads)?,
+        threads: a.threads.unwrap_or_else(rayon::current_num_threads),
         local_polygonize_ratio: naive.local_polygonize_s / cached.local_polygonize_s.max(1e-9),
         dirty_render_speedup: cached.full_render_s / cached.dirty_render_s.max(1e-9),
         changed_evaluation_share: changed / all.max(1.0),

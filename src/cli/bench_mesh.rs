@@ -70,7 +70,7 @@ pub struct TableRow {
 #[derive(Debug, Serialize)]
 pub struct PlacementCost {
     /// Cell decomposition: `cubes` or `bcc`.
-    pub cells: &'static str,
+    pub cells: String,
     /// Resolution.
     pub res: u32,
     /// With root finding (vertices to 1e-4 of an edge).
@@ -162,9 +162,9 @@ fn measure(a: &MeshBenchArgs, mut scene: Scene) -> anyhow::Result<MeshBenchRepor
     }
     let detail = PolygonizeArgs { res: a.detail_res, cells: a.cells, vertex: VertexArg::Root, refine: 0 };
     detail.check(&scene)?;
-    let evals_per_triangle = [(CellsArg::Cubes, "cubes"), (CellsArg::Bcc, "bcc")]
+    let evals_per_triangle = [CellsArg::Cubes, CellsArg::Bcc]
         .into_iter()
-        .map(|(cells, name)| placement_cost(&scene, PolygonizeArgs { cells, ..detail }, name))
+        .map(|cells| placement_cost(&scene, PolygonizeArgs { cells, ..detail }))
         .collect();
     let sphere = triangle_rate(&detail)?;
     let (mesh, mesh_report) = polygonize_scene(&scene, EvalMode::Indexed, &detail);
@@ -203,14 +203,10 @@ fn table_row(scene: &mut Scene, args: &PolygonizeArgs) -> TableRow {
 }
 
 /// Evaluations per triangle of `args`'s cells with each vertex placement.
-fn placement_cost(scene: &Scene, args: PolygonizeArgs, cells: &'static str) -> PlacementCost {
-    let per_triangle = |vertex| polygonize_scene(scene, EvalMode::Indexed, &PolygonizeArgs { vertex, ..args }).1;
-    PlacementCost {
-        cells,
-        res: args.res,
-        root: per_triangle(VertexArg::Root).evals_per_triangle,
-        linear: per_triangle(VertexArg::Linear).evals_per_triangle,
-    }
+fn placement_cost(scene: &Scene, args: PolygonizeArgs) -> PlacementCost {
+    let run = |vertex| polygonize_scene(scene, EvalMode::Indexed, &PolygonizeArgs { vertex, ..args }).1;
+    let (root, linear) = (run(VertexArg::Root), run(VertexArg::Linear));
+    PlacementCost { cells: root.cells, res: args.res, root: root.evals_per_triangle, linear: linear.evals_per_triangle }
 }
 
 /// The bundled sphere polygonized at `detail`'s resolution, on one thread and on all.
