@@ -46,20 +46,21 @@ impl Filter {
     }
 
     /// The filter weights along one axis at lattice coordinate `u`.
+    #[inline]
     fn axis(self, u: f32) -> AxisWeights {
         match self {
             Filter::Trilinear => {
-                let first = floor(u);
-                let t = u - first;
-                AxisWeights { first: first as i32, w: [1.0 - t, t, 0.0], dw: [-1.0, 1.0, 0.0] }
+                let (first, at) = floor(u);
+                let t = u - at;
+                AxisWeights { first, w: [1.0 - t, t, 0.0], dw: [-1.0, 1.0, 0.0] }
             }
             Filter::Triquadratic => {
                 // R_q(s₋, s₀, s₊, t) = ((s₋+s₊)/2 − s₀) t² + (s₀ − s₋) t + (s₋+s₀)/2 over
                 // [n − ½, n + ½], n the nearest lattice point, t = u − n + ½; regrouped per sample.
-                let nearest = floor(u + 0.5);
-                let t = u - nearest + 0.5;
+                let (nearest, at) = floor(u + 0.5);
+                let t = u - at + 0.5;
                 AxisWeights {
-                    first: nearest as i32 - 1,
+                    first: nearest.saturating_sub(1),
                     w: [0.5 * (1.0 - t) * (1.0 - t), 0.5 + t - t * t, 0.5 * t * t],
                     dw: [t - 1.0, 1.0 - 2.0 * t, t],
                 }
@@ -67,27 +68,65 @@ impl Filter {
         }
     }
 
+    /// The filter's weights at lattice coordinate `u`, for its footprint and its sums.
+    #[must_use]
+    #[inline]
+    pub fn at(self, u: Vec3A) -> Weights {
+        Weights { filter: self, axes: [self.axis(u.x), self.axis(u.y), self.axis(u.z)] }
+    }
+
     /// The lattice points the filter reads at `u`: first corner and taps per axis.
     #[must_use]
     pub fn footprint(self, u: Vec3A) -> (IVec3, usize) {
-        let first = IVec3::new(self.axis(u.x).first, self.axis(u.y).first, self.axis(u.z).first);
-        (first, self.taps())
+        self.at(u).footprint()
     }
 
     /// The reconstructed value at lattice coordinate `u` from `samples`, the
     /// footprint's samples in x-fastest order (`taps³` of them).
     #[must_use]
-    #[inline]
     pub fn value(self, u: Vec3A, samples: &[f32]) -> f32 {
+        self.at(u).value(samples)
+    }
+
+    /// The gradient of the reconstruction at `u`, per lattice unit (divide by
+    /// the cell size for world units), from the footprint's samples.
+    #[must_use]
+    pub fn gradient(self, u: Vec3A, samples: &[f32]) -> Vec3A {
+        self.at(u).gradient(samples)
+    }
+}
+
+/// A filter's weights at one point, computed once for the footprint and for
+/// the sums over it (a lookup used to compute them again for each).
+#[derive(Clone, Copy, Debug)]
+pub struct Weights {
+    filter: Filter,
+    axes: [AxisWeights; 3],
+}
+
+impl Weights {
+    /// The lattice points the weights apply to: first corner and taps per axis.
+    #[must_use]
+    #[inline]
+    pub fn footprint(&self) -> (IVec3, usize) {
+        let [x, y, z] = self.axes;
+        (IVec3::new(x.first, y.first, z.first), self.filter.taps())
+    }
+
+    /// The reconstructed value from `samples`, the footprint's samples in
+    /// x-fastest order (`taps³` of them).
+    #[must_use]
+    #[inline]
+    pub fn value(&self, samples: &[f32]) -> f32 {
         // One loop per tap count, so each unrolls: the same sums in the same order.
-        match self {
-            Filter::Trilinear => self.value_with_taps::<2>(u, samples),
-            Filter::Triquadratic => self.value_with_taps::<3>(u, samples),
+        match self.filter {
+            Filter::Trilinear => self.value_with_taps::<2>(samples),
+            Filter::Triquadratic => self.value_with_taps::<3>(samples),
         }
     }
 
-    fn value_with_taps<const N: usize>(self, u: Vec3A, samples: &[f32]) -> f32 {
-        let (ax, ay, az) = (self.axis(u.x), self.axis(u.y), self.axis(u.z));
+    fn value_with_taps<const N: usize>(&self, samples: &[f32]) -> f32 {
+        let [ax, ay, az] = self.axes;
         let mut sum = 0.0;
         for k in 0..N {
             for j in 0..N {
@@ -100,19 +139,19 @@ impl Filter {
         sum
     }
 
-    /// The gradient of the reconstruction at `u`, per lattice unit (divide by
-    /// the cell size for world units), from the footprint's samples.
+    /// The gradient of the reconstruction, per lattice unit (divide by the
+    /// cell size for world units), from the footprint's samples.
     #[must_use]
     #[inline]
-    pub fn gradient(self, u: Vec3A, samples: &[f32]) -> Vec3A {
-        match self {
-            Filter::Trilinear => self.gradient_with_taps::<2>(u, samples),
-            Filter::Triquadratic => self.gradient_with_taps::<3>(u, samples),
+    pub fn gradient(&self, samples: &[f32]) -> Vec3A {
+        match self.filter {
+            Filter::Trilinear => self.gradient_with_taps::<2>(samples),
+            Filter::Triquadratic => self.gradient_with_taps::<3>(samples),
         }
     }
 
-    fn gradient_with_taps<const N: usize>(self, u: Vec3A, samples: &[f32]) -> Vec3A {
-        let (ax, ay, az) = (self.axis(u.x), self.axis(u.y), self.axis(u.z));
+    fn gradient_with_taps<const N: usize>(&self, samples: &[f32]) -> Vec3A {
+        let [ax, ay, az] = self.axes;
         let mut g = Vec3A::ZERO;
         for k in 0..N {
             for j in 0..N {
@@ -129,12 +168,14 @@ impl Filter {
     }
 }
 
-/// `x.floor()` for lattice coordinates (well inside `i32`), without the libm
-/// call that `f32::floor` becomes on baseline x86-64: it sits on the hot path.
+/// `x.floor()` for lattice coordinates (well inside `i32`), as an integer
+/// and as a float, without the libm call that `f32::floor` becomes on
+/// baseline x86-64: it sits on the hot path. One conversion serves both.
 #[inline]
-fn floor(x: f32) -> f32 {
-    let t = x as i32 as f32;
-    if t > x { t - 1.0 } else { t }
+fn floor(x: f32) -> (i32, f32) {
+    let i = x as i32;
+    let t = i as f32;
+    if t > x { (i.saturating_sub(1), t - 1.0) } else { (i, t) }
 }
 
 #[cfg(test)]
@@ -158,7 +199,7 @@ mod tests {
     #[test]
     fn fast_floor_agrees_with_floor() {
         for &x in &[-2.5f32, -2.0, -1e-7, 0.0, 1e-7, 0.5, 3.0, 3.999, -1000.25] {
-            assert_eq!(floor(x), x.floor(), "{x}");
+            assert_eq!(floor(x), (x.floor() as i32, x.floor()), "{x}");
         }
     }
 

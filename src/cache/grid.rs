@@ -73,6 +73,22 @@ const fn cube_offsets<const N: usize, const M: usize>() -> [u16; M] {
     offsets
 }
 
+/// The `M³` samples at `offset` within the `N³` samples `outer`, both x fastest.
+#[inline]
+fn inner_cube<const N: usize, const M: usize>(outer: &[f32; 27], offset: IVec3) -> [f32; 27] {
+    let o = offset.as_uvec3();
+    let (ox, oy, oz) = (o.x as usize, o.y as usize, o.z as usize);
+    let mut sub = [0.0; 27];
+    for z in 0..M {
+        for y in 0..M {
+            for x in 0..M {
+                sub[(z * M + y) * M + x] = outer[((oz + z) * N + oy + y) * N + ox + x];
+            }
+        }
+    }
+    sub
+}
+
 /// A block's eight parts (halves along each axis): whether each is known to
 /// hold only zero samples, two bits per part.
 const PART_UNKNOWN: u16 = 0;
@@ -405,9 +421,8 @@ impl CacheGrid {
         storage.round_trip(eval.value(p))
     }
 
-    /// The footprint's samples for `filter` at lattice coordinate `u`, x fastest.
-    fn gather(&self, filter: Filter, u: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> [f32; 27] {
-        let (first, n) = filter.footprint(u);
+    /// The samples of the footprint from lattice point `first`, `n` per axis, x fastest.
+    fn gather(&self, (first, n): (IVec3, usize), pool: &SamplePool, eval: &impl Sampled) -> [f32; 27] {
         if let Some(s) = memo::recall(self.gather_id, first, n) {
             return s;
         }
@@ -669,17 +684,15 @@ impl CacheGrid {
     /// The reconstructed value at `p` (cache frame), with the value filter.
     pub fn value(&self, p: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> f32 {
         self.lookups.add_one_unsynchronized();
-        let u = p * self.inv_cell;
-        let filter = self.spec.value;
-        filter.value(u, &self.gather(filter, u, pool, eval))
+        let weights = self.spec.value.at(p * self.inv_cell);
+        weights.value(&self.gather(weights.footprint(), pool, eval))
     }
 
     /// The reconstructed gradient at `p` (cache frame), with the gradient filter.
     pub fn gradient(&self, p: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> Vec3A {
         self.lookups.add_one_unsynchronized();
-        let u = p * self.inv_cell;
-        let filter = self.spec.gradient;
-        filter.gradient(u, &self.gather(filter, u, pool, eval)) * self.inv_cell
+        let weights = self.spec.gradient.at(p * self.inv_cell);
+        weights.gradient(&self.gather(weights.footprint(), pool, eval)) * self.inv_cell
     }
 
     /// [`Self::value`] and [`Self::gradient`] at `p` together, to the same
@@ -689,21 +702,22 @@ impl CacheGrid {
     /// its value and takes its gradient there.
     pub fn value_and_gradient(&self, p: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> (f32, Vec3A) {
         let u = p * self.inv_cell;
-        let (value, gradient) = (self.spec.value, self.spec.gradient);
-        let (wide, narrow) = if gradient.taps() >= value.taps() { (gradient, value) } else { (value, gradient) };
-        let ((first, n), (inner, m)) = (wide.footprint(u), narrow.footprint(u));
+        let (value, gradient) = (self.spec.value.at(u), self.spec.gradient.at(u));
+        let gradient_is_wide = gradient.footprint().1 >= value.footprint().1;
+        let (wide, narrow) = if gradient_is_wide { (gradient, value) } else { (value, gradient) };
+        let ((first, n), (inner, m)) = (wide.footprint(), narrow.footprint());
         let offset = inner - first;
         debug_assert!(offset.min_element() >= 0 && (offset + IVec3::splat(m as i32)).max_element() <= n as i32);
         self.lookups.add_one_unsynchronized();
         self.lookups.add_one_unsynchronized();
-        let outer = self.gather(wide, u, pool, eval);
-        let mut sub = [0.0f32; 27];
-        for (k, s) in sub.iter_mut().enumerate().take(m * m * m) {
-            let at = offset + IVec3::new((k % m) as i32, ((k / m) % m) as i32, (k / (m * m)) as i32);
-            *s = outer[(at.z as usize * n + at.y as usize) * n + at.x as usize];
-        }
-        let (value_samples, gradient_samples) = if wide == gradient { (&sub, &outer) } else { (&outer, &sub) };
-        (value.value(u, value_samples), gradient.gradient(u, gradient_samples) * self.inv_cell)
+        let outer = self.gather((first, n), pool, eval);
+        let sub = match (n, m) {
+            (3, 2) => inner_cube::<3, 2>(&outer, offset),
+            (3, 3) => inner_cube::<3, 3>(&outer, offset),
+            _ => inner_cube::<2, 2>(&outer, offset),
+        };
+        let (value_samples, gradient_samples) = if gradient_is_wide { (&sub, &outer) } else { (&outer, &sub) };
+        (value.value(value_samples), gradient.gradient(gradient_samples) * self.inv_cell)
     }
 
     /// A box holding every sample either filter may read for points of `b`:
