@@ -453,17 +453,55 @@ impl CacheGrid {
             if !self.read_block(block, &at, &mut words, pool) {
                 return None;
             }
-        } else {
-            // Across blocks, sample by sample, each read consistent on its own.
-            for (m, word) in words.iter_mut().enumerate() {
-                let i = first + IVec3::new((m % N) as i32, ((m / N) % N) as i32, (m / (N * N)) as i32);
-                let at = [self.word_of(i).0 as u16];
-                if !self.read_block(self.block_of(i), &at, std::slice::from_mut(word), pool) {
-                    return None;
-                }
-            }
+        } else if !self.read_across_blocks::<N, M>(first, &mut words, pool) {
+            return None;
         }
         (!words.contains(&UNSET)).then(|| words.map(f32::from_bits))
+    }
+
+    /// Reads the `N³ = M` words from lattice point `first`, x fastest, where
+    /// they span two blocks along some axis: each block's slot is found and
+    /// opened once (at most eight), and the words read under the openings.
+    /// False where a block holds no slot or a read raced a reassignment.
+    fn read_across_blocks<const N: usize, const M: usize>(
+        &self,
+        first: IVec3,
+        words: &mut [u32; M],
+        pool: &SamplePool,
+    ) -> bool {
+        let origin = self.block_of(first);
+        let mut opened: [Option<(&Slot, u32)>; 8] = [None; 8];
+        for (m, word) in words.iter_mut().enumerate() {
+            let i = first + IVec3::new((m % N) as i32, ((m / N) % N) as i32, (m / (N * N)) as i32);
+            let block = self.block_of(i);
+            let d = block - origin;
+            let which = (d.x | d.y << 1 | d.z << 2) as usize;
+            let slot = match opened[which] {
+                Some((slot, _)) => slot,
+                None => {
+                    let Some(open) = self.open_block(block) else { return false };
+                    opened[which] = Some(open);
+                    open.0
+                }
+            };
+            *word = slot.peek(self.word_of(i).0);
+        }
+        opened.iter().flatten().all(|&(slot, g)| {
+            let held = slot.still(g);
+            if held {
+                pool.touch(slot);
+            }
+            held
+        })
+    }
+
+    /// Block `block`'s slot, opened for reading (see [`Slot::open`]), if it has one.
+    #[inline]
+    fn open_block(&self, block: IVec3) -> Option<(&Slot, u32)> {
+        let t = self.table_index(block)?;
+        // SAFETY: as in `sample`.
+        let slot = unsafe { self.table[t].load(Ordering::Acquire).as_ref() }?;
+        Some((slot, slot.open(block_key(self.serial, block))?))
     }
 
     /// The `n³` samples from lattice point `first`, x fastest, into `out`:
@@ -664,15 +702,15 @@ impl CacheGrid {
     /// false when the block holds no slot or the read raced a reassignment.
     #[inline]
     fn read_block(&self, block: IVec3, at: &[u16], words: &mut [u32], pool: &SamplePool) -> bool {
-        self.table_index(block).is_some_and(|t| {
-            // SAFETY: as in `sample`.
-            let Some(slot) = (unsafe { self.table[t].load(Ordering::Acquire).as_ref() }) else { return false };
-            let ok = slot.read_many(block_key(self.serial, block), at, words);
-            if ok {
-                pool.touch(slot);
-            }
-            ok
-        })
+        let Some((slot, g)) = self.open_block(block) else { return false };
+        for (word, &w) in words.iter_mut().zip(at) {
+            *word = slot.peek(usize::from(w));
+        }
+        let held = slot.still(g);
+        if held {
+            pool.touch(slot);
+        }
+        held
     }
 
     /// The sample at position `m` (x fastest) of the cube of edge `n` from `first`.

@@ -83,17 +83,25 @@ impl Slot {
         (Read::Word(word), g)
     }
 
-    /// Reads the words at `at` into `out` in one consistent section as block
-    /// `key`; false if the slot belongs to another block (nothing read then).
+    /// Opens a read section as block `key`: the generation its words are
+    /// read under, or `None` if the slot belongs to another block. Words
+    /// [`Self::peek`]ed after it are the block's if [`Self::still`] holds
+    /// after them: a reader of several blocks opens each once.
     #[inline]
-    pub fn read_many(&self, key: u64, at: &[u16], out: &mut [u32]) -> bool {
+    pub fn open(&self, key: u64) -> Option<u32> {
         let g = self.generation.load(Ordering::Acquire);
-        if g & 1 == 1 || self.owner.load(Ordering::Relaxed) != key {
-            return false;
-        }
-        for (o, &w) in out.iter_mut().zip(at) {
-            *o = self.words[usize::from(w)].load(Ordering::Relaxed);
-        }
+        (g & 1 == 0 && self.owner.load(Ordering::Relaxed) == key).then_some(g)
+    }
+
+    /// Word `w`, to be confirmed by [`Self::still`].
+    #[inline]
+    pub fn peek(&self, w: usize) -> u32 {
+        self.words[w].load(Ordering::Relaxed)
+    }
+
+    /// Whether the words peeked since [`Self::open`] returned `g` were the block's.
+    #[inline]
+    pub fn still(&self, g: u32) -> bool {
         fence(Ordering::Acquire);
         self.generation.load(Ordering::Relaxed) == g
     }
