@@ -31,6 +31,7 @@ mod polygonizer;
 mod seeds;
 mod topology;
 mod vertex;
+mod visited;
 
 use glam::Vec3;
 

@@ -21,6 +21,7 @@ use super::corners::CornerValues;
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, ordered_edge, sort_key};
 use super::seeds::{Evaluated, Marched, Rejoin, RowSpans, RowStarts, Seed, SeedMarch, SeedStarts, Start};
 use super::vertex::{VertexPlacement, place_on_edge};
+use super::visited::VisitedCells;
 use super::{Mesh, bcc, cubes};
 use crate::field::{DEFAULT_COLOR, Field};
 use crate::geom::{Aabb, Support};
@@ -99,6 +100,14 @@ impl CellShape {
         match self {
             CellShape::Cubes => cubes::polygons(cell, mask, emit),
             CellShape::Bcc => bcc::polygons(cell, mask, emit),
+        }
+    }
+
+    /// Cells per cube: the cube itself, or its twelve tetrahedra.
+    fn cells_per_cube(self) -> usize {
+        match self {
+            CellShape::Cubes => 1,
+            CellShape::Bcc => 12,
         }
     }
 
@@ -188,7 +197,7 @@ pub struct Polygonizer {
     /// Field values at the corners evaluated.
     corners: CornerValues,
     /// Visited cells and their inside masks.
-    cells: FxHashMap<Cell, u8>,
+    cells: VisitedCells,
     vertices: FxHashMap<EdgeKey, EdgeVertex>,
     /// For each lattice row seeds marched along (by `y` and `z`), the spans
     /// of `x` whose values decided what its marches found (see [`SeedMarch::row`]).
@@ -208,7 +217,7 @@ impl Polygonizer {
             lattice,
             options,
             corners: CornerValues::default(),
-            cells: FxHashMap::default(),
+            cells: VisitedCells::new(options.cells.cells_per_cube()),
             vertices: FxHashMap::default(),
             row_spans: FxHashMap::default(),
             starts: SeedStarts::default(),
@@ -233,7 +242,7 @@ impl Polygonizer {
     /// Cells the surface crosses.
     #[must_use]
     pub fn crossed_cells(&self) -> usize {
-        self.cells.values().filter(|&&m| crossed(m, self.options.cells)).count()
+        self.cells.iter().filter(|&(_, m)| crossed(m, self.options.cells)).count()
     }
 
     /// Polygonizes the surface of `field` reachable from the `seeds` (points on
@@ -258,7 +267,7 @@ impl Polygonizer {
         self.corners.extend(coarse.corners.iter().map(|(q, v)| (q * scale, v)));
         let shape = self.options.cells;
         let mut edges: Vec<[LatticePoint; 2]> = vec![];
-        for (&cell, &mask) in &coarse.cells {
+        for (cell, mask) in coarse.cells.iter() {
             if crossed(mask, shape) {
                 shape.polygons(cell, mask, &mut |polygon| {
                     edges.extend(polygon.iter().map(|&[a, b]| [a * scale, b * scale]))
@@ -361,7 +370,7 @@ impl Polygonizer {
         frontier.extend(self.seed(field, seeds, Some(&dropped)));
         let added = self.grow(field, frontier);
         // Every other crossed cell kept all its vertices.
-        border.extend(added.iter().map(|c| (*c, self.cells[c])));
+        border.extend(added.iter().map(|&c| (c, self.cells.get(c).expect("a grown cell is visited"))));
         self.place_vertices(field, &border);
         Repolygonized { removed, added }
     }
@@ -485,16 +494,7 @@ impl Polygonizer {
 
     /// Marks the cells not visited yet as visited and returns them, in order.
     fn claim(&mut self, cells: Vec<Cell>) -> Vec<Cell> {
-        cells
-            .into_iter()
-            .filter(|&c| match self.cells.entry(c) {
-                std::collections::hash_map::Entry::Vacant(e) => {
-                    e.insert(PENDING);
-                    true
-                }
-                std::collections::hash_map::Entry::Occupied(_) => false,
-            })
-            .collect()
+        cells.into_iter().filter(|&c| self.cells.insert_new(c, PENDING)).collect()
     }
 
     /// Continuation: examine the frontier, keep its crossed cells, and move on to
@@ -526,8 +526,7 @@ impl Polygonizer {
                     found.push(cell);
                 }
                 for &n in neighbours.as_slice() {
-                    if let std::collections::hash_map::Entry::Vacant(e) = self.cells.entry(n) {
-                        e.insert(PENDING);
+                    if self.cells.insert_new(n, PENDING) {
                         next.push(n);
                     }
                 }
@@ -568,7 +567,7 @@ impl Polygonizer {
     /// Every crossed cell with its mask.
     fn crossed_with_masks(&self) -> Vec<(Cell, u8)> {
         let shape = self.options.cells;
-        self.cells.iter().filter(|&(_, &m)| crossed(m, shape)).map(|(&c, &m)| (c, m)).collect()
+        self.cells.iter().filter(|&(_, m)| crossed(m, shape)).collect()
     }
 
     /// Places a vertex, with its normal and colour, on every crossed edge of
@@ -640,7 +639,7 @@ impl Polygonizer {
     #[must_use]
     pub fn cell_triangles(&self, cell: Cell) -> Vec<[EdgeVertex; 3]> {
         let mut out = vec![];
-        let Some(&mask) = self.cells.get(&cell).filter(|&&m| crossed(m, self.options.cells)) else {
+        let Some(mask) = self.cells.get(cell).filter(|&m| crossed(m, self.options.cells)) else {
             return out;
         };
         let mut local = Vec::with_capacity(12);
@@ -737,7 +736,7 @@ impl HoleCells {
     /// hole (`meets(cube, 0.0)`), in one pass; the border is the crossed
     /// cells kept within two cubes of it (`meets(cube, 2.0)`).
     fn drop_from(
-        cells: &mut FxHashMap<Cell, u8>,
+        cells: &mut VisitedCells,
         shape: CellShape,
         (lo, hi): (IVec3, IVec3),
         meets: impl Fn(IVec3, f32) -> bool,
@@ -745,7 +744,7 @@ impl HoleCells {
         let inside =
             |c: IVec3, margin: i32| c.cmpge(lo - margin).all() && c.cmple(hi + margin).all() && meets(c, margin as f32);
         let mut hole = Self { removed: vec![], border: vec![], around: vec![] };
-        cells.retain(|&c, &mut mask| {
+        cells.retain(|c, mask| {
             let keep = !inside(c.cube, 0);
             if crossed(mask, shape) {
                 if !keep {
