@@ -18,6 +18,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::corners::CornerValues;
+use super::edge_vertices::EdgeVertices;
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, ordered_edge, sort_key};
 use super::seeds::{Evaluated, Marched, Rejoin, RowSpans, RowStarts, Seed, SeedMarch, SeedStarts, Start};
 use super::vertex::{VertexPlacement, place_on_edge};
@@ -198,7 +199,7 @@ pub struct Polygonizer {
     corners: CornerValues,
     /// Visited cells and their inside masks.
     cells: VisitedCells,
-    vertices: FxHashMap<EdgeKey, EdgeVertex>,
+    vertices: EdgeVertices,
     /// For each lattice row seeds marched along (by `y` and `z`), the spans
     /// of `x` whose values decided what its marches found (see [`SeedMarch::row`]).
     row_spans: FxHashMap<(i32, i32), Vec<(i32, i32)>>,
@@ -218,7 +219,7 @@ impl Polygonizer {
             options,
             corners: CornerValues::default(),
             cells: VisitedCells::new(options.cells.cells_per_cube()),
-            vertices: FxHashMap::default(),
+            vertices: EdgeVertices::default(),
             row_spans: FxHashMap::default(),
             starts: SeedStarts::default(),
             with_colors: false,
@@ -359,7 +360,7 @@ impl Polygonizer {
             || corners.forget_within(&near.bounds, |q| lattice.position(q), |p| near.contains(p)),
             || {
                 rayon::join(
-                    || vertices.retain(|&k, _| !midpoints.contains(lattice.position(k) * 0.5)),
+                    || vertices.retain(|k| !midpoints.contains(lattice.position(k) * 0.5)),
                     || HoleCells::drop_from(cells, self.options.cells, (lo, hi), meets),
                 )
             },
@@ -581,7 +582,7 @@ impl Polygonizer {
             .flat_map_iter(|&(cell, mask)| {
                 let mut crossed = vec![];
                 shape.crossed_edges(cell, mask, &mut crossed);
-                crossed.retain(|&[a, b]| !known.contains_key(&edge_key(a, b)));
+                crossed.retain(|&[a, b]| !known.contains(edge_key(a, b)));
                 crossed
             })
             .collect();
@@ -644,7 +645,7 @@ impl Polygonizer {
         };
         let mut local = Vec::with_capacity(12);
         self.options.cells.polygons(cell, mask, &mut |polygon| {
-            let vertices: Vec<EdgeVertex> = polygon.iter().map(|&[a, b]| self.vertices[&edge_key(a, b)]).collect();
+            let vertices: Vec<EdgeVertex> = polygon.iter().map(|&[a, b]| self.vertex(edge_key(a, b))).collect();
             let ids: Vec<u32> = (0..vertices.len() as u32).collect();
             local.clear();
             super::triangulate(&ids, |i| vertices[i as usize].position, &mut local);
@@ -660,21 +661,23 @@ impl Polygonizer {
         let mut crossed_cells = self.crossed_with_masks();
         crossed_cells.par_sort_unstable_by_key(|(c, _)| c.order_key());
         let loops = self.polygon_loops(&crossed_cells);
-        // Numbering by first use is the one serial pass.
-        let mut index: FxHashMap<EdgeKey, u32> = FxHashMap::default();
-        index.reserve(self.vertices.len());
+        // Numbering by first use is the one serial pass, over dense slot numbers.
+        const UNNUMBERED: u32 = u32::MAX;
+        let mut number = vec![UNNUMBERED; self.vertices.slot_count()];
         let mut used = Vec::with_capacity(self.vertices.len());
         let ids: Vec<u32> = loops
-            .edges
+            .slots
             .iter()
-            .map(|&key| {
-                *index.entry(key).or_insert_with(|| {
-                    used.push(key);
-                    (used.len() - 1) as u32
-                })
+            .map(|&slot| {
+                let n = &mut number[slot as usize];
+                if *n == UNNUMBERED {
+                    *n = used.len() as u32;
+                    used.push(slot);
+                }
+                *n
             })
             .collect();
-        let vertices: Vec<EdgeVertex> = used.par_iter().map(|key| self.vertices[key]).collect();
+        let vertices: Vec<EdgeVertex> = used.par_iter().map(|&slot| self.vertices.at(slot)).collect();
         let mut mesh = Mesh {
             positions: vertices.iter().map(|v| v.position).collect(),
             normals: vertices.iter().map(|v| v.normal).collect(),
@@ -693,7 +696,17 @@ impl Polygonizer {
         mesh
     }
 
-    /// The polygons of `cells`, in order, as loops of edge keys; in parallel.
+    /// The slot of edge `key`'s vertex, which every crossed edge of a crossed cell has.
+    fn vertex_slot(&self, key: EdgeKey) -> u32 {
+        self.vertices.slot(key).unwrap_or_else(|| panic!("no vertex on the edge with key {key}"))
+    }
+
+    /// Edge `key`'s vertex, which every crossed edge of a crossed cell has.
+    fn vertex(&self, key: EdgeKey) -> EdgeVertex {
+        self.vertices.get(key).unwrap_or_else(|| panic!("no vertex on the edge with key {key}"))
+    }
+
+    /// The polygons of `cells`, in order, as loops of their vertices' slots; in parallel.
     fn polygon_loops(&self, cells: &[(Cell, u8)]) -> PolygonLoops {
         const CELLS_PER_TASK: usize = 4096;
         let shape = self.options.cells;
@@ -703,7 +716,7 @@ impl Polygonizer {
                 let mut part = PolygonLoops::default();
                 for &(cell, mask) in chunk {
                     shape.polygons(cell, mask, &mut |polygon| {
-                        part.edges.extend(polygon.iter().map(|&[a, b]| edge_key(a, b)));
+                        part.slots.extend(polygon.iter().map(|&[a, b]| self.vertex_slot(edge_key(a, b))));
                         part.lengths.push(polygon.len() as u8);
                     });
                 }
@@ -712,7 +725,7 @@ impl Polygonizer {
             .collect();
         let mut loops = PolygonLoops::default();
         for part in parts {
-            loops.edges.extend(part.edges);
+            loops.slots.extend(part.slots);
             loops.lengths.extend(part.lengths);
         }
         loops
@@ -807,10 +820,10 @@ impl HoleShape {
     }
 }
 
-/// Polygons as consecutive loops of edge keys.
+/// Polygons as consecutive loops of their vertices' slots.
 #[derive(Default)]
 struct PolygonLoops {
-    edges: Vec<EdgeKey>,
+    slots: Vec<u32>,
     lengths: Vec<u8>,
 }
 
