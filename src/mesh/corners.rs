@@ -15,6 +15,7 @@
 use glam::IVec3;
 use rustc_hash::FxHashMap;
 
+use super::held;
 use super::lattice::LatticePoint;
 use crate::geom::Aabb;
 
@@ -39,20 +40,20 @@ impl Brick {
     const EMPTY: Self = Self { known: [0; BRICK_POINTS / 64], values: [0.0; BRICK_POINTS] };
 
     fn get(&self, slot: usize) -> Option<f32> {
-        (self.known[slot / 64] >> (slot % 64) & 1 == 1).then(|| self.values[slot])
+        held::is_held(&self.known, slot).then(|| self.values[slot])
     }
 
     fn set(&mut self, slot: usize, value: f32) {
-        self.known[slot / 64] |= 1 << (slot % 64);
+        held::hold(&mut self.known, slot);
         self.values[slot] = value;
     }
 
     fn forget(&mut self, slot: usize) {
-        self.known[slot / 64] &= !(1 << (slot % 64));
+        held::release(&mut self.known, slot);
     }
 
     fn is_empty(&self) -> bool {
-        self.known.iter().all(|&w| w == 0)
+        held::none_held(&self.known)
     }
 }
 

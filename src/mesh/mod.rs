@@ -27,6 +27,7 @@ mod corners;
 mod cubes;
 mod edge_vertices;
 mod export;
+mod held;
 mod lattice;
 mod polygonizer;
 mod seeds;

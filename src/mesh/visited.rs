@@ -10,6 +10,7 @@
 use glam::IVec3;
 use rustc_hash::FxHashMap;
 
+use super::held;
 use super::lattice::Cell;
 
 /// Cubes along each side of a brick, as a power of two.
@@ -31,21 +32,21 @@ impl Brick {
 
     #[inline]
     fn get(&self, slot: usize) -> Option<u8> {
-        (self.visited[slot / 64] >> (slot % 64) & 1 == 1).then(|| self.masks[slot])
+        held::is_held(&self.visited, slot).then(|| self.masks[slot])
     }
 
     #[inline]
     fn set(&mut self, slot: usize, mask: u8) {
-        self.visited[slot / 64] |= 1 << (slot % 64);
+        held::hold(&mut self.visited, slot);
         self.masks[slot] = mask;
     }
 
     fn forget(&mut self, slot: usize) {
-        self.visited[slot / 64] &= !(1 << (slot % 64));
+        held::release(&mut self.visited, slot);
     }
 
     fn is_empty(&self) -> bool {
-        self.visited.iter().all(|&w| w == 0)
+        held::none_held(&self.visited)
     }
 }
 
