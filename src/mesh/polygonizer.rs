@@ -757,7 +757,8 @@ impl HoleCells {
         let inside =
             |c: IVec3, margin: i32| c.cmpge(lo - margin).all() && c.cmple(hi + margin).all() && meets(c, margin as f32);
         let mut hole = Self { removed: vec![], border: vec![], around: vec![] };
-        cells.retain(|c, mask| {
+        // Only cells within two cubes of `lo..=hi` can be dropped or border the hole.
+        cells.retain_near((lo - 2, hi + 2), |c, mask| {
             let keep = !inside(c.cube, 0);
             if crossed(mask, shape) {
                 if !keep {

@@ -108,10 +108,16 @@ impl VisitedCells {
         })
     }
 
-    /// Keeps only the cells for which `keep` holds (it sees every visited cell once).
-    pub fn retain(&mut self, mut keep: impl FnMut(Cell, u8) -> bool) {
+    /// Drops the cells for which `keep` fails among those of the bricks
+    /// meeting the cubes `lo..=hi` (it sees each of them once); every other
+    /// cell is kept unread, as a local update's hole leaves most of them.
+    pub fn retain_near(&mut self, (lo, hi): (IVec3, IVec3), mut keep: impl FnMut(Cell, u8) -> bool) {
         let per_cube = self.cells_per_cube;
+        let (first, last) = (lo >> BRICK_SHIFT, hi >> BRICK_SHIFT);
         self.bricks.retain(|&brick, b| {
+            if brick.cmplt(first).any() || brick.cmpgt(last).any() {
+                return true;
+            }
             for slot in 0..b.masks.len() {
                 if let Some(m) = b.get(slot)
                     && !keep(cell_of(per_cube, brick, slot), m)
@@ -159,9 +165,14 @@ mod tests {
             let mut expected: Vec<(Cell, u8)> = cells.iter().enumerate().map(|(k, &c)| (c, k as u8)).collect();
             expected.sort_by_key(|&(c, _)| c.order_key());
             assert_eq!(listed, expected);
-            visited.retain(|c, _| c.cube.z < 0);
+            // Bricks below z = -8 are not asked about; the others keep what has z < 0.
+            visited.retain_near((IVec3::splat(-8), IVec3::splat(100)), |c, _| c.cube.z < 0);
             for &c in &cells {
                 assert_eq!(visited.get(c).is_some(), c.cube.z < 0, "{c:?}");
+            }
+            visited.retain_near((IVec3::splat(-100), IVec3::new(100, 100, -9)), |_, _| false);
+            for &c in &cells {
+                assert_eq!(visited.get(c).is_some(), (-8..0).contains(&c.cube.z), "{c:?}");
             }
             assert_eq!(visited.get(Cell { cube: IVec3::new(100, 0, 0), sub: 0 }), None);
         }
