@@ -79,20 +79,25 @@ impl VisitedCells {
         self.bricks.get(&brick).and_then(|b| b.get(slot))
     }
 
+    /// Cell `c`'s brick, made if it has none yet, and its slot there.
+    #[inline]
+    fn brick_for(&mut self, c: Cell) -> (&mut Brick, usize) {
+        let (brick, slot) = self.locate(c);
+        let slots = BRICK_CUBES * self.cells_per_cube;
+        (self.bricks.entry(brick).or_insert_with(|| Brick::new(slots)), slot)
+    }
+
     /// Marks `c` visited with `mask`, visited before or not.
     #[inline]
     pub fn insert(&mut self, c: Cell, mask: u8) {
-        let (brick, slot) = self.locate(c);
-        let slots = BRICK_CUBES * self.cells_per_cube;
-        self.bricks.entry(brick).or_insert_with(|| Brick::new(slots)).set(slot, mask);
+        let (b, slot) = self.brick_for(c);
+        b.set(slot, mask);
     }
 
     /// Marks `c` visited with `mask` if it was not; true if it was not.
     #[inline]
     pub fn insert_new(&mut self, c: Cell, mask: u8) -> bool {
-        let (brick, slot) = self.locate(c);
-        let slots = BRICK_CUBES * self.cells_per_cube;
-        let b = self.bricks.entry(brick).or_insert_with(|| Brick::new(slots));
+        let (b, slot) = self.brick_for(c);
         let new = b.get(slot).is_none();
         if new {
             b.set(slot, mask);
