@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 
 use blobtrace::field::{Edit, EvalMode, ModelField};
 use blobtrace::mesh::{Lattice, PolygonizeOptions, Polygonizer, skeleton_seeds};
+use blobtrace::pipeline::polygonizer_on;
 use blobtrace::scene::Scene;
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
 use glam::Vec3;
@@ -19,10 +20,7 @@ fn load(name: &str) -> Scene {
 
 /// A polygonizer over `scene` at `res`, run once.
 fn polygonized(scene: &Scene, mode: EvalMode, res: u32) -> Polygonizer {
-    let lattice = Lattice::across(&scene.model.bounds(), res);
-    let mut p = Polygonizer::new(lattice, PolygonizeOptions::default());
-    p.polygonize(&ModelField::new(&scene.model, mode), &skeleton_seeds(&scene.model, scene.model.root()));
-    p
+    polygonizer_on(&scene.model, mode, Lattice::across(&scene.model.bounds(), res), PolygonizeOptions::default())
 }
 
 fn table_1(c: &mut Criterion) {

@@ -13,7 +13,7 @@ fn medusa() -> Scene {
 }
 
 fn settings(scene: &Scene, w: u32, h: u32) -> RenderSettings {
-    RenderSettings::for_scene(scene, Size(w, h))
+    scene.render_settings(Size(w, h))
 }
 
 fn eval_modes(c: &mut Criterion) {

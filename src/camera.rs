@@ -4,6 +4,47 @@ use glam::{Vec3, Vec3A};
 
 use crate::geom::Ray;
 
+/// Where a camera stands and looks, as a scene file writes it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LookAt {
+    /// Eye position.
+    pub eye: Vec3,
+    /// Point looked at.
+    pub target: Vec3,
+    /// Up direction (need not be orthogonal to the view direction).
+    pub up: Vec3,
+    /// Vertical field of view in degrees, in `(0, 180)`.
+    pub fov_y: f32,
+}
+
+impl LookAt {
+    /// Checks that the view is a valid camera: finite, eye and target apart,
+    /// up not along the view, field of view in `(0, 180)` degrees.
+    pub fn check(&self) -> Result<(), String> {
+        let finite = [self.eye, self.target, self.up].iter().all(|v| v.is_finite()) && self.fov_y.is_finite();
+        if !finite {
+            return Err("camera numbers must be finite".into());
+        }
+        let view = self.target - self.eye;
+        if view.length() <= 1e-6 {
+            return Err("camera eye and target coincide".into());
+        }
+        if view.normalize().cross(self.up).length() <= 1e-6 {
+            return Err("camera up is parallel to the view direction (or zero)".into());
+        }
+        if !(self.fov_y > 0.0 && self.fov_y < 180.0) {
+            return Err(format!("fov_y must lie between 0 and 180 degrees, got {}", self.fov_y));
+        }
+        Ok(())
+    }
+
+    /// The camera of this view.
+    #[must_use]
+    pub fn camera(&self) -> Camera {
+        Camera::look_at(self.eye, self.target, self.up, self.fov_y)
+    }
+}
+
 /// A right-handed look-at pinhole camera; row 0 is the top of the image.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {

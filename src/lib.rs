@@ -21,7 +21,7 @@
 //! // Inside is where the field exceeds the iso-value T = 0.5.
 //! assert!(field.value(glam::Vec3A::ZERO) > field.threshold());
 //!
-//! let settings = RenderSettings::for_scene(&scene, scene.size);
+//! let settings = scene.render_settings(scene.size);
 //! let (frame, stats) = render(&field, &settings, &|_| {});
 //! assert_eq!(stats.rays, 33 * 25);
 //! // The centre ray meets the sphere of radius R·sqrt(1 - T^(1/3)) at 4 - 0.4542.
@@ -30,9 +30,11 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod bench;
 pub mod bvh;
 pub mod cache;
 pub mod camera;
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod compare;
 pub mod field;
@@ -40,6 +42,9 @@ pub mod frame;
 pub mod geom;
 pub mod mesh;
 pub mod output;
+pub mod pipeline;
 pub mod scene;
 pub mod slice;
 pub mod trace;
+#[cfg(feature = "viewer")]
+pub mod viewer;

@@ -8,7 +8,6 @@ use blobtrace::field::{Edit, EvalMode, ModelField, NodeKind, Placement};
 use blobtrace::geom::Ray;
 use blobtrace::mesh::{Mesh, PolygonizeOptions, Polygonizer, canonical_triangles, skeleton_seeds};
 use blobtrace::scene::{Scene, Size};
-use blobtrace::trace::RenderSettings;
 use common::{EVERY_NODE, Rng, bundled, polygonize};
 use glam::{Vec3, Vec3A};
 
@@ -47,7 +46,7 @@ fn sphere_mesh_depth_is_within_one_cell_of_the_analytic_depth() {
     let scene = bundled("sphere.ron");
     let (polygonizer, mesh) = polygonized(&scene, 48);
     let lattice = polygonizer.lattice();
-    let settings = RenderSettings::for_scene(&scene, Size(96, 72));
+    let settings = scene.render_settings(Size(96, 72));
     let (frame, stats) = render_mesh(&StaticMesh { mesh: &mesh, bvh: &MeshBvh::build(&mesh) }, &settings, &|_| {});
     let radius = 2.0 * (1.0 - 0.5f32.cbrt()).sqrt();
     let (mut compared, mut silhouette_disagreements) = (0, 0);

@@ -7,7 +7,7 @@ use blobtrace::cache::{CacheGrid, CacheSpec, Filter, Refit, SamplePool, Storage}
 use blobtrace::field::{EvalMode, Field, Model, ModelField, NodeId, NodeKind, Placement, Primitive, Region, Skeleton};
 use blobtrace::geom::{Aabb, Interval};
 use blobtrace::scene::{Scene, Size};
-use blobtrace::trace::{RenderSettings, render};
+use blobtrace::trace::render;
 use common::{Rng, assert_traces_like_brute_force, bundled, random_edit};
 use glam::{Vec3, Vec3A};
 
@@ -618,7 +618,7 @@ fn a_cache_over_an_empty_subtree_takes_edits_inside_it() {
 
 fn render_cached(scene: &Scene, threads: usize, size: (u32, u32)) -> blobtrace::frame::Frame {
     let field = ModelField::new(&scene.model, EvalMode::Cached);
-    let s = RenderSettings::for_scene(scene, Size(size.0, size.1));
+    let s = scene.render_settings(Size(size.0, size.1));
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     pool.install(|| render(&field, &s, &|_| {}).0)
 }

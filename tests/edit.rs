@@ -4,35 +4,15 @@
 
 mod common;
 
-use blobtrace::field::{Edit, EmptySpace, EvalMode, Field, Model, ModelField};
+use blobtrace::field::{Edit, EvalMode, Field, ModelField};
 use blobtrace::frame::Frame;
-use blobtrace::geom::{Aabb, Support};
+
 use blobtrace::mesh::{PolygonizeOptions, Polygonizer, skeleton_seeds};
+use blobtrace::pipeline::{EditSession, PolygonizeSettings};
 use blobtrace::scene::{Scene, Size};
-use blobtrace::trace::{PixelRect, RenderSettings, changed_space, render, render_model, rerender};
+use blobtrace::trace::{PixelRect, changed_space, render, render_model, rerender};
 use common::{EVERY_NODE, Rng, bundled, polygonize, random_edit};
 use glam::Vec3;
-
-/// The space the change reached and its dirty rectangles.
-/// Re-renders `frame` after `change` as `blobtrace edit` does: the empty
-/// space over the changed boxes forgotten (marked again where rays reach
-/// it), then the rays through them re-traced. Returns the dirty rectangles.
-fn rerender_after(
-    model: &Model,
-    change: &blobtrace::field::Change,
-    mode: EvalMode,
-    settings: &RenderSettings,
-    frame: &mut Frame,
-    empty: &mut EmptySpace,
-) -> Vec<PixelRect> {
-    let field = ModelField::new(model, mode);
-    let regions = model.change_support_regions(change, mode == EvalMode::Cached);
-    let supports: Vec<Aabb> = regions.iter().map(Support::bounds).collect();
-    empty.update(&supports);
-    let space = changed_space(&field, settings, &regions);
-    rerender(&field.skipping(empty), settings, frame, &space);
-    space.screen_rect(&settings.camera, settings.width, settings.height).into_iter().collect()
-}
 
 fn changed_pixels(a: &Frame, b: &Frame) -> Vec<(u32, u32)> {
     (0..a.len())
@@ -54,18 +34,20 @@ fn incremental_renders_after_random_edits_equal_full_renders() {
     let mut some_small = false;
     for (label, mut scene, names) in cases {
         for mode in [EvalMode::Indexed, EvalMode::Cached] {
-            let settings = RenderSettings::for_scene(&scene, Size(64, 48));
-            let (mut frame, _, mut empty) = render_model(&scene.model, mode, &settings, &|_| {});
+            // The session re-renders as `blobtrace edit` does: the empty space
+            // over the changed boxes forgotten, the rays through them re-traced.
+            let polygonize = PolygonizeSettings { res: 16, ..Default::default() };
+            let mut session = EditSession::new(scene.clone(), mode, Size(64, 48), &polygonize).unwrap();
             for step in 0..4 {
                 let (name, primitive) = names[step % names.len()];
                 let edit = random_edit(&mut rng, name, primitive);
-                let change = scene.model.apply(&edit).unwrap();
-                let before = frame.clone();
-                let rects = rerender_after(&scene.model, &change, mode, &settings, &mut frame, &mut empty);
+                let before = session.field_frame().clone();
+                let rects = session.apply(std::slice::from_ref(&edit)).unwrap().dirty;
+                let (frame, model, settings) = (session.field_frame(), &session.scene().model, session.settings());
                 // The reference skips nothing.
-                let full = render(&ModelField::new(&scene.model, mode), &settings, &|_| {}).0;
+                let full = render(&ModelField::new(model, mode), settings, &|_| {}).0;
                 if !frame.same_image(&full) {
-                    let outside: Vec<(u32, u32)> = changed_pixels(&frame, &full);
+                    let outside: Vec<(u32, u32)> = changed_pixels(frame, &full);
                     let extras = frame.extra != full.extra;
                     panic!(
                         "{label} {mode:?} step {step} {edit:?}: {} pixels differ (first {:?}), extras differ: {extras}, rects {rects:?}",
@@ -82,6 +64,7 @@ fn incremental_renders_after_random_edits_equal_full_renders() {
                 let area: u64 = rects.iter().map(PixelRect::area).sum();
                 some_small |= area < 64 * 48 / 2;
             }
+            scene = session.scene().clone();
         }
     }
     assert!(some_small, "a small edit re-traces less than half the screen");
@@ -104,7 +87,7 @@ fn moving_a_cached_component_costs_no_samples_and_repolygonizes_locally() {
 #[test]
 fn bad_edits_are_refused_and_change_nothing() {
     let mut scene = bundled("hair_point.ron");
-    let settings = RenderSettings::for_scene(&scene, Size(48, 36));
+    let settings = scene.render_settings(Size(48, 36));
     let before = render(&ModelField::new(&scene.model, EvalMode::Cached), &settings, &|_| {}).0;
     let bad = [
         (Edit::Translate { node: "nobody".into(), by: Vec3::X }, "no node is named"),
@@ -193,28 +176,22 @@ fn adding_removing_and_changing_operators_update_incrementally() {
         Edit::Remove { node: "c1".into() },
     ];
     for mode in [EvalMode::Indexed, EvalMode::Cached] {
-        let mut scene = Scene::parse(OPERATORS, "operators").unwrap();
-        let settings = RenderSettings::for_scene(&scene, Size(64, 48));
-        let (mut frame, _, mut empty) = render_model(&scene.model, mode, &settings, &|_| {});
-        let (mut local, _) = polygonize(&scene.model, mode, 24, PolygonizeOptions::default());
+        let scene = Scene::parse(OPERATORS, "operators").unwrap();
+        let polygonize = PolygonizeSettings { res: 24, ..Default::default() };
+        let mut session = EditSession::new(scene, mode, Size(64, 48), &polygonize).unwrap();
         for edit in &edits {
-            let change = scene.model.apply(edit).unwrap();
-            let before = frame.clone();
-            let rects = rerender_after(&scene.model, &change, mode, &settings, &mut frame, &mut empty);
-            let field = ModelField::new(&scene.model, mode);
-            let full = render(&field, &settings, &|_| {}).0;
-            assert!(frame.same_image(&full), "{mode:?} {edit:?}");
-            let seeds = skeleton_seeds(&scene.model, scene.model.root());
-            local.repolygonize(&field, &scene.model.change_region(&change, mode == EvalMode::Cached), &seeds);
-            let mut fresh = Polygonizer::new(local.lattice(), PolygonizeOptions::default());
-            fresh.polygonize(&field, &seeds);
-            let same = local.mesh().triangle_set() == fresh.mesh().triangle_set();
-            assert!(same, "{mode:?} {edit:?}: the local mesh differs from a fresh one");
+            let before = session.field_frame().clone();
+            let rects = session.apply(std::slice::from_ref(edit)).unwrap().dirty;
+            let full = render(&ModelField::new(&session.scene().model, mode), session.settings(), &|_| {}).0;
+            assert!(session.field_frame().same_image(&full), "{mode:?} {edit:?}");
+            let check = session.verify().mismatch;
+            assert!(check.is_none(), "{mode:?} {edit:?}: the local mesh differs from a fresh one: {check:?}");
             assert!(!changed_pixels(&before, &full).is_empty(), "{mode:?} {edit:?} changes the image");
             for (x, y) in changed_pixels(&before, &full) {
                 assert!(rects.iter().any(|r| r.contains(x, y)), "{mode:?} {edit:?}: pixel {x},{y}");
             }
         }
+        let mut scene = session.scene().clone();
         assert!(scene.model.find("b").is_none() && scene.model.find("g1").is_some());
         let refused = [
             (add("group", "g1", 0.0, 0.0), "used twice"),
@@ -237,16 +214,18 @@ fn a_model_that_starts_empty_updates_like_any_other() {
         model: Cache(res: 23, child: Intersection([Named("n", Point(center: (-0.447, -0.924, -0.641), radius: 0.988, weight: 0.824)),
             Circle(center: (0.259, 1.076, -0.805), normal: (0.185, 0.894, -0.479), ring: 0.645, radius: 0.352, weight: 1.331)])))"#;
     for mode in [EvalMode::Indexed, EvalMode::Cached] {
-        let mut scene = Scene::parse(text, "empty").unwrap();
-        let settings = RenderSettings::for_scene(&scene, Size(32, 24));
-        let (mut frame, stats, mut empty) = render_model(&scene.model, mode, &settings, &|_| {});
+        let scene = Scene::parse(text, "empty").unwrap();
+        let settings = scene.render_settings(Size(32, 24));
+        let (_, stats, _) = render_model(&scene.model, mode, &settings, &|_| {});
         assert_eq!(stats.hits, 0, "{mode:?}: the empty model shows");
         assert!(scene.model.bounds().is_empty());
-        let change = scene.model.apply(&Edit::Radius { node: "n".into(), radius: 3.0 }).unwrap();
-        assert!(!scene.model.bounds().is_empty(), "{mode:?}: the model's bounds stay empty");
-        rerender_after(&scene.model, &change, mode, &settings, &mut frame, &mut empty);
-        let full = render_model(&scene.model, mode, &settings, &|_| {}).0;
-        assert!(frame.same_image(&full), "{mode:?}");
+        let mut session =
+            EditSession::new(scene, mode, Size(32, 24), &PolygonizeSettings { res: 8, ..Default::default() }).unwrap();
+        session.apply(&[Edit::Radius { node: "n".into(), radius: 3.0 }]).unwrap();
+        let model = &session.scene().model;
+        assert!(!model.bounds().is_empty(), "{mode:?}: the model's bounds stay empty");
+        let full = render_model(model, mode, &settings, &|_| {}).0;
+        assert!(session.field_frame().same_image(&full), "{mode:?}");
     }
 }
 
@@ -262,14 +241,13 @@ fn an_intersection_with_a_negative_child_updates_like_any_other() {
             Circle(center: (-0.330, -0.967, -0.283), normal: (-0.965, -0.553, 0.150), ring: 0.557, radius: 0.725, weight: -0.819)]),
             Named("n3", Point(center: (0.506, -1.130, -0.319), radius: 1.038, weight: 1.036))]))"#;
     for mode in [EvalMode::Indexed, EvalMode::Cached] {
-        let mut scene = Scene::parse(text, "negative").unwrap();
-        let settings = RenderSettings::for_scene(&scene, Size(32, 24));
-        let (mut frame, _, mut empty) = render_model(&scene.model, mode, &settings, &|_| {});
-        let change =
-            scene.model.apply(&Edit::Translate { node: "n3".into(), by: Vec3::new(-0.281, -0.799, 0.722) }).unwrap();
-        rerender_after(&scene.model, &change, mode, &settings, &mut frame, &mut empty);
-        let full = render_model(&scene.model, mode, &settings, &|_| {}).0;
-        assert!(frame.same_image(&full), "{mode:?}");
+        let scene = Scene::parse(text, "negative").unwrap();
+        let settings = scene.render_settings(Size(32, 24));
+        let mut session =
+            EditSession::new(scene, mode, Size(32, 24), &PolygonizeSettings { res: 16, ..Default::default() }).unwrap();
+        session.apply(&[Edit::Translate { node: "n3".into(), by: Vec3::new(-0.281, -0.799, 0.722) }]).unwrap();
+        let full = render_model(&session.scene().model, mode, &settings, &|_| {}).0;
+        assert!(session.field_frame().same_image(&full), "{mode:?}");
     }
 }
 
@@ -291,7 +269,7 @@ fn rays_traced_again_count_whether_or_not_their_pixels_change() {
         "faint",
     )
     .unwrap();
-    let settings = RenderSettings::for_scene(&scene, Size(64, 48));
+    let settings = scene.render_settings(Size(64, 48));
     let mode = EvalMode::Indexed;
     let (mut frame, _, mut empty) = render_model(&scene.model, mode, &settings, &|_| {});
     let before = frame.clone();

@@ -311,9 +311,10 @@ fn moving_a_part_without_support_leaves_the_mesh_a_full_polygonization_finds() {
 /// box around the balls would.
 #[test]
 fn re_polygonizing_within_the_moved_probes_balls_equals_fresh_polygonizations() {
-    let script = load_script(&std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/hair-probe.ron")))
-        .expect("the probe script loads")
-        .frames;
+    let script =
+        load_script(&std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/scripts/hair-probe.ron")))
+            .expect("the probe script loads")
+            .frames;
     for (mode, cells) in [(EvalMode::Indexed, CellShape::Cubes), (EvalMode::Cached, CellShape::Bcc)] {
         let mut scene = bundled("hair_point.ron");
         let options = PolygonizeOptions { cells, ..Default::default() };
@@ -351,9 +352,10 @@ fn re_polygonizing_within_the_moved_probes_balls_equals_fresh_polygonizations() 
 #[test]
 fn re_polygonizing_the_head_translation_equals_fresh_polygonizations() {
     let mut scene = bundled("medusa.ron");
-    let script = load_script(&std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/medusa-head.ron")))
-        .expect("the head script loads")
-        .frames;
+    let script =
+        load_script(&std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/scripts/medusa-head.ron")))
+            .expect("the head script loads")
+            .frames;
     let options = PolygonizeOptions::default();
     let (mut local, _) = polygonize(&scene.model, EvalMode::Indexed, 48, options);
     for (frame, edits) in script.iter().take(6).enumerate() {

@@ -10,7 +10,7 @@ use common::{assert_traces_like_brute_force, bundled};
 use glam::Vec3A;
 
 fn settings(scene: &Scene, w: u32, h: u32) -> RenderSettings {
-    RenderSettings::for_scene(scene, Size(w, h))
+    scene.render_settings(Size(w, h))
 }
 
 /// Distance along `ray` to the sphere of radius `r` at the origin, if hit.

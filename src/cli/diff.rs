@@ -1,14 +1,15 @@
 //! `blobtrace diff A B`: compare two images (PNG or EXR) the way idiff does,
 //! with idiff's exit codes, an optional heat map and JSON statistics.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Args, ValueEnum};
 
-use crate::compare::{
-    DiffReport, Metric, Scale, Thresholds, Verdict, differences, edge_mask, heat_map, judge, load_image,
-};
+use super::args::check_output_file;
+use super::exit::describe;
+use crate::compare::{DiffReport, Metric, Thresholds, Verdict};
+use crate::pipeline::{ImageDiffError, ImageDiffSettings, diff_images};
 
 /// The metric, as the command line names it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
@@ -76,106 +77,55 @@ pub struct DiffArgs {
 
 /// Exit code for images of different sizes.
 const SIZE_MISMATCH: u8 = 3;
-/// Exit code for unreadable images or bad options.
-pub const FILE_ERROR: u8 = 4;
+/// Exit code for unreadable images.
+const FILE_ERROR: u8 = 4;
 
-/// Runs `blobtrace diff`; returns idiff's exit code.
+/// Runs `blobtrace diff`; returns idiff's exit code (bad options: the usage code).
 pub fn run(a: &DiffArgs) -> ExitCode {
-    match compare(a) {
-        Ok(report) => ExitCode::from(match report.verdict {
-            Verdict::Pass => 0,
-            Verdict::Warn => 1,
-            Verdict::Fail => 2,
-        }),
-        Err((code, message)) => {
+    if let Some(out) = &a.output
+        && let Err(e) = check_output_file(out, "png")
+    {
+        eprintln!("error: {e:#}");
+        return ExitCode::from(FILE_ERROR);
+    }
+    match diff_images(&a.a, &a.b, &a.settings()) {
+        Ok(report) => {
+            print_report(a, &report);
+            ExitCode::from(match report.verdict {
+                Verdict::Pass => 0,
+                Verdict::Warn => 1,
+                Verdict::Fail => 2,
+            })
+        }
+        Err(e) => {
+            let (message, code) = match e {
+                ImageDiffError::Setting(p) => describe(&p.into()),
+                ImageDiffError::SizeMismatch(m) => (m, SIZE_MISMATCH),
+                ImageDiffError::File(m) => (m, FILE_ERROR),
+            };
             eprintln!("error: {message}");
             ExitCode::from(code)
         }
     }
 }
 
-fn compare(a: &DiffArgs) -> Result<DiffReport, (u8, String)> {
-    let file_error = |m: String| (FILE_ERROR, m);
-    let thresholds = Thresholds {
-        fail: a.fail,
-        failpercent: a.failpercent,
-        hardfail: a.hardfail,
-        warn: a.warn,
-        warnpercent: a.warnpercent,
-    };
-    check_thresholds(&thresholds, a.scale).map_err(file_error)?;
-    if let Some(out) = &a.output {
-        super::check_output_file(out, "png").map_err(|e| file_error(format!("{e:#}")))?;
-    }
-    let metric = Metric::from(a.metric);
-    let (first, second) = (load_image(&a.a).map_err(file_error)?, load_image(&a.b).map_err(file_error)?);
-    let (fa, fb) = (&first.frame, &second.frame);
-    if (fa.width, fa.height) != (fb.width, fb.height) {
-        let msg = format!(
-            "{} is {}x{} but {} is {}x{}",
-            a.a.display(),
-            fa.width,
-            fa.height,
-            a.b.display(),
-            fb.width,
-            fb.height
-        );
-        return Err((SIZE_MISMATCH, msg));
-    }
-    for (path, img) in [(&a.a, &first), (&a.b, &second)] {
-        needs_channels(path, metric, img.has_depth, img.has_normal).map_err(file_error)?;
-    }
-    let values = differences(fa, fb, metric);
-    let masked = a.mask_edges.map_or_else(|| vec![false; values.len()], |k| edge_mask(fa, fb, k));
-    let report = judge(metric, &values, &masked, thresholds);
-    if let Some(out) = &a.output {
-        let scale = heat_scale(metric, a.scale);
-        let title = format!("{:?} difference: {} vs {}", metric, file_name(&a.a), file_name(&a.b)).to_lowercase();
-        let img = heat_map(&values, fa.width, fa.height, scale, &title, metric.unit());
-        img.save_png(out).map_err(|e| file_error(format!("{e:#}")))?;
-    }
-    print_report(a, &report);
-    Ok(report)
-}
-
-fn check_thresholds(t: &Thresholds, scale: Option<f32>) -> Result<(), String> {
-    let non_negative = |name: &str, v: f64| {
-        if v.is_nan() || v < 0.0 { Err(format!("--{name} must be a non-negative number, got {v}")) } else { Ok(()) }
-    };
-    non_negative("fail", f64::from(t.fail))?;
-    non_negative("hardfail", f64::from(t.hardfail))?;
-    non_negative("warn", f64::from(t.warn))?;
-    non_negative("failpercent", t.failpercent)?;
-    non_negative("warnpercent", t.warnpercent)?;
-    match scale {
-        Some(s) if !(s.is_finite() && s > 0.0) => Err(format!("--scale must be a positive number, got {s}")),
-        _ => Ok(()),
-    }
-}
-
-fn needs_channels(path: &Path, metric: Metric, has_depth: bool, has_normal: bool) -> Result<(), String> {
-    match metric {
-        Metric::Depth if !has_depth => {
-            Err(format!("{}: no depth (Z) channel; the depth metric needs EXR", path.display()))
+impl DiffArgs {
+    fn settings(&self) -> ImageDiffSettings {
+        let thresholds = Thresholds {
+            fail: self.fail,
+            failpercent: self.failpercent,
+            hardfail: self.hardfail,
+            warn: self.warn,
+            warnpercent: self.warnpercent,
+        };
+        ImageDiffSettings {
+            metric: self.metric.into(),
+            thresholds,
+            mask_edges: self.mask_edges,
+            heat_map: self.output.clone(),
+            scale: self.scale,
         }
-        Metric::Normal if !has_normal => {
-            Err(format!("{}: no normal (N.X, N.Y, N.Z) channels; the normal metric needs EXR", path.display()))
-        }
-        _ => Ok(()),
     }
-}
-
-/// The fixed heat-map scale of a metric, unless overridden.
-fn heat_scale(metric: Metric, scale: Option<f32>) -> Scale {
-    match metric {
-        Metric::Abs | Metric::Rel => Scale::Magnitude { max: scale.unwrap_or(0.1) },
-        Metric::Normal => Scale::Magnitude { max: scale.unwrap_or(10.0) },
-        Metric::Depth => Scale::Signed { max: scale.unwrap_or(0.05) },
-    }
-}
-
-fn file_name(p: &Path) -> String {
-    p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
 }
 
 fn print_report(a: &DiffArgs, r: &DiffReport) {

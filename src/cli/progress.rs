@@ -1,47 +1,101 @@
-//! A progress bar on stderr that appears only for work longer than about a
-//! second, and never when stderr is not a terminal.
+//! Progress bars on stderr for the pipelines' progress hook: one bar per
+//! stage, shown only once a job has run for about a second, and never when
+//! stderr is not a terminal.
 
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-/// Delay before the bar appears.
+use crate::pipeline::Progress;
+
+/// Delay before the first bar appears: short jobs stay quiet.
 const SHOW_AFTER: Duration = Duration::from_secs(1);
 
-/// A bar that shows itself once work has run for a second.
-pub struct Progress {
-    bar: ProgressBar,
+/// Draws the stage being reported as a bar (a spinner when its length is unknown).
+pub struct Bars {
     start: Instant,
-    shown: Mutex<bool>,
+    current: Mutex<Option<(String, ProgressBar)>>,
 }
 
-impl Progress {
-    /// A hidden bar for `len` units of work described by `label`.
-    pub fn new(len: u64, label: &str) -> Self {
-        let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::hidden());
-        if let Ok(style) = ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} rows, {eta} left") {
-            bar.set_style(style.progress_chars("=> "));
-        }
-        bar.set_message(label.to_string());
-        Self { bar, start: Instant::now(), shown: Mutex::new(false) }
+impl Default for Bars {
+    fn default() -> Self {
+        Self { start: Instant::now(), current: Mutex::new(None) }
+    }
+}
+
+impl Bars {
+    /// Bars for a job starting now.
+    #[must_use]
+    pub fn new() -> Self {
+        Self::default()
     }
 
-    /// Records `done` finished units; reveals the bar after the delay.
-    pub fn set(&self, done: usize) {
-        if self.start.elapsed() > SHOW_AFTER
-            && let Ok(mut shown) = self.shown.lock()
-            && !*shown
-        {
-            // stderr() draws nothing when stderr is not a terminal.
-            self.bar.set_draw_target(ProgressDrawTarget::stderr());
-            *shown = true;
+    /// Runs `f` (which prints) with the bar out of the way.
+    pub fn suspend<R>(&self, f: impl FnOnce() -> R) -> R {
+        let bar = self.current.lock().ok().and_then(|c| c.as_ref().map(|(_, b)| b.clone()));
+        match bar {
+            Some(bar) => bar.suspend(f),
+            None => f(),
         }
-        self.bar.set_position(done as u64);
     }
 
     /// Removes the bar.
     pub fn finish(&self) {
-        self.bar.finish_and_clear();
+        if let Ok(mut current) = self.current.lock()
+            && let Some((_, bar)) = current.take()
+        {
+            bar.finish_and_clear();
+        }
     }
+}
+
+impl Drop for Bars {
+    fn drop(&mut self) {
+        self.finish();
+    }
+}
+
+impl Progress for Bars {
+    fn update(&self, stage: &str, done: u64, total: u64) {
+        let Ok(mut current) = self.current.lock() else { return };
+        if current.as_ref().is_none_or(|(name, _)| name != stage) {
+            if let Some((_, old)) = current.take() {
+                old.finish_and_clear();
+            }
+            *current = Some((stage.to_string(), new_bar(stage, total)));
+        }
+        let Some((_, bar)) = current.as_ref() else { return };
+        // A stage of unknown length shows at once: nothing later would reveal it.
+        if bar.is_hidden() && (total == 0 || self.start.elapsed() > SHOW_AFTER) {
+            // stderr() draws nothing when stderr is not a terminal.
+            bar.set_draw_target(ProgressDrawTarget::stderr());
+        }
+        if total > 0 {
+            bar.set_length(total);
+            bar.set_position(done);
+        } else {
+            bar.tick();
+        }
+    }
+}
+
+/// A hidden bar (or spinner, for `total == 0`) labelled `stage`.
+fn new_bar(stage: &str, total: u64) -> ProgressBar {
+    let (bar, template) = if total > 0 {
+        (
+            ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::hidden()),
+            "{msg} [{bar:40}] {pos}/{len}, {eta} left",
+        )
+    } else {
+        (ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden()), "{spinner} {msg}, {elapsed}")
+    };
+    if let Ok(style) = ProgressStyle::with_template(template) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message(stage.to_string());
+    if total == 0 {
+        bar.enable_steady_tick(Duration::from_millis(120));
+    }
+    bar
 }

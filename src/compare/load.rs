@@ -5,8 +5,8 @@ use std::path::Path;
 
 use glam::Vec3;
 
+use crate::frame::Size;
 use crate::frame::{Frame, read_exr_channels, srgb8_to_linear};
-use crate::scene::Size;
 
 /// An image read for comparison, and which AOVs it carried.
 #[derive(Clone, Debug)]

@@ -4,23 +4,21 @@
 
 use glam::{Affine3A, Mat3A, Vec3, Vec3A};
 
+use super::MAX_MAGNITUDE;
 use super::model::{Change, Model, ModelError};
 use super::node::{NodeId, NodeKind, Placement};
 use crate::geom::{Aabb, Support};
-use crate::scene::values::{self, MAX_MAGNITUDE};
 
-/// An edit of a named node. Read from a script, its numbers are checked as
-/// they are parsed (so a bad one is reported at its line and column), the
-/// same way a scene's are; [`Model::apply`] checks them again.
-#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
+/// An edit of a named node. [`Model::apply`] checks its numbers before
+/// anything changes (edit scripts check them as they parse, too, to report a
+/// bad one at its line and column).
+#[derive(Clone, Debug, PartialEq)]
 pub enum Edit {
     /// Move the named subtree by `by`, in its parent's frame.
     Translate {
         /// The `Named` node.
         node: String,
         /// Displacement.
-        #[serde(deserialize_with = "values::finite_vec3")]
         by: Vec3,
     },
     /// Rotate the named subtree about the centre of its bounds, in degrees about X, then Y, then Z.
@@ -28,7 +26,6 @@ pub enum Edit {
         /// The `Named` node.
         node: String,
         /// Angles in degrees.
-        #[serde(deserialize_with = "values::finite_vec3")]
         degrees: Vec3,
     },
     /// Scale the named subtree about the centre of its bounds.
@@ -36,7 +33,6 @@ pub enum Edit {
         /// The `Named` node.
         node: String,
         /// Per-axis factors, non-zero.
-        #[serde(deserialize_with = "values::scale_factors")]
         by: Vec3,
     },
     /// Set the support radius of the named primitive.
@@ -44,7 +40,6 @@ pub enum Edit {
         /// The `Named` node holding a primitive.
         node: String,
         /// New radius, positive.
-        #[serde(deserialize_with = "values::positive")]
         radius: f32,
     },
     /// Set the weight of the named primitive.
@@ -52,7 +47,6 @@ pub enum Edit {
         /// The `Named` node holding a primitive.
         node: String,
         /// New weight, finite.
-        #[serde(deserialize_with = "values::finite")]
         weight: f32,
     },
     /// Add a point primitive, named `name`, to the operator under the node `to`.
@@ -62,13 +56,10 @@ pub enum Edit {
         /// The new node's name, unused so far.
         name: String,
         /// Centre.
-        #[serde(deserialize_with = "values::finite_vec3")]
         center: Vec3,
         /// Support radius, positive.
-        #[serde(deserialize_with = "values::positive")]
         radius: f32,
         /// Weight (default 1).
-        #[serde(default = "one", deserialize_with = "values::finite")]
         weight: f32,
     },
     /// Remove the named node from the operator holding it (which keeps at least one child).
@@ -86,7 +77,7 @@ pub enum Edit {
 }
 
 /// The n-ary operators an edit can switch between.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Operator {
     /// Sum.
     Blend,
@@ -95,11 +86,7 @@ pub enum Operator {
     /// Minimum.
     Intersection,
     /// Ricci's blend with exponent `n ≥ 1`.
-    Ricci(#[serde(deserialize_with = "values::at_least_one")] f32),
-}
-
-fn one() -> f32 {
-    1.0
+    Ricci(f32),
 }
 
 impl Edit {

@@ -31,6 +31,11 @@ pub use node::{Node, NodeId, NodeKind, Placement};
 pub use primitive::{Primitive, Skeleton};
 pub use region::Region;
 
+/// Largest magnitude of any number in a model or an edit: beyond it, squared
+/// distances and sums of supports leave single precision's useful range (a
+/// radius of 1e20 squares to infinity). Scene files are held to it as they parse.
+pub const MAX_MAGNITUDE: f32 = 1e6;
+
 use root::RootParts;
 
 use crate::geom::{Aabb, Interval, Ray};

@@ -2,10 +2,12 @@
 //! their files — 8-bit sRGB PNG for people, one multi-channel EXR for tools.
 
 mod exr_io;
+mod size;
 
 use glam::Vec3;
 
 pub use exr_io::{ExrChannels, read_exr_channels};
+pub use size::{MAX_PIXELS, MAX_SIDE, Size};
 
 /// Geometric disagreement between two renders of one view.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]

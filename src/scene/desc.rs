@@ -3,9 +3,11 @@
 use serde::Deserialize;
 use serde::de::{self, Deserializer};
 
-use super::values::{AtLeastOne, Color, Direction, Finite, Name, Positive, Scale, Size, V3};
+use super::values::{AtLeastOne, Color, Direction, Finite, Name, Positive, Scale, V3};
 use crate::cache::{CacheGrid, Filter, Storage};
+use crate::camera::LookAt;
 use crate::field::{Kernel, ModelError};
+use crate::frame::Size;
 
 /// A whole scene file: `Scene(camera: …, size: …, threshold: …, model: …)`.
 #[derive(Debug, Deserialize)]
@@ -103,16 +105,7 @@ struct RawCamera {
 impl TryFrom<RawCamera> for CameraDesc {
     type Error = String;
     fn try_from(r: RawCamera) -> Result<Self, String> {
-        let view = r.target.0 - r.eye.0;
-        if view.length() <= 1e-6 {
-            return Err("camera eye and target coincide".into());
-        }
-        if view.normalize().cross(r.up.0).length() <= 1e-6 {
-            return Err("camera up is parallel to the view direction (or zero)".into());
-        }
-        if r.fov_y.0 >= 180.0 {
-            return Err(format!("fov_y must be below 180 degrees, got {}", r.fov_y.0));
-        }
+        LookAt { eye: r.eye.0, target: r.target.0, up: r.up.0, fov_y: r.fov_y.0 }.check()?;
         Ok(CameraDesc { eye: r.eye, target: r.target, up: r.up, fov_y: r.fov_y })
     }
 }

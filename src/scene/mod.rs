@@ -5,6 +5,7 @@
 
 mod build;
 mod desc;
+mod edit_desc;
 mod script;
 pub mod values;
 
@@ -12,11 +13,13 @@ use std::path::Path;
 
 use glam::Vec3;
 
+pub use crate::frame::Size;
 pub use desc::{CameraDesc, NodeDesc, SceneDesc};
+pub use edit_desc::{EditDesc, OperatorDesc};
 pub use script::{Script, load_script, parse_script};
-pub use values::{Color, Finite, Positive, Size, V3};
+pub use values::{Color, Finite, Positive, V3};
 
-use crate::camera::Camera;
+use crate::camera::{Camera, LookAt};
 use crate::field::{Model, ModelError};
 
 /// Background colour where the scene names none (linear RGB).
@@ -27,6 +30,8 @@ pub const DEFAULT_BACKGROUND: Vec3 = Vec3::new(0.05, 0.055, 0.065);
 pub struct Scene {
     /// The viewpoint.
     pub camera: Camera,
+    /// The viewpoint as the file writes it.
+    pub look_at: LookAt,
     /// Default image size.
     pub size: Size,
     /// The BlobTree, with its iso-value.
@@ -87,10 +92,47 @@ impl Scene {
     pub fn from_desc(desc: &SceneDesc) -> Result<Scene, ModelError> {
         desc.check_size()?;
         let c = &desc.camera;
-        let camera = Camera::look_at(c.eye.0, c.target.0, c.up.0, c.fov_y.0);
+        let look_at = LookAt { eye: c.eye.0, target: c.target.0, up: c.up.0, fov_y: c.fov_y.0 };
+        let camera = look_at.camera();
         let model = build::model(&desc.model, desc.threshold.0)?;
         model.check_reach()?;
-        Ok(Scene { camera, size: desc.size, model, background: desc.background.map_or(DEFAULT_BACKGROUND, |c| c.0) })
+        Ok(Scene {
+            camera,
+            look_at,
+            size: desc.size,
+            model,
+            background: desc.background.map_or(DEFAULT_BACKGROUND, |c| c.0),
+        })
+    }
+}
+
+/// Changes to a scene's view, each part optional (from the command line, say).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ViewOverrides {
+    /// New eye position.
+    pub eye: Option<Vec3>,
+    /// New point looked at.
+    pub target: Option<Vec3>,
+    /// New up direction.
+    pub up: Option<Vec3>,
+    /// New vertical field of view in degrees.
+    pub fov_y: Option<f32>,
+}
+
+impl Scene {
+    /// Looks at the scene as `overrides` say, keeping what they leave unset;
+    /// refuses a view that is no camera (and leaves the scene as it was).
+    pub fn override_view(&mut self, overrides: &ViewOverrides) -> Result<(), String> {
+        let v = self.look_at;
+        let look_at = LookAt {
+            eye: overrides.eye.unwrap_or(v.eye),
+            target: overrides.target.unwrap_or(v.target),
+            up: overrides.up.unwrap_or(v.up),
+            fov_y: overrides.fov_y.unwrap_or(v.fov_y),
+        };
+        look_at.check()?;
+        (self.look_at, self.camera) = (look_at, look_at.camera());
+        Ok(())
     }
 }
 

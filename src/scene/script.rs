@@ -12,6 +12,7 @@ use std::path::Path;
 use serde::Deserialize;
 
 use super::SceneError;
+use super::edit_desc::EditDesc;
 use crate::field::Edit;
 
 /// A script as written.
@@ -29,7 +30,7 @@ struct ScriptFrame {
     #[serde(default = "one")]
     repeat: u32,
     /// The edits of the frame, applied in order.
-    edits: Vec<Edit>,
+    edits: Vec<EditDesc>,
 }
 
 fn one() -> u32 {
@@ -87,8 +88,9 @@ pub fn parse_script(text: &str, label: &str) -> Result<Script, SceneError> {
     let mut out = Script::default();
     for (k, frame) in script.frames.iter().enumerate() {
         let (line, column) = entries.get(k).copied().unwrap_or((1, 1));
+        let edits: Vec<Edit> = frame.edits.iter().cloned().map(Edit::from).collect();
         for _ in 0..frame.repeat {
-            out.frames.push(frame.edits.clone());
+            out.frames.push(edits.clone());
             out.origins.push(format!("{label}:{line}:{column}"));
         }
     }

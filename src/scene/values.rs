@@ -1,8 +1,6 @@
 //! Validated scalar and vector values of scene files. Each checks itself while
 //! it is parsed, so a bad number is reported at its own line and column.
 
-use std::fmt;
-
 use glam::Vec3;
 use serde::de::{self, Deserialize, Deserializer};
 
@@ -22,10 +20,7 @@ pub struct V3(pub Vec3);
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Color(pub Vec3);
 
-/// Largest magnitude of any number in a scene or an edit script: beyond it,
-/// squared distances and sums of supports leave single precision's useful
-/// range (a radius of 1e20 squares to infinity).
-pub const MAX_MAGNITUDE: f32 = 1e6;
+pub use crate::field::MAX_MAGNITUDE;
 
 fn check_finite<E: de::Error>(v: f32) -> Result<f32, E> {
     if v.is_finite() && v.abs() <= MAX_MAGNITUDE {
@@ -149,50 +144,6 @@ impl<'de> Deserialize<'de> for Name {
             return Err(de::Error::custom("expected a name, got the empty string"));
         }
         Ok(Name(name))
-    }
-}
-
-/// An image size `(width, height)`, each in `1..=16384`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Size(pub u32, pub u32);
-
-/// Largest image side blobtrace accepts.
-pub const MAX_SIDE: u32 = 16384;
-
-/// Most pixels an image may have: a frame of every AOV takes 32 bytes a
-/// pixel, so this caps one at 2 GiB.
-pub const MAX_PIXELS: u64 = 1 << 26;
-
-impl Size {
-    /// Parses `WxH` (as on the command line).
-    pub fn parse(s: &str) -> Result<Self, String> {
-        let (w, h) =
-            s.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT such as 640x480, got {s:?}"))?;
-        let side = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("{v:?} is not a whole number in {s:?}"));
-        Self::checked(side(w)?, side(h)?)
-    }
-
-    /// The size `w × h` if each side lies in `1..=MAX_SIDE` and it has at
-    /// most [`MAX_PIXELS`] pixels.
-    pub fn checked(w: u32, h: u32) -> Result<Self, String> {
-        if (1..=MAX_SIDE).contains(&w) && (1..=MAX_SIDE).contains(&h) && u64::from(w) * u64::from(h) <= MAX_PIXELS {
-            Ok(Size(w, h))
-        } else {
-            Err(format!("image size {w}x{h} is out of range (each side 1..={MAX_SIDE}, at most {MAX_PIXELS} pixels)"))
-        }
-    }
-}
-
-impl fmt::Display for Size {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}x{}", self.0, self.1)
-    }
-}
-
-impl<'de> Deserialize<'de> for Size {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let (w, h) = <(u32, u32)>::deserialize(d)?;
-        Size::checked(w, h).map_err(de::Error::custom)
     }
 }
 

@@ -12,9 +12,8 @@ use super::segment::{Crossing, TraceOptions, march, snap_reach, trace_ray};
 use super::shade::Lighting;
 use crate::camera::Camera;
 use crate::field::{EmptySpace, EvalMode, Field, Model, ModelField};
-use crate::frame::Frame;
+use crate::frame::{Frame, Size};
 use crate::geom::{Ray, Support};
-use crate::scene::{Scene, Size};
 
 /// Everything a field render needs besides the field.
 #[derive(Clone, Copy, Debug)]
@@ -34,16 +33,17 @@ pub struct RenderSettings {
 }
 
 impl RenderSettings {
-    /// The scene's camera and background at `size`, with default lights and tracer knobs.
+    /// `model` seen through `camera` at `size` on `background`, with default
+    /// lights and the tracer knobs sized to the model.
     #[must_use]
-    pub fn for_scene(scene: &Scene, size: Size) -> Self {
+    pub fn new(camera: Camera, size: Size, background: Vec3, model: &Model) -> Self {
         Self {
-            camera: scene.camera,
+            camera,
             width: size.0,
             height: size.1,
-            background: scene.background,
+            background,
             lighting: Lighting::default(),
-            trace: TraceOptions::for_bounds(&scene.model.sizing_bounds()),
+            trace: TraceOptions::for_bounds(&model.sizing_bounds()),
         }
     }
 }

@@ -2,9 +2,10 @@
 #![allow(dead_code)]
 
 use blobtrace::camera::Camera;
-use blobtrace::field::{Edit, EvalMode, Field, Model, ModelField};
+use blobtrace::field::{Edit, EvalMode, Field, Model};
 use blobtrace::geom::Ray;
-use blobtrace::mesh::{Lattice, Mesh, PolygonizeOptions, Polygonizer, skeleton_seeds};
+use blobtrace::mesh::{Lattice, Mesh, PolygonizeOptions, Polygonizer};
+use blobtrace::pipeline::polygonizer_on;
 use blobtrace::scene::Scene;
 use blobtrace::trace::{TraceOptions, trace_ray};
 use glam::{Vec3, Vec3A};
@@ -49,9 +50,7 @@ pub fn bundled(name: &str) -> Scene {
 /// `model` polygonized in `mode` on the lattice of `res` cells across its
 /// bounds, grown from every skeleton; the polygonizer and its mesh.
 pub fn polygonize(model: &Model, mode: EvalMode, res: u32, options: PolygonizeOptions) -> (Polygonizer, Mesh) {
-    let field = ModelField::new(model, mode);
-    let mut p = Polygonizer::new(Lattice::across(&model.bounds(), res), options);
-    p.polygonize(&field, &skeleton_seeds(model, model.root()));
+    let p = polygonizer_on(model, mode, Lattice::across(&model.bounds(), res), options);
     let mesh = p.mesh();
     (p, mesh)
 }

@@ -1,49 +1,39 @@
-//! `blobtrace bench edit`: the caching paper's Figure 8 — per-frame time of an
-//! edit script with caches and without (exact naive, the paper's "no cache"),
-//! each as local updates and as work from scratch, in one process; with a plot.
+//! The caching paper's Figure 8 and Table 2: an edit script's per-frame
+//! time with caches and without (exact naive, the paper's "no cache"), each
+//! as local updates and as work from scratch, in one process; with a plot.
 //! The incremental and from-scratch replays each start from a freshly loaded
 //! scene, so neither finds samples the other filled.
 
 use std::path::PathBuf;
 
-use anyhow::Context;
-use clap::Args;
 use serde::Serialize;
 
-use super::edit::{FrameRow, ScratchFrame, replay, replay_from_scratch};
-use super::mesh::{CellsArg, PolygonizeArgs, VertexArg};
-use super::with_threads;
 use crate::compare::line_plot;
 use crate::field::EvalMode;
-use crate::scene::{Scene, Script, Size, load_script};
+use crate::frame::Size;
+use crate::pipeline::{
+    EditSession, FrameRow, PipelineError, PolygonizeSettings, Result, ScratchFrame, Silent, replay_from_scratch,
+    with_threads,
+};
+use crate::scene::{Scene, Script, load_script};
 
-/// Options of `blobtrace bench edit`.
-#[derive(Debug, Args)]
-pub struct EditBenchArgs {
-    /// Scene file (RON).
-    #[arg(default_value = "scenes/medusa.ron")]
+/// What `bench edit` replays.
+#[derive(Clone, Debug)]
+pub struct EditBenchSettings {
+    /// Scene file.
     pub scene: PathBuf,
-    /// Edit script (RON).
-    #[arg(long, default_value = "scenes/medusa-head.ron")]
+    /// Edit script.
     pub script: PathBuf,
     /// Mesh resolution (the paper's 60 and 120).
-    #[arg(long, default_value_t = 60)]
     pub res: u32,
     /// Image size of the ray-cast path.
-    #[arg(long, value_parser = super::parse_size, default_value = "160x120")]
     pub size: Size,
     /// Where to write the plot.
-    #[arg(short, long, default_value = "figure8.png")]
-    pub output: PathBuf,
+    pub plot: PathBuf,
     /// Rounds of replays, each mode once per round; the fastest of each measure counts.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
     pub repeat: u32,
     /// Worker threads (default: all cores; the paper's timings ran on one processor).
-    #[arg(long)]
     pub threads: Option<usize>,
-    /// Print one JSON object.
-    #[arg(long)]
-    pub json: bool,
 }
 
 /// Totals of one mode.
@@ -113,11 +103,10 @@ impl ModeTotals {
     }
 }
 
-/// Runs `blobtrace bench edit`.
-pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
-    super::check_output_file(&a.output, "png")?;
+/// Replays the script with and without caches, locally and from scratch; writes the plot.
+pub fn bench_edit(a: &EditBenchSettings) -> Result<EditBenchReport> {
     let script = load_script(&a.script)?;
-    let polygonize = PolygonizeArgs { res: a.res, cells: CellsArg::Cubes, vertex: VertexArg::Root, refine: 0 };
+    let polygonize = PolygonizeSettings { res: a.res, ..Default::default() };
     // Per round, the replays of each mode; the plot shows the round whose
     // cached local updates were fastest.
     let mut rounds: Vec<Vec<Replayed>> = vec![];
@@ -138,7 +127,7 @@ pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
     let cached_full_frames = &rounds[0][0].1;
     let changed: f64 = cached_full_frames.iter().map(|f| f.changed_evaluations).sum();
     let all: f64 = cached_full_frames.iter().map(|f| f.evaluations).sum();
-    let report = EditBenchReport {
+    Ok(EditBenchReport {
         frames: script.frames.len(),
         res: a.res,
         threads: a.threads.unwrap_or_else(rayon::current_num_threads),
@@ -149,36 +138,7 @@ pub fn run(a: &EditBenchArgs) -> anyhow::Result<()> {
         cached,
         naive,
         rounds: totals,
-    };
-    if a.json {
-        println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
-    } else {
-        println!(
-            "{} frames at res {}, {} threads: local polygonization {:.3} s cached, {:.3} s naive ({:.1}x); from scratch {:.3} s cached, {:.3} s naive",
-            report.frames,
-            report.res,
-            report.threads,
-            report.cached.local_polygonize_s,
-            report.naive.local_polygonize_s,
-            report.local_polygonize_ratio,
-            report.cached.full_polygonize_s,
-            report.naive.full_polygonize_s
-        );
-        println!(
-            "ray casting at {}: dirty rectangles {:.3} s, full frames {:.3} s ({:.1}x); plot in {}",
-            a.size,
-            report.cached.dirty_render_s,
-            report.cached.full_render_s,
-            report.dirty_render_speedup,
-            a.output.display()
-        );
-        println!(
-            "the pixels each frame changes take {:.1}% of the full frames' field evaluations: a bit-identical dirty frame evaluates at most {:.1}x fewer",
-            100.0 * report.changed_evaluation_share,
-            report.evaluation_ceiling
-        );
-    }
-    Ok(())
+    })
 }
 
 /// One mode's replays of the script: local updates, and work from scratch.
@@ -187,29 +147,30 @@ type Replayed = (Vec<FrameRow>, Vec<ScratchFrame>);
 /// Replays the script in `mode` incrementally and from scratch, each on a
 /// freshly loaded scene.
 fn replay_both_ways(
-    a: &EditBenchArgs,
+    a: &EditBenchSettings,
     script: &Script,
-    polygonize: &PolygonizeArgs,
+    polygonize: &PolygonizeSettings,
     mode: EvalMode,
-) -> anyhow::Result<Replayed> {
-    let load = || -> anyhow::Result<Scene> {
-        let scene = Scene::load(&a.scene)?;
-        polygonize.check(&scene)?;
-        Ok(scene)
-    };
-    let (local, _) =
-        with_threads(a.threads, || replay(&mut load()?, mode, script, polygonize, a.size, false, |_, _, _| Ok(())))??;
-    let scratch = with_threads(a.threads, || replay_from_scratch(&mut load()?, mode, script, polygonize, a.size))??;
+) -> Result<Replayed> {
+    let local = with_threads(a.threads, || -> Result<Vec<FrameRow>> {
+        let mut session = EditSession::new(Scene::load(&a.scene)?, mode, a.size, polygonize)?;
+        Ok(session.replay(script, false, &Silent, |_, _, _| Ok(()))?.per_frame)
+    })??;
+    let scratch = with_threads(a.threads, || -> Result<Vec<ScratchFrame>> {
+        replay_from_scratch(&mut Scene::load(&a.scene)?, mode, script, polygonize, a.size, &Silent)
+    })??;
     Ok((local, scratch))
 }
 
 /// Figure 8: polygonization seconds per frame, cached and naive, local and from scratch.
-fn plot(a: &EditBenchArgs, runs: &[Replayed]) -> anyhow::Result<()> {
+fn plot(a: &EditBenchSettings, runs: &[Replayed]) -> Result<()> {
     let local = |r: &[FrameRow]| r.iter().map(|f| f.polygonize_s).collect::<Vec<f64>>();
     let full = |r: &[ScratchFrame]| r.iter().map(|f| f.polygonize_s).collect::<Vec<f64>>();
     let (cl, cf, nl, nf) = (local(&runs[0].0), full(&runs[0].1), local(&runs[1].0), full(&runs[1].1));
     let series: [(&str, &[f64]); 4] =
         [("cached, local", &cl), ("cached, full", &cf), ("naive, local", &nl), ("naive, full", &nf)];
     let title = format!("polygonization seconds per frame, res {}", a.res);
-    line_plot(&title, "s", &series, 760, 380).save_png(&a.output)
+    line_plot(&title, "s", &series, 760, 380)
+        .save_png(&a.plot)
+        .map_err(|e| PipelineError::File { path: a.plot.clone(), message: format!("{e:#}") })
 }

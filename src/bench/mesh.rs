@@ -1,44 +1,48 @@
-//! `blobtrace bench mesh`: the first paper's Table 1 (polygonization time with
-//! and without caches over resolutions), evaluations per triangle, the
+//! Polygonization benchmarks: the caching paper's Table 1 (time with and
+//! without caches over resolutions), evaluations per triangle, the
 //! polygonizer's triangle rate on one thread and on all, and the mesh ray
 //! caster's ray rate — all measured in one process.
 
 use std::path::PathBuf;
 
-use anyhow::Context;
-use clap::Args;
 use serde::Serialize;
 
-use super::mesh::{CellsArg, MeshReport, PolygonizeArgs, VertexArg, polygonize_scene};
-use super::render::render_polygonized;
-use super::with_threads;
 use crate::field::EvalMode;
-use crate::scene::{Scene, Size};
+use crate::frame::Size;
+use crate::mesh::{CellShape, VertexPlacement};
+use crate::pipeline::{
+    MAX_RES, MeshReport, PipelineError, PolygonizeSettings, Result, Silent, cells_name, polygonize, render_mesh,
+    with_threads,
+};
+use crate::scene::Scene;
 
-/// Options of `blobtrace bench mesh`.
-#[derive(Debug, Args)]
-pub struct MeshBenchArgs {
-    /// Scene file (RON) for Table 1 and ray casting.
-    #[arg(default_value = "scenes/medusa.ron")]
+/// What `bench mesh` measures.
+#[derive(Clone, Debug)]
+pub struct MeshBenchSettings {
+    /// Scene file for Table 1 and ray casting.
     pub scene: PathBuf,
     /// Resolutions of Table 1 (those that would not fit in memory are skipped).
-    #[arg(long, value_delimiter = ',', default_value = "32,64,128,256,512")]
     pub res: Vec<u32>,
     /// Resolution of the sphere (triangle rate) and of the ray-cast mesh.
-    #[arg(long, default_value_t = 256)]
     pub detail_res: u32,
     /// Image size of the mesh ray casting.
-    #[arg(long, value_parser = super::parse_size, default_value = "640x480")]
     pub size: Size,
     /// Cell decomposition.
-    #[arg(long, value_enum, default_value_t = CellsArg::Cubes)]
-    pub cells: CellsArg,
+    pub cells: CellShape,
     /// Worker threads (default: all cores; the paper's timings ran on one processor).
-    #[arg(long)]
     pub threads: Option<usize>,
-    /// Print one JSON object.
-    #[arg(long)]
-    pub json: bool,
+}
+
+/// Measures every figure of `bench mesh`.
+pub fn bench_mesh(settings: &MeshBenchSettings) -> Result<MeshBenchReport> {
+    if let Some(bad) = settings.res.iter().chain([&settings.detail_res]).find(|r| !(1..=MAX_RES).contains(*r)) {
+        return Err(PipelineError::setting(
+            "res",
+            format!("and detail_res must be between 1 and {MAX_RES}, got {bad}"),
+        ));
+    }
+    let scene = Scene::load(&settings.scene)?;
+    with_threads(settings.threads, || measure(settings, scene))?
 }
 
 /// One row of Table 1.
@@ -132,43 +136,27 @@ pub struct MeshBenchReport {
 /// The first paper's cached/uncached ratios at 32, 64, 128, 256 and 512.
 const PAPER_RATIOS: [(u32, f64); 5] = [(32, 0.8), (64, 1.4), (128, 3.0), (256, 6.5), (512, 16.0)];
 
-/// Runs `blobtrace bench mesh`.
-pub fn run(a: &MeshBenchArgs) -> anyhow::Result<()> {
-    let max = super::mesh::MAX_RES;
-    if let Some(bad) = a.res.iter().chain([&a.detail_res]).find(|r| !(1..=max).contains(*r)) {
-        anyhow::bail!("--res and --detail-res must be between 1 and {max}, got {bad}");
-    }
-    let scene = Scene::load(&a.scene)?;
-    let report = with_threads(a.threads, || measure(a, scene))??;
-    if a.json {
-        println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
-    } else {
-        print_report(a, &report);
-    }
-    Ok(())
-}
-
 /// Every figure of the report, on the calling pool's threads.
-fn measure(a: &MeshBenchArgs, mut scene: Scene) -> anyhow::Result<MeshBenchReport> {
+fn measure(a: &MeshBenchSettings, mut scene: Scene) -> Result<MeshBenchReport> {
     let mut table1 = vec![];
     let mut skipped_res = vec![];
     for &res in &a.res {
-        let args = PolygonizeArgs { res, cells: a.cells, vertex: VertexArg::Root, refine: 0 };
-        if args.check(&scene).is_err() {
+        let settings = PolygonizeSettings { res, cells: a.cells, ..Default::default() };
+        if settings.check(&scene.model).is_err() {
             skipped_res.push(res);
             continue;
         }
-        table1.push(table_row(&mut scene, &args));
+        table1.push(table_row(&mut scene, &settings)?);
     }
-    let detail = PolygonizeArgs { res: a.detail_res, cells: a.cells, vertex: VertexArg::Root, refine: 0 };
-    detail.check(&scene)?;
-    let evals_per_triangle = [CellsArg::Cubes, CellsArg::Bcc]
+    let detail = PolygonizeSettings { res: a.detail_res, cells: a.cells, ..Default::default() };
+    detail.check(&scene.model)?;
+    let evals_per_triangle = [CellShape::Cubes, CellShape::Bcc]
         .into_iter()
-        .map(|cells| placement_cost(&scene, PolygonizeArgs { cells, ..detail }))
-        .collect();
+        .map(|cells| placement_cost(&scene, PolygonizeSettings { cells, ..detail }))
+        .collect::<Result<_>>()?;
     let sphere = triangle_rate(&detail)?;
-    let (mesh, mesh_report) = polygonize_scene(&scene, EvalMode::Indexed, &detail);
-    let (_, render) = render_polygonized(&scene, &mesh, mesh_report, a.size);
+    let (mesh, mesh_report) = polygonize(&scene.model, EvalMode::Indexed, &detail, &Silent)?;
+    let (_, render) = render_mesh(&scene, &mesh, mesh_report, a.size, &Silent);
     let ray_casting = RayRate {
         res: detail.res,
         triangles: mesh.triangles.len(),
@@ -181,21 +169,21 @@ fn measure(a: &MeshBenchArgs, mut scene: Scene) -> anyhow::Result<MeshBenchRepor
     Ok(MeshBenchReport { threads, table1, skipped_res, evals_per_triangle, sphere, ray_casting })
 }
 
-fn table_row(scene: &mut Scene, args: &PolygonizeArgs) -> TableRow {
+fn table_row(scene: &mut Scene, args: &PolygonizeSettings) -> Result<TableRow> {
     // The exact index packs a cell's list for the eight-wide sums on its
     // first sum there, and a cache fills its samples with exact sums. An
     // untimed exact polygonization packs the lists this row reads, so the
     // cached run starts from empty caches but packed lists, as the indexed
     // run does: a row's figures no longer depend on the rows before it (a
     // lone `--res 512` paid a third of a second for packing in its cached run).
-    let _ = polygonize_scene(scene, EvalMode::Indexed, args);
+    let run = |scene: &Scene, mode| polygonize(&scene.model, mode, args, &Silent).map(|(_, report)| report);
+    run(scene, EvalMode::Indexed)?;
     scene.model.set_cache_budget(None);
-    let (_, cached) = polygonize_scene(scene, EvalMode::Cached, args);
+    let cached = run(scene, EvalMode::Cached)?;
     let touched = cached.caches.as_ref().map_or(0.0, |c| c.touched_fraction);
-    let (_, naive) = polygonize_scene(scene, EvalMode::Naive, args);
-    let (_, indexed) = polygonize_scene(scene, EvalMode::Indexed, args);
+    let (naive, indexed) = (run(scene, EvalMode::Naive)?, run(scene, EvalMode::Indexed)?);
     let ratio = |other: &MeshReport| other.seconds / cached.seconds.max(1e-9);
-    TableRow {
+    Ok(TableRow {
         res: args.res,
         cached_s: cached.seconds,
         naive_s: naive.seconds,
@@ -206,22 +194,24 @@ fn table_row(scene: &mut Scene, args: &PolygonizeArgs) -> TableRow {
         triangles: (cached.triangles, indexed.triangles),
         evals_per_triangle: (cached.evals_per_triangle, indexed.evals_per_triangle),
         cache_touched_fraction: touched,
-    }
+    })
 }
 
 /// Evaluations per triangle of `args`'s cells with each vertex placement.
-fn placement_cost(scene: &Scene, args: PolygonizeArgs) -> PlacementCost {
-    let run = |vertex| polygonize_scene(scene, EvalMode::Indexed, &PolygonizeArgs { vertex, ..args }).1;
-    let (root, linear) = (run(VertexArg::Root), run(VertexArg::Linear));
-    PlacementCost { cells: root.cells, res: args.res, root: root.evals_per_triangle, linear: linear.evals_per_triangle }
+fn placement_cost(scene: &Scene, args: PolygonizeSettings) -> Result<PlacementCost> {
+    let run = |vertex| polygonize(&scene.model, EvalMode::Indexed, &PolygonizeSettings { vertex, ..args }, &Silent);
+    let (root, linear) = (run(VertexPlacement::default())?.1, run(VertexPlacement::Linear)?.1);
+    let cells = cells_name(args.cells).to_string();
+    Ok(PlacementCost { cells, res: args.res, root: root.evals_per_triangle, linear: linear.evals_per_triangle })
 }
 
 /// The bundled sphere polygonized at `detail`'s resolution, on one thread and on all.
-fn triangle_rate(detail: &PolygonizeArgs) -> anyhow::Result<TriangleRate> {
+fn triangle_rate(detail: &PolygonizeSettings) -> Result<TriangleRate> {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/sphere.ron");
     let sphere = Scene::load(path)?;
-    let one = with_threads(Some(1), || polygonize_scene(&sphere, EvalMode::Indexed, detail).1)?;
-    let all = polygonize_scene(&sphere, EvalMode::Indexed, detail).1;
+    let run = || polygonize(&sphere.model, EvalMode::Indexed, detail, &Silent).map(|(_, report)| report);
+    let one = with_threads(Some(1), run)??;
+    let all = run()?;
     Ok(TriangleRate {
         res: detail.res,
         triangles: all.triangles,
@@ -229,40 +219,4 @@ fn triangle_rate(detail: &PolygonizeArgs) -> anyhow::Result<TriangleRate> {
         all_threads: all.triangles_per_second,
         threads: all.threads,
     })
-}
-
-fn print_report(a: &MeshBenchArgs, r: &MeshBenchReport) {
-    println!("{}: polygonization seconds (Table 1), {} threads", a.scene.display(), r.threads);
-    println!("  res     cached     naive   indexed  naive/cached (paper)  indexed/cached  triangles  evals/tri");
-    for row in &r.table1 {
-        println!(
-            "  {:4} {:9.3} {:9.3} {:9.3} {:10.1}x ({:>5}) {:12.1}x {:10} {:6.2} / {:.2}",
-            row.res,
-            row.cached_s,
-            row.naive_s,
-            row.indexed_s,
-            row.naive_over_cached,
-            row.paper_ratio.map_or("-".into(), |p| format!("{p}x")),
-            row.indexed_over_cached,
-            row.triangles.0,
-            row.evals_per_triangle.0,
-            row.evals_per_triangle.1
-        );
-    }
-    if !r.skipped_res.is_empty() {
-        println!("  skipped (would not fit in memory): {:?}", r.skipped_res);
-    }
-    let per_cells: Vec<String> =
-        r.evals_per_triangle.iter().map(|e| format!("{} {:.2} / {:.2}", e.cells, e.root, e.linear)).collect();
-    println!("evaluations per triangle at res {} (root finding / linear): {}", a.detail_res, per_cells.join(", "));
-    let s = &r.sphere;
-    println!(
-        "sphere at res {}: {} triangles, {:.0} triangles/s on 1 thread, {:.0} on {}",
-        s.res, s.triangles, s.one_thread, s.all_threads, s.threads
-    );
-    let c = &r.ray_casting;
-    println!(
-        "mesh ray casting at res {} ({} triangles, BVH built in {:.3} s): {:.0} rays/s at {}x{}",
-        c.res, c.triangles, c.bvh_build_s, c.rays_per_second, c.width, c.height
-    );
 }

@@ -1,0 +1,16 @@
+//! The measuring code behind `blobtrace bench`: performance figures measured
+//! in one process and reported as ratios against the baseline on the same
+//! scene, so a noisy machine affects both sides alike — field rendering
+//! (indexed against naive, cached against exact), polygonization (the
+//! caching paper's Table 1, triangle and ray rates) and edits (its Figure 8
+//! and Table 2).
+
+mod edit;
+mod mesh;
+mod render;
+
+pub use edit::{EditBenchReport, EditBenchSettings, ModeTotals, bench_edit};
+pub use mesh::{MeshBenchReport, MeshBenchSettings, PlacementCost, RayRate, TableRow, TriangleRate, bench_mesh};
+pub use render::{
+    CacheBenchReport, CacheBenchRuns, EvalBenchReport, LookupCost, RenderBenchSettings, bench_cache, bench_eval,
+};

@@ -1,0 +1,247 @@
+//! What several commands share: the options for field evaluation,
+//! polygonization, the camera and threads, their conversion into the
+//! pipelines' settings, checks of output paths, and printing reports.
+
+use std::path::{Path, PathBuf};
+
+use clap::{Args, ValueEnum};
+use glam::Vec3;
+use serde::Serialize;
+
+use super::exit::UsageError;
+use crate::field::{EvalMode, Model};
+use crate::frame::Size;
+use crate::mesh::{CellShape, VertexPlacement};
+use crate::pipeline::{self, EvalSettings, ExactLookup, FieldChoice, PolygonizeSettings};
+use crate::scene::{Scene, ViewOverrides};
+
+/// How exact evaluation finds the primitives near a point.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum EvalArg {
+    /// Spatial index over wide blends: touch only supports containing the point.
+    #[default]
+    Indexed,
+    /// Plain tree traversal with per-node box rejection (the paper's baseline).
+    Naive,
+}
+
+/// Which field to show: the true one, or the one the scene's caches reconstruct.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ModeArg {
+    /// Exact evaluation of every node (caches pass through).
+    Exact,
+    /// Cache nodes answer from their lattices (lazily filled with exact samples).
+    Cached,
+}
+
+/// How a command evaluates the field: shared by every command that traces or samples it.
+#[derive(Clone, Copy, Debug, Args)]
+pub struct EvalOptions {
+    /// exact or cached (default: cached when the scene has Cache nodes and --eval is not naive).
+    #[arg(long, value_enum)]
+    pub mode: Option<ModeArg>,
+    /// How exact evaluation finds nearby primitives (naive only with --mode exact).
+    #[arg(long, value_enum, default_value_t = EvalArg::Indexed)]
+    pub eval: EvalArg,
+    /// Cap the caches' sample storage at this many megabytes (least-recently-used
+    /// blocks are evicted and re-evaluated on demand; the image does not change).
+    #[arg(long, value_name = "MB")]
+    pub cache_budget: Option<f64>,
+}
+
+impl EvalOptions {
+    /// The pipelines' evaluation settings.
+    #[must_use]
+    pub fn settings(&self) -> EvalSettings {
+        EvalSettings {
+            field: self.mode.map(|m| match m {
+                ModeArg::Exact => FieldChoice::Exact,
+                ModeArg::Cached => FieldChoice::Cached,
+            }),
+            lookup: match self.eval {
+                EvalArg::Indexed => ExactLookup::Indexed,
+                EvalArg::Naive => ExactLookup::Naive,
+            },
+            cache_budget_mb: self.cache_budget,
+        }
+    }
+
+    /// The evaluation mode for `model`; applies the cache budget to it.
+    pub fn apply(&self, model: &mut Model) -> anyhow::Result<EvalMode> {
+        Ok(self.settings().apply(model)?)
+    }
+}
+
+/// Cell decomposition.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum CellsArg {
+    /// Cubes with the watertight marching-cubes table.
+    #[default]
+    Cubes,
+    /// Body-centred-cubic tetrahedra.
+    Bcc,
+}
+
+/// Vertex placement on crossed edges.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum VertexArg {
+    /// Illinois root finding to 1e-4 of the edge.
+    #[default]
+    Root,
+    /// Linear interpolation of the corner values (no evaluation; a preview).
+    Linear,
+}
+
+/// How to polygonize: shared by every command that builds a mesh.
+#[derive(Clone, Copy, Debug, Args)]
+pub struct PolygonizeArgs {
+    /// Lattice cells along the longest side of the model's bounds.
+    #[arg(long, default_value_t = 128)]
+    pub res: u32,
+    /// Cell decomposition.
+    #[arg(long, value_enum, default_value_t = CellsArg::Cubes)]
+    pub cells: CellsArg,
+    /// Vertex placement.
+    #[arg(long, value_enum, default_value_t = VertexArg::Root)]
+    pub vertex: VertexArg,
+    /// Refine K levels: polygonize at res·2^K, grown from the surface found at
+    /// res instead of from the skeletons (coarse and fine meshes of one lattice family).
+    #[arg(long, default_value_t = 0, value_name = "K")]
+    pub refine: u32,
+}
+
+impl PolygonizeArgs {
+    /// The pipelines' polygonization settings.
+    #[must_use]
+    pub fn settings(&self) -> PolygonizeSettings {
+        PolygonizeSettings {
+            res: self.res,
+            cells: match self.cells {
+                CellsArg::Cubes => CellShape::Cubes,
+                CellsArg::Bcc => CellShape::Bcc,
+            },
+            vertex: match self.vertex {
+                VertexArg::Root => VertexPlacement::default(),
+                VertexArg::Linear => VertexPlacement::Linear,
+            },
+            refine: self.refine,
+        }
+    }
+}
+
+/// Camera overrides: every rendering command takes them, so a view can be
+/// changed without editing the scene.
+#[derive(Clone, Copy, Debug, Default, Args)]
+pub struct CameraArgs {
+    /// Eye position X,Y,Z, overriding the scene's camera.
+    #[arg(long, value_parser = parse_vec3, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub eye: Option<Vec3>,
+    /// Point looked at X,Y,Z, overriding the scene's camera.
+    #[arg(long, value_parser = parse_vec3, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub target: Option<Vec3>,
+    /// Up direction X,Y,Z, overriding the scene's camera.
+    #[arg(long, value_parser = parse_vec3, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub up: Option<Vec3>,
+    /// Vertical field of view in degrees, overriding the scene's camera.
+    #[arg(long, value_name = "DEG")]
+    pub fov: Option<f32>,
+}
+
+impl CameraArgs {
+    /// Applies the overrides to `scene`'s camera.
+    pub fn apply(&self, scene: &mut Scene) -> anyhow::Result<()> {
+        let overrides = ViewOverrides { eye: self.eye, target: self.target, up: self.up, fov_y: self.fov };
+        if overrides != ViewOverrides::default() {
+            scene.override_view(&overrides).map_err(|e| UsageError(format!("--eye/--target/--up/--fov: {e}")))?;
+        }
+        Ok(())
+    }
+}
+
+/// Loads the scene at `path` and applies the camera overrides.
+pub fn load_scene(path: &Path, camera: &CameraArgs) -> anyhow::Result<Scene> {
+    let mut scene = Scene::load(path)?;
+    camera.apply(&mut scene)?;
+    Ok(scene)
+}
+
+/// Parses `X,Y,Z`.
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<f32> = s
+        .split(',')
+        .map(|c| c.trim().parse::<f32>().ok().filter(|v| v.is_finite()))
+        .collect::<Option<_>>()
+        .ok_or_else(|| format!("expected three finite numbers X,Y,Z, got {s:?}"))?;
+    <[f32; 3]>::try_from(parts).map(Vec3::from).map_err(|_| format!("expected three numbers X,Y,Z, got {s:?}"))
+}
+
+/// Parses `WIDTHxHEIGHT`.
+pub fn parse_size(s: &str) -> Result<Size, String> {
+    Size::parse(s)
+}
+
+/// Runs `f` on a rayon pool of `threads` threads (all cores when `None`).
+pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> anyhow::Result<T> {
+    Ok(pipeline::with_threads(threads, f)?)
+}
+
+/// A rayon pool of `threads` threads (all cores when `None`), to run work on.
+pub fn worker_pool(threads: Option<usize>) -> anyhow::Result<rayon::ThreadPool> {
+    Ok(pipeline::worker_pool(threads)?)
+}
+
+/// The file stem of a scene path, for default output names.
+pub fn scene_stem(path: &Path) -> String {
+    path.file_stem().map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned())
+}
+
+/// `path`, or `SCENE_STEM.extension` in the current directory.
+pub fn output_or_default(path: Option<&Path>, scene: &Path, extension: &str) -> PathBuf {
+    path.map_or_else(|| PathBuf::from(format!("{}.{extension}", scene_stem(scene))), Path::to_path_buf)
+}
+
+/// Checks before any work that an output file's directory exists and that
+/// the path is not a directory itself.
+pub fn check_output_dir(path: &Path) -> anyhow::Result<()> {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).map_or_else(|| PathBuf::from("."), PathBuf::from);
+    anyhow::ensure!(dir.is_dir(), "{}: the output directory {} does not exist", path.display(), dir.display());
+    anyhow::ensure!(!path.is_dir(), "{}: is a directory, not a file to write", path.display());
+    Ok(())
+}
+
+/// [`check_output_dir`], and that the file's name ends in `.extension` (the
+/// format written), so no file is given a name that misstates its contents.
+pub fn check_output_file(path: &Path, extension: &str) -> anyhow::Result<()> {
+    check_output_dir(path)?;
+    let named = path.extension().is_some_and(|e| e.eq_ignore_ascii_case(extension));
+    anyhow::ensure!(
+        named,
+        "{}: the output is written as {extension}, so its name must end in .{extension}",
+        path.display()
+    );
+    Ok(())
+}
+
+/// Creates `dir` (and its parents) if missing.
+pub fn create_dir(dir: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))
+}
+
+/// Prints `report` as pretty JSON on stdout.
+pub fn print_json(report: &impl Serialize) -> anyhow::Result<()> {
+    println!("{}", serde_json::to_string_pretty(report).map_err(|e| anyhow::anyhow!("encoding the report: {e}"))?);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vectors_parse_as_three_finite_numbers() {
+        assert_eq!(parse_vec3("1, -2,3.5").unwrap(), Vec3::new(1.0, -2.0, 3.5));
+        for bad in ["1,2", "1,2,3,4", "a,b,c", "1,inf,2", ""] {
+            assert!(parse_vec3(bad).is_err(), "{bad}");
+        }
+    }
+}

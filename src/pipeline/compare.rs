@@ -1,0 +1,298 @@
+//! Comparing a scene's traced field with its polygonized surface through the
+//! same camera: both renders, the per-pixel error images, their statistics,
+//! and the files a comparison is looked at through (renders, EXRs, heat maps
+//! with printed scales, one panel, stats.json).
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::error::{PipelineError, Result};
+use super::polygonize::{PolygonizeSettings, color_by_cache_error, polygonize};
+use super::progress::Progress;
+use super::render::{MeshRenderReport, RenderReport, render_field, render_mesh};
+use crate::compare::{
+    DiffReport, Metric, Rgb8Image, Scale, Thresholds, differences, frame_image, heat_map, judge, panel, silhouette_map,
+};
+use crate::field::EvalMode;
+use crate::frame::{Frame, Size};
+use crate::scene::Scene;
+
+/// What to compare.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CompareSettings {
+    /// Image size.
+    pub size: Size,
+    /// How to polygonize.
+    pub polygonize: PolygonizeSettings,
+    /// Also render the mesh coloured by error_C, brightest at this error (needs Cache nodes).
+    pub error_scale: Option<f32>,
+}
+
+/// Tolerances behind each error image's "fraction above tolerance".
+#[derive(Clone, Debug, Serialize)]
+pub struct Tolerances {
+    /// Depth, in lattice cells.
+    pub depth_cells: f32,
+    /// Normal angle, in degrees.
+    pub normal_deg: f32,
+    /// Colour, largest linear RGB difference.
+    pub color: f32,
+}
+
+/// Wall-clock seconds of each stage of a comparison.
+#[derive(Clone, Debug, Serialize)]
+pub struct StageSeconds {
+    /// Tracing the field.
+    pub field_render: f64,
+    /// Polygonizing.
+    pub polygonize: f64,
+    /// Building the CWBVH.
+    pub bvh_build: f64,
+    /// Ray casting the mesh.
+    pub mesh_render: f64,
+    /// Computing the error images' statistics.
+    pub diff: f64,
+}
+
+/// Statistics of one error image.
+#[derive(Clone, Debug, Serialize)]
+pub struct ErrorStats {
+    /// Mean of the magnitudes over pixels both renders hit (all pixels for colour).
+    pub mean: f64,
+    /// Median.
+    pub median: f32,
+    /// 95th percentile.
+    pub p95: f32,
+    /// 99th percentile.
+    pub p99: f32,
+    /// Largest.
+    pub max: f32,
+    /// Fraction of the compared pixels above the tolerance.
+    pub fraction_above_tolerance: f64,
+    /// Pixels compared.
+    pub compared_px: usize,
+}
+
+impl From<&DiffReport> for ErrorStats {
+    fn from(r: &DiffReport) -> Self {
+        Self {
+            mean: r.mean,
+            median: r.median,
+            p95: r.p95,
+            p99: r.p99,
+            max: r.max,
+            fraction_above_tolerance: r.over_fail_percent / 100.0,
+            compared_px: r.compared,
+        }
+    }
+}
+
+/// A comparison's statistics (what stats.json holds).
+#[derive(Clone, Debug, Serialize)]
+pub struct CompareReport {
+    /// Seconds per stage: field render, polygonization, BVH build, mesh render, diff.
+    pub stage_seconds: StageSeconds,
+    /// Pixels hit by one render only.
+    pub mismatch_px: usize,
+    /// Depth error (mesh − field), in lattice cells.
+    pub depth_error_cells: ErrorStats,
+    /// Normal angle error, degrees.
+    pub normal_error_deg: ErrorStats,
+    /// Colour difference.
+    pub color_error: ErrorStats,
+    /// The tolerances used.
+    pub tolerances: Tolerances,
+    /// The field render.
+    pub ray: RenderReport,
+    /// The mesh render, with the polygonization.
+    pub mesh: MeshRenderReport,
+}
+
+/// The per-pixel errors of the mesh render against the field render.
+#[derive(Clone, Debug)]
+pub struct ErrorImages {
+    /// Mesh − field depth, in lattice cells.
+    pub depth_cells: Vec<f32>,
+    /// Angle between normals, degrees.
+    pub normal_deg: Vec<f32>,
+    /// Largest linear RGB difference.
+    pub color: Vec<f32>,
+}
+
+impl ErrorImages {
+    /// The errors of `mesh` against `ray`, depth counted in lattice cells of side `cell`.
+    #[must_use]
+    pub fn of(ray: &Frame, mesh: &Frame, cell: f32) -> Self {
+        Self {
+            depth_cells: differences(mesh, ray, Metric::Depth).into_iter().map(|d| d / cell).collect(),
+            normal_deg: differences(mesh, ray, Metric::Normal),
+            color: differences(mesh, ray, Metric::Abs),
+        }
+    }
+}
+
+/// A finished comparison.
+#[derive(Clone, Debug)]
+pub struct Comparison {
+    /// The traced field.
+    pub ray: Frame,
+    /// The ray-cast mesh.
+    pub mesh: Frame,
+    /// The mesh coloured by error_C, when asked.
+    pub by_error: Option<Frame>,
+    /// The error scale of `by_error`.
+    pub error_scale: Option<f32>,
+    /// Per-pixel errors.
+    pub errors: ErrorImages,
+    /// Statistics.
+    pub report: CompareReport,
+}
+
+/// Renders `scene` both ways in `mode` and measures where they disagree.
+pub fn compare(
+    scene: &Scene,
+    mode: EvalMode,
+    settings: &CompareSettings,
+    progress: &dyn Progress,
+) -> Result<Comparison> {
+    settings.polygonize.check(&scene.model)?;
+    let (ray, ray_report) = render_field(scene, settings.size, mode, progress);
+    let (mesh_model, mut mesh_report) = polygonize(&scene.model, mode, &settings.polygonize, progress)?;
+    let by_error = match settings.error_scale {
+        Some(scale) => {
+            let mut by_error = mesh_model.clone();
+            color_by_cache_error(&scene.model, &mut by_error, scale, &mut mesh_report)?;
+            Some(render_mesh(scene, &by_error, mesh_report.clone(), settings.size, progress).0)
+        }
+        None => None,
+    };
+    let (mesh, mesh_render) = render_mesh(scene, &mesh_model, mesh_report, settings.size, progress);
+    let (errors, report) = measure(&ray, &mesh, ray_report, mesh_render);
+    Ok(Comparison { ray, mesh, by_error, error_scale: settings.error_scale, errors, report })
+}
+
+/// The error images and their statistics.
+fn measure(
+    ray: &Frame,
+    mesh: &Frame,
+    ray_report: RenderReport,
+    mesh_report: MeshRenderReport,
+) -> (ErrorImages, CompareReport) {
+    let start = std::time::Instant::now();
+    let tolerances = Tolerances { depth_cells: 0.25, normal_deg: 5.0, color: 0.05 };
+    let errors = ErrorImages::of(ray, mesh, mesh_report.mesh.cell_size);
+    let depth_error_cells = error_stats(&errors.depth_cells, tolerances.depth_cells);
+    let normal_error_deg = error_stats(&errors.normal_deg, tolerances.normal_deg);
+    let color_error = error_stats(&errors.color, tolerances.color);
+    let stage_seconds = StageSeconds {
+        field_render: ray_report.seconds,
+        polygonize: mesh_report.mesh.seconds,
+        bvh_build: mesh_report.bvh_build_seconds,
+        mesh_render: mesh_report.seconds,
+        diff: start.elapsed().as_secs_f64(),
+    };
+    let report = CompareReport {
+        stage_seconds,
+        mismatch_px: ray.depth.iter().zip(&mesh.depth).filter(|(a, b)| a.is_finite() != b.is_finite()).count(),
+        depth_error_cells,
+        normal_error_deg,
+        color_error,
+        tolerances,
+        ray: ray_report,
+        mesh: mesh_report,
+    };
+    (errors, report)
+}
+
+/// The statistics of one error image over the pixels both renders hit.
+fn error_stats(values: &[f32], tolerance: f32) -> ErrorStats {
+    // Pixels hit by one render only are the silhouette map's business.
+    let both: Vec<f32> = values.iter().map(|&v| if v.is_infinite() { f32::NAN } else { v }).collect();
+    let t =
+        Thresholds { fail: tolerance, failpercent: 100.0, warn: tolerance, warnpercent: 100.0, ..Default::default() };
+    ErrorStats::from(&judge(Metric::Abs, &both, &vec![false; both.len()], t))
+}
+
+/// Every file [`Comparison::save`] writes into its directory.
+pub const COMPARE_OUTPUTS: [&str; 11] = [
+    "ray.png",
+    "mesh.png",
+    "ray.exr",
+    "mesh.exr",
+    "silhouette.png",
+    "depth_error.png",
+    "normal_error.png",
+    "color_error.png",
+    "panel.png",
+    "mesh_error.png",
+    "stats.json",
+];
+
+impl Comparison {
+    /// Writes the renders, EXRs, heat maps, the panel and stats.json into `dir`;
+    /// returns stats.json's text.
+    pub fn save(&self, dir: &Path) -> Result<String> {
+        let heat_maps = self.save_images(dir)?;
+        if let Some(frame) = &self.by_error {
+            frame.save_png(&dir.join("mesh_error.png"))?;
+        }
+        self.save_panel(dir, heat_maps)?;
+        let json = serde_json::to_string_pretty(&self.report).expect("reports encode as JSON");
+        let path = dir.join("stats.json");
+        crate::output::write_atomic(&path, json.as_bytes())
+            .map_err(|e| PipelineError::File { path, message: e.to_string() })?;
+        Ok(json)
+    }
+
+    /// Writes the renders, EXRs and heat maps; returns the heat maps with their panel titles.
+    fn save_images(&self, dir: &Path) -> Result<Vec<(String, Rgb8Image)>> {
+        let (ray, mesh, errors) = (&self.ray, &self.mesh, &self.errors);
+        ray.save_png(&dir.join("ray.png"))?;
+        mesh.save_png(&dir.join("mesh.png"))?;
+        ray.save_exr(&dir.join("ray.exr"))?;
+        mesh.save_exr(&dir.join("mesh.exr"))?;
+        let (w, h) = (ray.width, ray.height);
+        let heat = |values: &[f32], scale, title, unit| heat_map(values, w, h, scale, title, unit);
+        let maps = [
+            ("silhouette", "silhouette.png", silhouette_map(&ray.depth, &mesh.depth, w, h, ["field", "mesh"])),
+            (
+                "depth error",
+                "depth_error.png",
+                heat(&errors.depth_cells, Scale::Signed { max: 1.0 }, "depth error, mesh - field", "cells"),
+            ),
+            (
+                "normal error",
+                "normal_error.png",
+                heat(&errors.normal_deg, Scale::Magnitude { max: 10.0 }, "normal error", "deg"),
+            ),
+            (
+                "colour difference",
+                "color_error.png",
+                heat(&errors.color, Scale::Magnitude { max: 0.1 }, "colour difference", ""),
+            ),
+        ];
+        for (_, file, img) in &maps {
+            let path = dir.join(file);
+            img.save_png(&path).map_err(|e| PipelineError::File { path, message: format!("{e:#}") })?;
+        }
+        Ok(maps.into_iter().map(|(title, _, img)| (title.to_string(), img)).collect())
+    }
+
+    /// The panel: both renders, the mesh by error_C when asked, and the heat maps.
+    fn save_panel(&self, dir: &Path, heat_maps: Vec<(String, Rgb8Image)>) -> Result<()> {
+        let mesh = &self.report.mesh.mesh;
+        let mut items = vec![
+            ("field (ray traced)".to_string(), frame_image(&self.ray)),
+            (format!("mesh, res {} ({} triangles)", mesh.res, mesh.triangles), frame_image(&self.mesh)),
+        ];
+        if let (Some(f), Some(scale)) = (&self.by_error, self.error_scale) {
+            items.push((format!("mesh by error_C, magma 0..{scale}"), frame_image(f)));
+        }
+        items.extend(heat_maps);
+        let path = dir.join("panel.png");
+        panel(&items, if self.by_error.is_some() { 4 } else { 3 })
+            .save_png(&path)
+            .map_err(|e| PipelineError::File { path, message: format!("{e:#}") })
+    }
+}

@@ -1,0 +1,66 @@
+//! Choosing how a pipeline evaluates the field: exactly (through the index,
+//! or the naive traversal the papers time against) or through the scene's
+//! caches, and how much memory the caches may hold.
+
+use super::error::{PipelineError, Result};
+use crate::cache::SLOT_BYTES;
+use crate::cache::pool::MIN_BUDGET_SLOTS;
+use crate::field::{EvalMode, Model};
+
+/// Which field to show: the true one, or the one the scene's caches reconstruct.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FieldChoice {
+    /// Exact evaluation of every node (caches pass through).
+    Exact,
+    /// Cache nodes answer from their lattices (lazily filled with exact samples).
+    Cached,
+}
+
+/// How exact evaluation finds the primitives near a point.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ExactLookup {
+    /// Through the spatial index over wide blends.
+    #[default]
+    Indexed,
+    /// Plain tree traversal with per-node box rejection (the paper's baseline).
+    Naive,
+}
+
+/// How to evaluate a scene's field.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EvalSettings {
+    /// Exact or cached; `None`: cached when the scene has Cache nodes and the lookup is not naive.
+    pub field: Option<FieldChoice>,
+    /// How exact evaluation finds nearby primitives (naive only with exact evaluation).
+    pub lookup: ExactLookup,
+    /// Cap on the caches' sample storage, in megabytes (least-recently-used
+    /// blocks are evicted and re-evaluated on demand; images do not change).
+    pub cache_budget_mb: Option<f64>,
+}
+
+/// Bytes per megabyte, as the cache budget counts them.
+pub const MB: f64 = 1024.0 * 1024.0;
+
+impl EvalSettings {
+    /// The evaluation mode for `model`; applies the cache budget to it.
+    pub fn apply(&self, model: &mut Model) -> Result<EvalMode> {
+        // Asking for the naive baseline asks for exact evaluation.
+        let cached_by_default = model.counts().caches > 0 && self.lookup != ExactLookup::Naive;
+        let default = if cached_by_default { FieldChoice::Cached } else { FieldChoice::Exact };
+        if let Some(mb) = self.cache_budget_mb {
+            let min_mb = (MIN_BUDGET_SLOTS * SLOT_BYTES) as f64 / MB;
+            if !(mb.is_finite() && mb >= min_mb) {
+                return Err(PipelineError::setting("cache_budget", format!("must be at least {min_mb} MB, got {mb}")));
+            }
+            model.set_cache_budget(Some((mb * MB) as usize));
+        }
+        match (self.field.unwrap_or(default), self.lookup) {
+            (FieldChoice::Exact, ExactLookup::Indexed) => Ok(EvalMode::Indexed),
+            (FieldChoice::Exact, ExactLookup::Naive) => Ok(EvalMode::Naive),
+            (FieldChoice::Cached, ExactLookup::Indexed) => Ok(EvalMode::Cached),
+            (FieldChoice::Cached, ExactLookup::Naive) => {
+                Err(PipelineError::setting("eval", "naive applies to exact evaluation; add --mode exact"))
+            }
+        }
+    }
+}

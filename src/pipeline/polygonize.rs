@@ -1,0 +1,299 @@
+//! Polygonizing a model: settings, the memory estimate that refuses a
+//! lattice whose mesh cannot fit, the polygonizer run (with refinement), its
+//! report, and colouring a mesh by the caches' reconstruction error.
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use super::cache_report::CacheReport;
+use super::error::{PipelineError, Result};
+use super::progress::{Progress, stage};
+use crate::compare::{CacheErrorStats, cache_error_at, cache_error_stats, error_colors};
+use crate::field::{EvalMode, Model, ModelField};
+use crate::mesh::{
+    CellShape, Lattice, Mesh, PolygonizeOptions, PolygonizeStats, Polygonizer, Topology, TriangleQuality,
+    VertexPlacement, skeleton_seeds,
+};
+
+/// How to polygonize.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PolygonizeSettings {
+    /// Lattice cells along the longest side of the model's bounds.
+    pub res: u32,
+    /// Cell decomposition.
+    pub cells: CellShape,
+    /// Vertex placement on crossed edges.
+    pub vertex: VertexPlacement,
+    /// Refine this many levels: polygonize at `res · 2^refine`, grown from the
+    /// surface found at `res` instead of from the skeletons.
+    pub refine: u32,
+}
+
+impl Default for PolygonizeSettings {
+    fn default() -> Self {
+        Self { res: 128, cells: CellShape::Cubes, vertex: VertexPlacement::default(), refine: 0 }
+    }
+}
+
+/// Highest resolution accepted: lattice coordinates and memory stay reasonable.
+pub const MAX_RES: u32 = 8192;
+/// Most refinement levels accepted.
+pub const MAX_REFINE: u32 = 6;
+/// Bytes the polygonizer and its mesh hold per crossed cell (corners, cells,
+/// vertices, triangles and hash-map overhead), measured on the bundled scenes.
+const BYTES_PER_CROSSED_CELL: f64 = 400.0;
+/// Resolution of the cheap probe that sizes the surface before the real run.
+const PROBE_RES: u32 = 24;
+const GIB: f64 = 1024.0 * 1024.0 * 1024.0;
+
+impl PolygonizeSettings {
+    /// The polygonizer's options.
+    #[must_use]
+    pub fn options(&self) -> PolygonizeOptions {
+        PolygonizeOptions { cells: self.cells, vertex: self.vertex }
+    }
+
+    /// Resolution of the lattice the mesh is made on (refinement included).
+    #[must_use]
+    pub fn fine_res(&self) -> u32 {
+        self.res << self.refine
+    }
+
+    /// Checks the settings before any work: in range, and the mesh they would
+    /// make (sized by a coarse probe polygonization, exact so that no cache is
+    /// warmed) fits in memory.
+    pub fn check(&self, model: &Model) -> Result<()> {
+        self.check_ranges()?;
+        let fine_res = u64::from(self.res) << self.refine;
+        let probe_res = self.res.min(PROBE_RES);
+        let probe_options = PolygonizeOptions { vertex: VertexPlacement::Linear, ..self.options() };
+        let probe = Lattice::for_model(model, probe_res);
+        let crossed = run_polygonizer(model, EvalMode::Indexed, probe, probe_options, 0).1.crossed_cells as f64;
+        let needed = crossed * (fine_res as f64 / f64::from(probe_res)).powi(2) * BYTES_PER_CROSSED_CELL;
+        let available = available_memory_bytes();
+        if needed >= 0.8 * available {
+            return Err(PipelineError::MeshTooLarge {
+                res: self.res,
+                need_gib: needed / GIB,
+                available_gib: available / GIB,
+            });
+        }
+        Ok(())
+    }
+
+    /// [`Self::check`] for local updates after edits, which run on the
+    /// lattice of `res` alone: refinement is refused rather than ignored.
+    pub fn check_unrefined(&self, model: &Model) -> Result<()> {
+        if self.refine != 0 {
+            return Err(PipelineError::setting(
+                "refine",
+                "does not apply to local updates, which run on the res lattice (polygonize or render the mesh instead)",
+            ));
+        }
+        self.check(model)
+    }
+
+    fn check_ranges(&self) -> Result<()> {
+        if !(1..=MAX_RES).contains(&self.res) {
+            return Err(PipelineError::setting("res", format!("must be between 1 and {MAX_RES}, got {}", self.res)));
+        }
+        if self.refine > MAX_REFINE {
+            return Err(PipelineError::setting("refine", format!("must be at most {MAX_REFINE}, got {}", self.refine)));
+        }
+        if (u64::from(self.res) << self.refine) > u64::from(MAX_RES) {
+            let problem = format!("{} refined {} times exceeds {MAX_RES}", self.res, self.refine);
+            return Err(PipelineError::setting("res", problem));
+        }
+        Ok(())
+    }
+}
+
+/// Memory available to the process in bytes (Linux `MemAvailable`; 8 GiB where unknown).
+fn available_memory_bytes() -> f64 {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|s| {
+            let line = s.lines().find(|l| l.starts_with("MemAvailable:"))?;
+            line.split_whitespace().nth(1)?.parse::<f64>().ok()
+        })
+        .map_or(8.0 * GIB, |kb| kb * 1024.0)
+}
+
+/// Statistics of one polygonization.
+#[derive(Clone, Debug, Serialize)]
+pub struct MeshReport {
+    /// Wall-clock seconds polygonizing (seeding, growing, vertices, assembling the mesh).
+    pub seconds: f64,
+    /// Lattice cells along the longest side of the bounds (of the fine mesh, when refined).
+    pub res: u32,
+    /// The coarse resolution the fine mesh grew from, when refined.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coarse_res: Option<u32>,
+    /// Side of a lattice cell in scene units.
+    pub cell_size: f32,
+    /// Cell decomposition.
+    pub cells: String,
+    /// Vertex placement.
+    pub vertex: String,
+    /// Triangles.
+    pub triangles: usize,
+    /// Vertices.
+    pub vertices: usize,
+    /// Every field evaluation (corner values, root finding, gradients, colours).
+    pub field_evals: u64,
+    /// Field evaluations per triangle.
+    pub evals_per_triangle: f64,
+    /// Evaluations by kind and cells visited.
+    #[serde(flatten)]
+    pub work: PolygonizeStats,
+    /// Cells the surface crosses.
+    pub crossed_cells: u64,
+    /// Triangles per second.
+    pub triangles_per_second: f64,
+    /// Triangle shape quality.
+    pub quality: TriangleQuality,
+    /// Edge sharing and orientation.
+    pub topology: Topology,
+    /// True when every edge is shared by exactly two consistently oriented triangles.
+    pub closed_manifold: bool,
+    /// Evaluation mode: naive, indexed or cached.
+    pub eval: String,
+    /// Threads used.
+    pub threads: usize,
+    /// What the caches hold and did, when polygonizing cached.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub caches: Option<CacheReport>,
+    /// error_C at the vertices, when the mesh is coloured by it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_c: Option<CacheErrorStats>,
+}
+
+/// Polygonizes `model` evaluating its field in `mode`, from scratch (caches as
+/// they are), after checking the settings and that the mesh fits in memory;
+/// reports what it took (the check untimed).
+pub fn polygonize(
+    model: &Model,
+    mode: EvalMode,
+    settings: &PolygonizeSettings,
+    progress: &dyn Progress,
+) -> Result<(Mesh, MeshReport)> {
+    stage(progress, "sizing the mesh", || settings.check(model))?;
+    let coarse = Lattice::for_model(model, settings.res);
+    let start = Instant::now();
+    let (mesh, counts) =
+        stage(progress, "polygonizing", || run_polygonizer(model, mode, coarse, settings.options(), settings.refine));
+    let seconds = start.elapsed().as_secs_f64();
+    let cell_size = coarse.refined(settings.refine).cell;
+    let report = report(model, mode, settings, &mesh, counts, seconds, cell_size);
+    Ok((mesh, report))
+}
+
+fn report(
+    model: &Model,
+    mode: EvalMode,
+    settings: &PolygonizeSettings,
+    mesh: &Mesh,
+    counts: RunCounts,
+    seconds: f64,
+    cell_size: f32,
+) -> MeshReport {
+    let topology = mesh.topology();
+    let field_evals = counts.stats.field_evals();
+    MeshReport {
+        seconds,
+        res: settings.fine_res(),
+        coarse_res: (settings.refine > 0).then_some(settings.res),
+        cell_size,
+        cells: cells_name(settings.cells).into(),
+        vertex: vertex_name(settings.vertex).into(),
+        triangles: mesh.triangles.len(),
+        vertices: mesh.positions.len(),
+        field_evals,
+        evals_per_triangle: field_evals as f64 / mesh.triangles.len().max(1) as f64,
+        work: counts.stats,
+        crossed_cells: counts.crossed_cells,
+        triangles_per_second: mesh.triangles.len() as f64 / seconds.max(1e-9),
+        quality: mesh.quality(),
+        topology,
+        closed_manifold: topology.is_closed_manifold(),
+        eval: format!("{mode:?}").to_lowercase(),
+        threads: rayon::current_num_threads(),
+        caches: (mode == EvalMode::Cached).then(|| CacheReport::of(model)),
+        error_c: None,
+    }
+}
+
+/// The name reports give a cell decomposition.
+#[must_use]
+pub fn cells_name(cells: CellShape) -> &'static str {
+    match cells {
+        CellShape::Cubes => "cubes",
+        CellShape::Bcc => "bcc",
+    }
+}
+
+/// The name reports give a vertex placement.
+#[must_use]
+pub fn vertex_name(vertex: VertexPlacement) -> &'static str {
+    match vertex {
+        VertexPlacement::Linear => "linear",
+        _ => "root",
+    }
+}
+
+/// What a polygonizer run counted.
+struct RunCounts {
+    stats: PolygonizeStats,
+    crossed_cells: u64,
+}
+
+/// Polygonizes on `lattice` from the skeletons, then, for `refine > 0`, on the
+/// lattice `2^refine` times finer from that surface. Counts cover both runs.
+fn run_polygonizer(
+    model: &Model,
+    mode: EvalMode,
+    lattice: Lattice,
+    options: PolygonizeOptions,
+    refine: u32,
+) -> (Mesh, RunCounts) {
+    let field = ModelField::new(model, mode);
+    let mut coarse = Polygonizer::new(lattice, options);
+    coarse.polygonize(&field, &skeleton_seeds(model, model.root()));
+    let mut stats = coarse.stats();
+    let polygonizer = if refine == 0 {
+        coarse
+    } else {
+        let mut fine = Polygonizer::new(lattice.refined(refine), options);
+        fine.refine(&field, &coarse, refine);
+        stats = stats.plus(&fine.stats());
+        fine
+    };
+    let mesh = polygonizer.mesh();
+    (mesh, RunCounts { stats, crossed_cells: polygonizer.crossed_cells() as u64 })
+}
+
+/// A polygonizer over `model` on `lattice`, grown from the skeletons: what
+/// local updates after edits start from, and what they are checked against.
+#[must_use]
+pub fn polygonizer_on(model: &Model, mode: EvalMode, lattice: Lattice, options: PolygonizeOptions) -> Polygonizer {
+    let mut polygonizer = Polygonizer::new(lattice, options);
+    polygonizer.polygonize(&ModelField::new(model, mode), &skeleton_seeds(model, model.root()));
+    polygonizer
+}
+
+/// Colours `mesh` by error_C = |f_C(p) − f(p)| at its vertices, brightest at
+/// `scale`, stores the errors in it and their statistics in `report`.
+pub fn color_by_cache_error(model: &Model, mesh: &mut Mesh, scale: f32, report: &mut MeshReport) -> Result<()> {
+    if model.counts().caches == 0 {
+        return Err(PipelineError::Unsuitable("error_C measures the caches, and the scene has no Cache nodes".into()));
+    }
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(PipelineError::setting("error_scale", format!("must be positive, got {scale}")));
+    }
+    let errors = cache_error_at(model, &mesh.positions);
+    report.error_c = Some(cache_error_stats(&errors, model.threshold()));
+    mesh.colors = Some(error_colors(&errors, scale));
+    mesh.error = Some(errors);
+    Ok(())
+}

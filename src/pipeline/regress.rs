@@ -1,0 +1,270 @@
+//! Regression against reference renders: render every entry of a manifest,
+//! compare each with its stored reference under the entry's tolerances (the
+//! `diff` rules), keep images of the failures and one HTML page; or bless,
+//! rewriting the references from the current renders.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use super::error::{PipelineError, Result};
+use super::polygonize::{PolygonizeSettings, polygonize};
+use super::progress::{Progress, Silent};
+use super::render::{render_field, render_mesh};
+use crate::compare::{DiffReport, Metric, Scale, Thresholds, Verdict, differences, heat_map, judge, load_image};
+use crate::field::EvalMode;
+use crate::frame::{Frame, Size};
+use crate::scene::{Scene, SceneError, values};
+
+/// Where a regression run reads and writes.
+#[derive(Clone, Debug)]
+pub struct RegressSettings {
+    /// Directory holding the scenes the manifest names.
+    pub scenes: PathBuf,
+    /// Directory holding `manifest.ron` and the reference PNGs.
+    pub refs: PathBuf,
+    /// Rewrite every reference from the current renders instead of comparing.
+    pub bless: bool,
+    /// Directory for actual images, heat maps of failures and index.html.
+    pub report: PathBuf,
+}
+
+/// The manifest: which renders are guarded, and how strictly.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    /// The guarded renders.
+    pub entries: Vec<Entry>,
+}
+
+/// One guarded render.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Entry {
+    /// Scene file name in the scenes directory.
+    pub scene: String,
+    /// Image size.
+    pub size: Size,
+    /// Field trace (`Field`) or mesh ray cast (`Mesh(res)`).
+    pub kind: Kind,
+    /// Evaluate through the caches (default: exact, indexed).
+    #[serde(default)]
+    pub cached: bool,
+    /// A pixel differing by more than this (largest linear RGB difference) fails…
+    #[serde(default = "default_fail", deserialize_with = "values::non_negative")]
+    pub fail: f32,
+    /// …when more than this percentage of pixels do.
+    #[serde(default, deserialize_with = "values::percentage")]
+    pub failpercent: f64,
+    /// Any pixel above this fails.
+    #[serde(default = "default_hardfail", deserialize_with = "values::non_negative")]
+    pub hardfail: f32,
+}
+
+/// What an entry renders.
+#[derive(Clone, Copy, Debug, Deserialize)]
+pub enum Kind {
+    /// The field ray trace.
+    Field,
+    /// The mesh polygonized at this resolution, ray cast.
+    Mesh(u32),
+}
+
+fn default_fail() -> f32 {
+    // Two 8-bit steps near mid-grey: tolerant of last-bit float differences across machines.
+    0.01
+}
+
+fn default_hardfail() -> f32 {
+    0.25
+}
+
+impl Entry {
+    /// The reference file name: scene stem, kind, size.
+    #[must_use]
+    pub fn file_name(&self) -> String {
+        let stem = self.scene.trim_end_matches(".ron");
+        let kind = match self.kind {
+            Kind::Field => "field".to_string(),
+            Kind::Mesh(res) => format!("mesh{res}"),
+        };
+        let mode = if self.cached { "-cached" } else { "" };
+        format!("{stem}-{kind}{mode}-{}x{}.png", self.size.0, self.size.1)
+    }
+}
+
+/// One entry's outcome: its reference name and its judgement (`None`: no readable reference).
+pub type RegressRow = (String, Option<DiffReport>);
+
+/// What a regression run found.
+#[derive(Debug)]
+pub struct RegressSummary {
+    /// Each entry compared (none when blessing).
+    pub rows: Vec<RegressRow>,
+    /// References written (when blessing).
+    pub blessed: Vec<PathBuf>,
+}
+
+impl RegressSummary {
+    /// Entries that failed, a missing reference counted.
+    #[must_use]
+    pub fn failed(&self) -> usize {
+        self.rows.iter().filter(|r| r.1.as_ref().is_none_or(|d| d.verdict == Verdict::Fail)).count()
+    }
+}
+
+/// Reads `refs/manifest.ron`.
+pub fn load_manifest(refs: &Path) -> Result<Manifest> {
+    let path = refs.join("manifest.ron");
+    let label = path.display().to_string();
+    let text = std::fs::read_to_string(&path).map_err(|cause| SceneError::Io { path: label.clone(), cause })?;
+    ron::from_str(&text).map_err(|e| {
+        let (line, column, message) = (e.span.start.line, e.span.start.col, e.code.to_string());
+        PipelineError::Scene(SceneError::Syntax { path: label, line, column, message })
+    })
+}
+
+/// Renders every entry of the manifest and compares it with its reference,
+/// or blesses them all; `log` hears one line per entry.
+pub fn regress(settings: &RegressSettings, progress: &dyn Progress, log: &dyn Fn(&str)) -> Result<RegressSummary> {
+    let manifest = load_manifest(&settings.refs)?;
+    if !settings.bless {
+        std::fs::create_dir_all(&settings.report)
+            .map_err(|e| PipelineError::File { path: settings.report.clone(), message: e.to_string() })?;
+    }
+    let mut summary = RegressSummary { rows: vec![], blessed: vec![] };
+    let n = manifest.entries.len() as u64;
+    for (i, entry) in manifest.entries.iter().enumerate() {
+        progress.update("regression entries", i as u64, n);
+        let actual = render_entry(&settings.scenes, entry).map_err(|e| e.at(entry.file_name()))?;
+        let reference = settings.refs.join(entry.file_name());
+        if settings.bless {
+            actual.save_png(&reference)?;
+            log(&format!("blessed {}", reference.display()));
+            summary.blessed.push(reference);
+            continue;
+        }
+        summary.rows.push(check_entry(entry, &actual, &reference, &settings.report, log)?);
+    }
+    progress.update("regression entries", n, n);
+    if !settings.bless {
+        write_html(&settings.report.join("index.html"), &summary.rows)?;
+    }
+    Ok(summary)
+}
+
+/// The render an entry guards.
+pub fn render_entry(scenes: &Path, entry: &Entry) -> Result<Frame> {
+    let mut scene = Scene::load(scenes.join(&entry.scene))?;
+    scene.model.set_cache_budget(None);
+    let mode = if entry.cached { EvalMode::Cached } else { EvalMode::Indexed };
+    Ok(match entry.kind {
+        Kind::Field => render_field(&scene, entry.size, mode, &Silent).0,
+        Kind::Mesh(res) => {
+            let settings = PolygonizeSettings { res, ..Default::default() };
+            let (mesh, report) = polygonize(&scene.model, mode, &settings, &Silent)?;
+            render_mesh(&scene, &mesh, report, entry.size, &Silent).0
+        }
+    })
+}
+
+fn check_entry(
+    entry: &Entry,
+    actual: &Frame,
+    reference: &Path,
+    report: &Path,
+    log: &dyn Fn(&str),
+) -> Result<RegressRow> {
+    let name = entry.file_name();
+    let Ok(expected) = load_image(reference) else {
+        actual.save_png(&report.join(format!("actual-{name}")))?;
+        log(&format!("FAIL {name}: no readable reference at {} (bless to create it)", reference.display()));
+        return Ok((name, None));
+    };
+    let frame = &expected.frame;
+    if (frame.width, frame.height) != (actual.width, actual.height) {
+        return Err(PipelineError::File {
+            path: reference.to_path_buf(),
+            message: format!(
+                "reference is {}x{}, the render {}x{}",
+                frame.width, frame.height, actual.width, actual.height
+            ),
+        });
+    }
+    // Compare what the files hold: the render quantized to 8 bits like its reference.
+    let quantized = quantize(actual);
+    let values = differences(&quantized, frame, Metric::Abs);
+    let thresholds = Thresholds {
+        fail: entry.fail,
+        failpercent: entry.failpercent,
+        hardfail: entry.hardfail,
+        warn: entry.fail,
+        warnpercent: entry.failpercent,
+    };
+    let diff = judge(Metric::Abs, &values, &vec![false; values.len()], thresholds);
+    if diff.verdict == Verdict::Fail {
+        save_failure(&name, actual, &quantized, frame, &values, report)?;
+    }
+    log(&format!("{:?} {name}: max {:.4}, {} pixels above {}", diff.verdict, diff.max, diff.over_fail_px, entry.fail));
+    Ok((name, Some(diff)))
+}
+
+/// The images of a failed entry: the render, the brightened difference, a heat map.
+fn save_failure(
+    name: &str,
+    actual: &Frame,
+    quantized: &Frame,
+    expected: &Frame,
+    values: &[f32],
+    report: &Path,
+) -> Result<()> {
+    actual.save_png(&report.join(format!("actual-{name}")))?;
+    difference_image(quantized, expected).save_png(&report.join(format!("diff-{name}")))?;
+    let title = format!("abs difference, {name}");
+    let path = report.join(format!("heat-{name}"));
+    heat_map(values, expected.width, expected.height, Scale::Magnitude { max: 0.1 }, &title, "")
+        .save_png(&path)
+        .map_err(|e| PipelineError::File { path, message: format!("{e:#}") })
+}
+
+/// |actual − expected| per channel, brightened eightfold so small differences show.
+fn difference_image(actual: &Frame, expected: &Frame) -> Frame {
+    let mut d = actual.clone();
+    for (c, e) in d.color.iter_mut().zip(&expected.color) {
+        *c = ((*c - *e).abs() * 8.0).min(glam::Vec3::ONE);
+    }
+    d
+}
+
+/// The frame as a PNG of it would read back.
+fn quantize(frame: &Frame) -> Frame {
+    let mut q = frame.clone();
+    for c in &mut q.color {
+        *c = glam::Vec3::from(c.to_array().map(|v| crate::frame::srgb8_to_linear(crate::frame::linear_to_srgb8(v))));
+    }
+    q
+}
+
+fn write_html(path: &Path, rows: &[RegressRow]) -> Result<()> {
+    let mut html = String::from(
+        "<!doctype html><meta charset=utf-8><title>blobtrace regression</title>\
+         <style>body{font-family:sans-serif}td,th{padding:4px 8px}.Fail{color:#b00}.Pass{color:#070}</style>\
+         <h1>blobtrace regression</h1><table><tr><th>reference<th>verdict<th>max<th>pixels above<th>images</tr>",
+    );
+    for (name, diff) in rows {
+        let (verdict, max, over) = match diff {
+            Some(d) => (format!("{:?}", d.verdict), format!("{:.4}", d.max), d.over_fail_px.to_string()),
+            None => ("Fail".into(), "no reference".into(), "-".into()),
+        };
+        let images = if verdict == "Fail" {
+            format!("<img src=\"actual-{name}\"> <img src=\"diff-{name}\"> <img src=\"heat-{name}\">")
+        } else {
+            String::new()
+        };
+        let _ = write!(html, "<tr><td>{name}<td class={verdict}>{verdict}<td>{max}<td>{over}<td>{images}</tr>");
+    }
+    html.push_str("</table>\n");
+    crate::output::write_atomic(path, html.as_bytes())
+        .map_err(|e| PipelineError::File { path: path.to_path_buf(), message: e.to_string() })
+}

@@ -1,0 +1,119 @@
+//! Rendering a scene: by tracing its field, or by ray casting a mesh of it
+//! through a BVH, each timed and reported.
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use super::cache_report::CacheReport;
+use super::polygonize::MeshReport;
+use super::progress::{Progress, rows};
+use crate::bvh::{MeshBvh, MeshRenderStats, StaticMesh, render_mesh as cast_mesh};
+use crate::field::EvalMode;
+use crate::frame::{Frame, Size};
+use crate::mesh::Mesh;
+use crate::scene::Scene;
+use crate::trace::{RenderSettings, RenderStats, render_model};
+
+impl Scene {
+    /// The scene's camera and background at `size`, with default lights and
+    /// the tracer knobs sized to its model.
+    #[must_use]
+    pub fn render_settings(&self, size: Size) -> RenderSettings {
+        RenderSettings::new(self.camera, size, self.background, &self.model)
+    }
+}
+
+/// Statistics of a field render.
+#[derive(Clone, Debug, Serialize)]
+pub struct RenderReport {
+    /// Wall-clock seconds spent tracing, marking the empty space included.
+    pub seconds: f64,
+    /// Fraction of the empty-space grid's cells where the surface cannot be.
+    pub empty_fraction: f64,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Rays, hits, evaluations and steps.
+    #[serde(flatten)]
+    pub stats: RenderStats,
+    /// Rays traced per second.
+    pub rays_per_second: f64,
+    /// Field evaluations per ray.
+    pub evals_per_ray: f64,
+    /// Evaluation mode: naive, indexed or cached.
+    pub eval: String,
+    /// Threads used.
+    pub threads: usize,
+    /// What the caches hold and did, when rendering cached.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub caches: Option<CacheReport>,
+}
+
+/// Statistics of a mesh render, with the polygonization's.
+#[derive(Clone, Debug, Serialize)]
+pub struct MeshRenderReport {
+    /// Wall-clock seconds spent ray casting the mesh.
+    pub seconds: f64,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Rays, hits and triangle tests.
+    #[serde(flatten)]
+    pub stats: MeshRenderStats,
+    /// Rays cast per second.
+    pub rays_per_second: f64,
+    /// Seconds building the BVH.
+    pub bvh_build_seconds: f64,
+    /// The polygonization.
+    pub mesh: MeshReport,
+}
+
+/// Renders `scene` at `size` by tracing its field in `mode`, timing it.
+pub fn render_field(scene: &Scene, size: Size, mode: EvalMode, progress: &dyn Progress) -> (Frame, RenderReport) {
+    let settings = scene.render_settings(size);
+    let start = Instant::now();
+    let (frame, stats, empty) = render_model(&scene.model, mode, &settings, &rows(progress, "tracing", size.1));
+    let seconds = start.elapsed().as_secs_f64();
+    let report = RenderReport {
+        seconds,
+        empty_fraction: empty.empty_fraction(),
+        width: size.0,
+        height: size.1,
+        stats,
+        rays_per_second: stats.rays as f64 / seconds.max(1e-9),
+        evals_per_ray: stats.field_evals as f64 / stats.rays.max(1) as f64,
+        eval: format!("{mode:?}").to_lowercase(),
+        threads: rayon::current_num_threads(),
+        caches: (mode == EvalMode::Cached).then(|| CacheReport::of(&scene.model)),
+    };
+    (frame, report)
+}
+
+/// Builds the BVH over `mesh` and ray casts it with `scene`'s camera at `size`, timing it.
+pub fn render_mesh(
+    scene: &Scene,
+    mesh: &Mesh,
+    mesh_report: MeshReport,
+    size: Size,
+    progress: &dyn Progress,
+) -> (Frame, MeshRenderReport) {
+    let settings = scene.render_settings(size);
+    let bvh = MeshBvh::build(mesh);
+    let start = Instant::now();
+    let (frame, stats) =
+        cast_mesh(&StaticMesh { mesh, bvh: &bvh }, &settings, &rows(progress, "ray casting the mesh", size.1));
+    let seconds = start.elapsed().as_secs_f64();
+    let report = MeshRenderReport {
+        seconds,
+        width: size.0,
+        height: size.1,
+        stats,
+        rays_per_second: stats.rays as f64 / seconds.max(1e-9),
+        bvh_build_seconds: bvh.build_seconds,
+        mesh: mesh_report,
+    };
+    (frame, report)
+}

@@ -1,0 +1,435 @@
+//! The interactive previewer. A window shows the field render, the mesh
+//! render or their depth difference; keys move a named node along the
+//! screen or play an edit script, and each move updates only what it
+//! changed (an [`EditSession`] frame: dirty rectangles, local mesh cells,
+//! BVH2 triangles, the difference in those rectangles). Other keys orbit and
+//! zoom the camera about the model, which renders the images again whole
+//! (the empty space and the mesh stay). Headless, the same loop runs on a
+//! list of keys instead of a window, so the previewer runs where there is no
+//! display (and under `cargo test`).
+
+mod window;
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use glam::Vec3;
+
+use crate::camera::Camera;
+use crate::compare::{Rgb8Image, Scale, frame_image};
+use crate::field::Edit;
+use crate::pipeline::{EditSession, outline_dirty};
+use crate::scene::Script;
+use crate::trace::PixelRect;
+
+pub use window::show;
+
+/// The keys' meanings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Action {
+    /// Move the selected node one step along the screen's right (0), up (1)
+    /// or depth away from the viewer (2), in a direction (±1).
+    Move(usize, f32),
+    /// Select the next named node.
+    NextNode,
+    /// Show the next view.
+    NextView,
+    /// Apply the script's next frame.
+    NextScriptFrame,
+    /// Outline the last frame's dirty rectangles, or stop.
+    ToggleRectangles,
+    /// Turn the camera about the model's centre: degrees about the up axis
+    /// (positive: the camera moves to its right) and towards the up axis.
+    Orbit(f32, f32),
+    /// Bring the camera this factor of its distance to the model's centre.
+    Zoom(f32),
+    /// Write the view to the next numbered file beside `--output`.
+    Snapshot,
+}
+
+/// Degrees an orbit key turns the camera.
+const ORBIT_DEGREES: f32 = 10.0;
+/// The factor a zoom key moves the camera in by (its inverse, out).
+const ZOOM_FACTOR: f32 = 0.9;
+
+/// Every key: its name for `--keys`, the window's key, and what it does.
+const KEYS: [(&str, minifb::Key, Action); 17] = {
+    use minifb::Key;
+    [
+        ("left", Key::Left, Action::Move(0, -1.0)),
+        ("right", Key::Right, Action::Move(0, 1.0)),
+        ("down", Key::Down, Action::Move(1, -1.0)),
+        ("up", Key::Up, Action::Move(1, 1.0)),
+        ("pagedown", Key::PageDown, Action::Move(2, -1.0)),
+        ("pageup", Key::PageUp, Action::Move(2, 1.0)),
+        ("tab", Key::Tab, Action::NextNode),
+        ("v", Key::V, Action::NextView),
+        ("space", Key::Space, Action::NextScriptFrame),
+        ("r", Key::R, Action::ToggleRectangles),
+        ("a", Key::A, Action::Orbit(-ORBIT_DEGREES, 0.0)),
+        ("d", Key::D, Action::Orbit(ORBIT_DEGREES, 0.0)),
+        ("w", Key::W, Action::Orbit(0.0, ORBIT_DEGREES)),
+        ("s", Key::S, Action::Orbit(0.0, -ORBIT_DEGREES)),
+        ("z", Key::Z, Action::Zoom(ZOOM_FACTOR)),
+        ("x", Key::X, Action::Zoom(1.0 / ZOOM_FACTOR)),
+        ("p", Key::P, Action::Snapshot),
+    ]
+};
+
+impl Action {
+    /// The action of a key named on the command line.
+    pub fn named(key: &str) -> anyhow::Result<Self> {
+        let key = key.trim().to_lowercase();
+        KEYS.iter().find(|(name, ..)| *name == key).map(|&(.., action)| action).with_context(|| {
+            let names: Vec<&str> = KEYS.iter().map(|(name, ..)| *name).collect();
+            format!("--keys: unknown key {key:?} (known: {})", names.join(", "))
+        })
+    }
+
+    /// The action of a key pressed in the window.
+    fn of_key(key: minifb::Key) -> Option<Self> {
+        KEYS.iter().find(|(_, k, _)| *k == key).map(|&(.., action)| action)
+    }
+}
+
+/// What the window shows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum View {
+    Field,
+    Mesh,
+    /// Mesh depth less field depth, red where the mesh lies behind.
+    Difference,
+}
+
+/// Moves through a model's edits one key at a time, keeping every image up to date.
+pub struct Viewer {
+    session: EditSession,
+    /// The named nodes, sorted; the arrow keys move `names[selected]`.
+    names: Vec<String>,
+    selected: usize,
+    view: View,
+    /// The arrow keys' step: a fiftieth of the model's first bounding diagonal.
+    step_length: f32,
+    script: Script,
+    next_script_frame: usize,
+    frames: usize,
+    /// The last frame's time and dirty fraction.
+    last: Option<(f64, f64)>,
+    /// The last frame's dirty rectangles, and whether the view outlines them.
+    dirty: (Vec<PixelRect>, bool),
+    orbit: Orbit,
+    /// Where snapshots go (numbered from this name), and how many were taken.
+    snapshots: (PathBuf, usize),
+}
+
+/// The camera as it orbits the model's first centre: its eye, the up axis it
+/// keeps, and its field of view.
+struct Orbit {
+    centre: Vec3,
+    eye: Vec3,
+    up: Vec3,
+    fov_y: f32,
+}
+
+/// Closest the camera's view comes to the up axis, in degrees.
+const MIN_POLE_DEGREES: f32 = 5.0;
+
+impl Orbit {
+    fn new(camera: &Camera, centre: Vec3) -> Self {
+        let fov_y = 2.0 * camera.tan_half_fov().atan().to_degrees();
+        Self { centre, eye: camera.eye.into(), up: camera.up().into(), fov_y }
+    }
+
+    /// Applies an orbit or zoom and returns the camera looking at the centre.
+    fn moved(&mut self, action: Action) -> Camera {
+        let offset = self.eye - self.centre;
+        let offset = match action {
+            Action::Orbit(yaw, pitch) => {
+                let turned = glam::Quat::from_axis_angle(self.up, yaw.to_radians()) * offset;
+                let right = turned.cross(self.up).normalize_or_zero();
+                // Stop short of the poles, where the view would flip over.
+                let from_up = turned.angle_between(self.up).to_degrees();
+                let pitch = pitch.clamp(from_up - (180.0 - MIN_POLE_DEGREES), from_up - MIN_POLE_DEGREES);
+                glam::Quat::from_axis_angle(right, pitch.to_radians()) * turned
+            }
+            Action::Zoom(factor) => offset * factor,
+            _ => offset,
+        };
+        self.eye = self.centre + offset;
+        Camera::look_at(self.eye, self.centre, self.up, self.fov_y)
+    }
+}
+
+impl Viewer {
+    /// A viewer of `session`, stepping through `script`, moving `node` first,
+    /// snapshots numbered from `snapshot_path`.
+    pub fn new(
+        session: EditSession,
+        script: Script,
+        node: Option<&str>,
+        snapshot_path: PathBuf,
+    ) -> anyhow::Result<Self> {
+        let names: Vec<String> = session.scene().model.names().into_iter().map(String::from).collect();
+        let selected = match node {
+            Some(n) => names.iter().position(|m| m == n).with_context(|| match names.is_empty() {
+                true => format!("--node: no node is named {n:?} (the scene names none)"),
+                false => format!("--node: no node is named {n:?} (names: {})", names.join(", ")),
+            })?,
+            None => 0,
+        };
+        let bounds = session.scene().model.bounds();
+        let step_length = bounds.diagonal() / 50.0;
+        let orbit = Orbit::new(&session.settings().camera, bounds.center().into());
+        Ok(Self {
+            session,
+            names,
+            selected,
+            view: View::Field,
+            step_length,
+            script,
+            next_script_frame: 0,
+            frames: 0,
+            last: None,
+            dirty: (vec![], false),
+            orbit,
+            snapshots: (snapshot_path, 0),
+        })
+    }
+
+    /// Carries out `action`; a move the frame's work cannot take (a node
+    /// carried too far for the mesh lattice) is taken back and reported.
+    pub fn act(&mut self, action: Action) -> anyhow::Result<()> {
+        match action {
+            Action::Move(axis, sign) => {
+                let Some(node) = self.names.get(self.selected).cloned() else {
+                    eprintln!("the scene names no node to move");
+                    return Ok(());
+                };
+                let by = Vec3::from(self.screen_axis(axis) * (sign * self.step_length));
+                let bounds = |v: &Self| {
+                    let model = &v.session.scene().model;
+                    model.find(&node).map(|id| model.node(id).bounds)
+                };
+                let before = bounds(self);
+                if let Err(e) = self.apply(&[Edit::Translate { node: node.clone(), by }]) {
+                    eprintln!("move refused: {e:#}");
+                    // Refused after the model moved (by the frame's checks): move it back.
+                    if bounds(self) != before {
+                        self.apply(&[Edit::Translate { node, by: -by }]).context("taking the refused move back")?;
+                    }
+                }
+            }
+            Action::NextNode => self.selected = (self.selected + 1) % self.names.len().max(1),
+            Action::NextView => {
+                self.view = match self.view {
+                    View::Field => View::Mesh,
+                    View::Mesh => View::Difference,
+                    View::Difference => View::Field,
+                }
+            }
+            Action::NextScriptFrame => {
+                if let Some(edits) = self.script.frames.get(self.next_script_frame).cloned() {
+                    self.apply(&edits).with_context(|| self.script.frame_label(self.next_script_frame))?;
+                    self.next_script_frame += 1;
+                }
+            }
+            Action::ToggleRectangles => self.dirty.1 = !self.dirty.1,
+            Action::Snapshot => {
+                self.snapshots.1 += 1;
+                let path = numbered(&self.snapshots.0, self.snapshots.1);
+                self.image().save_png(&path)?;
+                eprintln!("wrote {}", path.display());
+            }
+            Action::Orbit(..) | Action::Zoom(_) => {
+                let camera = self.orbit.moved(action);
+                self.session.set_camera(camera);
+                self.dirty.0.clear();
+            }
+        }
+        Ok(())
+    }
+
+    /// The camera's right (0), up (1) or forward (2) direction: a move is
+    /// along the screen whichever way the camera has turned.
+    fn screen_axis(&self, axis: usize) -> glam::Vec3A {
+        let camera = &self.session.settings().camera;
+        [camera.right(), camera.up(), camera.forward()][axis]
+    }
+
+    /// One incremental frame.
+    fn apply(&mut self, edits: &[Edit]) -> anyhow::Result<()> {
+        let update = self.session.apply(edits)?;
+        self.dirty.0 = update.dirty;
+        self.frames += 1;
+        self.last = Some((update.row.incremental_s, update.row.dirty_fraction));
+        Ok(())
+    }
+
+    /// The current view, as an image of the render's size.
+    pub fn image(&self) -> Rgb8Image {
+        let mut image = self.view_image();
+        if self.dirty.1 {
+            outline_dirty(&mut image, &self.dirty.0);
+        }
+        image
+    }
+
+    fn view_image(&self) -> Rgb8Image {
+        match self.view {
+            View::Field => frame_image(self.session.field_frame()),
+            View::Mesh => frame_image(self.session.mesh_frame()),
+            View::Difference => {
+                let (w, h) = (self.session.field_frame().width, self.session.field_frame().height);
+                // A lattice cell either way is the strongest colour.
+                let scale = Scale::Signed { max: self.session.lattice().cell };
+                let pixels = self.session.depth_diff().iter().flat_map(|&d| scale.color(d)).collect();
+                Rgb8Image { width: w, height: h, pixels }
+            }
+        }
+    }
+
+    /// The window's title: what is shown and what the last frame cost.
+    pub fn title(&self) -> String {
+        let view = match self.view {
+            View::Field => "field",
+            View::Mesh => "mesh",
+            View::Difference => "mesh − field depth (±1 cell)",
+        };
+        let node = self.names.get(self.selected).map_or("no named node", String::as_str);
+        let last = self.last.map_or(String::new(), |(s, dirty)| {
+            format!(" · frame {}: {:.1} ms, {:.1}% dirty", self.frames, 1e3 * s, 100.0 * dirty)
+        });
+        format!("blobtrace view · {view} · moving {node}{last}")
+    }
+}
+
+/// `dir/stem-NNNN.png` for `dir/stem.png` (checked to end in `.png`).
+fn numbered(path: &std::path::Path, n: usize) -> PathBuf {
+    let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+    path.with_file_name(format!("{stem}-{n:04}.png"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::EvalMode;
+    use crate::mesh::canonical_triangles;
+    use crate::pipeline::PolygonizeSettings;
+    use crate::scene::Scene;
+    use crate::trace::render_model;
+
+    const SCENE: &str = "Scene(
+        camera: Camera(eye: (0.0, 0.5, 5.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
+        size: (48, 36),
+        model: Blend([
+            Named(\"left\", Point(center: (-0.6, 0.0, 0.0), radius: 1.0)),
+            Named(\"right\", Cache(res: 32, child: Point(center: (0.6, 0.0, 0.0), radius: 1.0))),
+        ]),
+    )";
+
+    fn viewer(mode: EvalMode) -> (Viewer, PolygonizeSettings) {
+        let scene = Scene::parse(SCENE, "inline").unwrap();
+        let polygonize = PolygonizeSettings { res: 24, ..Default::default() };
+        let size = scene.size;
+        let session = EditSession::new(scene, mode, size, &polygonize).unwrap();
+        let snapshots = std::env::temp_dir().join(format!("blobtrace-view-test-{}.png", std::process::id()));
+        (Viewer::new(session, Script::default(), None, snapshots).unwrap(), polygonize)
+    }
+
+    #[test]
+    fn after_moves_by_key_the_views_equal_a_render_and_a_mesh_from_scratch() {
+        for mode in [EvalMode::Indexed, EvalMode::Cached] {
+            let (mut v, polygonize) = viewer(mode);
+            let keys = ["right", "right", "a", "up", "tab", "w", "left", "z", "pagedown", "tab", "down"];
+            // Where each move should take its node: along the screen as the camera then was.
+            let mut expected = [glam::Vec3A::ZERO; 2];
+            for key in keys {
+                let action = Action::named(key).unwrap();
+                if let Action::Move(axis, sign) = action {
+                    expected[v.selected] += v.screen_axis(axis) * sign * v.step_length;
+                }
+                v.act(action).unwrap();
+            }
+            assert_eq!(v.frames, 6, "every move is a frame; tab is none");
+            let s = &v.session;
+            let full = render_model(&s.scene().model, mode, s.settings(), &|_| {}).0;
+            assert!(full.same_image(s.field_frame()), "{mode:?}: the field view differs from a full render");
+            // The model has grown: a lattice over its new bounds would differ, so polygonize on the session's.
+            let fresh = crate::pipeline::polygonizer_on(&s.scene().model, mode, s.lattice(), polygonize.options());
+            assert_eq!(fresh.mesh().triangle_set(), canonical_triangles(s.mesh().triangles()));
+            // The moves went where the keys said.
+            let centre =
+                |model: &crate::field::Model, name: &str| model.node(model.find(name).unwrap()).bounds.center();
+            let start = Scene::parse(SCENE, "inline").unwrap();
+            for (name, expected) in ["left", "right"].iter().zip(expected) {
+                let moved = centre(&v.session.scene().model, name) - centre(&start.model, name);
+                assert!((moved - expected).length() < 1e-5, "{name}: {moved} against {expected}");
+                assert!(expected.length() > 0.5 * v.step_length, "{name} moved");
+            }
+        }
+    }
+
+    #[test]
+    fn a_move_too_far_is_refused_and_leaves_the_views_consistent() {
+        let (mut v, _) = viewer(EvalMode::Cached);
+        let model = |v: &Viewer| v.session.scene().model.clone();
+        let start = model(&v).node(model(&v).find("left").unwrap()).bounds;
+        // Far past where a model may reach (a thousand times its size).
+        v.step_length = 1.0e5;
+        v.act(Action::Move(0, 1.0)).unwrap();
+        let now = model(&v).node(model(&v).find("left").unwrap()).bounds;
+        assert!((now.center() - start.center()).length() < 0.02, "{start:?} -> {now:?}");
+        let s = &v.session;
+        let full = render_model(&s.scene().model, EvalMode::Cached, s.settings(), &|_| {}).0;
+        assert!(full.same_image(s.field_frame()));
+    }
+
+    #[test]
+    fn orbit_keys_turn_the_camera_about_the_centre_and_stop_short_of_the_pole() {
+        let camera = Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
+        let mut orbit = Orbit::new(&camera, Vec3::ZERO);
+        let right = orbit.moved(Action::Orbit(ORBIT_DEGREES, 0.0));
+        assert!(right.eye.x > 0.0 && (right.eye.length() - 5.0).abs() < 1e-4, "d moves the camera to its right");
+        let up = orbit.moved(Action::Orbit(0.0, ORBIT_DEGREES));
+        assert!(up.eye.y > 0.0 && (up.eye.length() - 5.0).abs() < 1e-4, "w moves the camera up");
+        assert!((up.forward() + up.eye.normalize()).length() < 1e-5, "it keeps looking at the centre");
+        for _ in 0..30 {
+            orbit.moved(Action::Orbit(0.0, ORBIT_DEGREES));
+        }
+        let top = orbit.moved(Action::Zoom(ZOOM_FACTOR));
+        let from_up = top.eye.angle_between(glam::Vec3A::Y).to_degrees();
+        assert!((from_up - MIN_POLE_DEGREES).abs() < 1e-3, "{from_up}");
+        assert!((top.eye.length() - 5.0 * ZOOM_FACTOR).abs() < 1e-4);
+        assert!((top.tan_half_fov() - camera.tan_half_fov()).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_views_cycle_and_differ_and_unknown_keys_are_refused() {
+        let (mut v, _) = viewer(EvalMode::Indexed);
+        let field = v.image();
+        v.act(Action::NextView).unwrap();
+        let mesh = v.image();
+        v.act(Action::NextView).unwrap();
+        let difference = v.image();
+        v.act(Action::NextView).unwrap();
+        assert_eq!(v.image().pixels, field.pixels, "three presses come back to the field");
+        assert_ne!(mesh.pixels, field.pixels);
+        assert_ne!(difference.pixels, field.pixels);
+        for image in [&field, &mesh, &difference] {
+            assert_eq!((image.width, image.height), (48, 36));
+        }
+        v.act(Action::Move(0, 1.0)).unwrap();
+        let moved = v.image();
+        v.act(Action::ToggleRectangles).unwrap();
+        let outlined = v.image();
+        let yellow = |img: &Rgb8Image| img.pixels.chunks(3).filter(|p| p == &[255, 220, 0]).count();
+        assert!(yellow(&outlined) > yellow(&moved), "r outlines the move's dirty rectangles");
+        v.act(Action::Snapshot).unwrap();
+        let snapshot = numbered(&v.snapshots.0, 1);
+        let written = image::open(&snapshot).expect("p writes a snapshot").to_rgb8();
+        assert_eq!(written.as_raw(), &outlined.pixels, "the snapshot is the view");
+        std::fs::remove_file(snapshot).unwrap();
+        let err = Action::named("F13").unwrap_err().to_string();
+        assert!(err.contains("unknown key") && err.contains("f13"), "{err}");
+    }
+}
