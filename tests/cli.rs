@@ -202,6 +202,58 @@ fn missing_scene_and_bad_options_fail_cleanly() {
 }
 
 #[test]
+fn usage_errors_exit_64_in_every_command_and_other_errors_1() {
+    let usage: [&[&str]; 9] = [
+        &["render", "scenes/pair.ron", "--size", "0x10"],
+        &["render", "scenes/pair.ron", "--mesh", "--res", "0", "-o", "/tmp/blobtrace-never.png"],
+        &["mesh", "scenes/pair.ron", "--res", "0", "-o", "/tmp/blobtrace-never.ply"],
+        &["compare", "scenes/pair.ron", "--res", "0", "--out-dir", "/tmp/blobtrace-never"],
+        &["edit", "scenes/hair_point.ron", "--script", "scenes/scripts/hair-probe.ron", "--refine", "1"],
+        &["slice", "scenes/pair.ron", "--plane", "z=0", "--scale", "-1"],
+        &["render", "scenes/pair.ron", "--cache-budget", "0.001"],
+        &["render", "scenes/pair.ron", "--eye", "1,2"],
+        &["diff", "a.png"],
+    ];
+    for args in usage {
+        let out = blobtrace(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(64), "{args:?}: {err}");
+        assert!(!err.contains("panicked") && !err.is_empty(), "{args:?}: {err}");
+    }
+    let out = blobtrace(&["render", "scenes/no-such-scene.ron"]);
+    assert_eq!(out.status.code(), Some(1), "a missing scene is an error, not a usage error");
+    let help = String::from_utf8_lossy(&blobtrace(&["--help"]).stdout).to_string();
+    assert!(help.contains("64 usage error") && help.contains("Exit codes"), "{help}");
+}
+
+#[test]
+fn camera_overrides_change_the_view_and_bad_ones_are_refused() {
+    let dir = scratch("camera");
+    let render = |name: &str, extra: &[&str]| {
+        let png = dir.join(name);
+        let mut args = vec!["render", "scenes/pair.ron", "--size", "40x30", "-o", png.to_str().unwrap(), "--json"];
+        args.extend_from_slice(extra);
+        let v = json(&blobtrace(&args));
+        (std::fs::read(&png).unwrap(), v["hits"].as_u64().unwrap())
+    };
+    let (plain, plain_hits) = render("plain.png", &[]);
+    let (same, _) = render("same.png", &["--fov", "35"]);
+    let (far, far_hits) = render("far.png", &["--eye", "0,0.5,40"]);
+    let (wide, wide_hits) = render("wide.png", &["--fov", "90"]);
+    assert_eq!(plain, same, "an override equal to the scene's changes nothing");
+    assert!(far_hits < plain_hits / 4, "a far eye sees the model small: {far_hits} of {plain_hits}");
+    assert!(wide_hits < plain_hits && wide != plain, "a wider view sees it smaller");
+    for (args, words) in [(&["--eye", "0,0,0", "--target", "0,0,0"][..], "coincide"), (&["--fov", "200"], "fov")] {
+        let mut all = vec!["render", "scenes/pair.ron", "-o", "/tmp/blobtrace-never.png"];
+        all.extend_from_slice(args);
+        let out = blobtrace(&all);
+        assert_eq!(out.status.code(), Some(64));
+        assert!(String::from_utf8_lossy(&out.stderr).contains(words));
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
 fn cached_render_reports_cache_statistics_and_exact_mode_omits_them() {
     let dir = scratch("cached");
     let png = dir.join("medusa.png");
@@ -401,8 +453,9 @@ fn diff_follows_idiff_exit_codes_and_writes_a_heat_map() {
     assert_eq!(code(&["diff", &path("ray.png"), &path("small.png")]), Some(3));
     assert_eq!(code(&["diff", &ray, &path("missing.exr")]), Some(4));
     assert_eq!(code(&["diff", &path("ray.png"), &path("mesh.png"), "--metric", "depth"]), Some(4));
-    assert_eq!(code(&["diff", &ray, &mesh, "--fail", "-1"]), Some(4));
-    assert_eq!(code(&["diff", &ray, &mesh, "--no-such-option"]), Some(4));
+    // Bad options are usage errors, with the code every command gives them.
+    assert_eq!(code(&["diff", &ray, &mesh, "--fail", "-1"]), Some(64));
+    assert_eq!(code(&["diff", &ray, &mesh, "--no-such-option"]), Some(64));
     let heat = path("heat.png");
     let out = blobtrace(&["diff", &ray, &mesh, "--metric", "depth", "--mask-edges", "1", "-o", &heat, "--json"]);
     assert_eq!(out.status.code(), Some(2));
@@ -786,12 +839,13 @@ fn outputs_must_be_named_for_their_format_and_are_checked_before_any_work() {
     let k = keep.to_str().unwrap();
     let exr_dir = dir.join("a.exr");
     std::fs::create_dir_all(&exr_dir).unwrap();
-    let cases: [(&[&str], &str); 7] = [
+    let cases: [(&[&str], &str); 8] = [
         (&["render", "scenes/sphere.ron", "-o", "out.exr"], "must end in .png"),
         (&["render", "scenes/sphere.ron", "-o", k, "--exr", k], "must end in .exr"),
         (&["render", "scenes/sphere.ron", "-o", k, "--exr", exr_dir.to_str().unwrap()], "is a directory"),
         (&["render", "scenes/sphere.ron", "-o", k, "--threads", "5000"], "--threads must be between"),
-        (&["bench", "mesh", "--res", "0"], "--res and --detail-res must be between"),
+        (&["bench", "mesh", "--res", "0"], "--res must be between 1 and 8192"),
+        (&["bench", "mesh", "--detail-res", "9000"], "--detail-res must be between 1 and 8192"),
         (&["bench", "mesh", "--threads", "0"], "--threads must be between"),
         (&["bench", "edit", "--threads", "0", "-o", "f8.png"], "--threads must be between"),
     ];

@@ -35,11 +35,13 @@ pub struct MeshBenchSettings {
 
 /// Measures every figure of `bench mesh`.
 pub fn bench_mesh(settings: &MeshBenchSettings) -> Result<MeshBenchReport> {
-    if let Some(bad) = settings.res.iter().chain([&settings.detail_res]).find(|r| !(1..=MAX_RES).contains(*r)) {
-        return Err(PipelineError::setting(
-            "res",
-            format!("and detail_res must be between 1 and {MAX_RES}, got {bad}"),
-        ));
+    let out_of_range = |r: &u32| !(1..=MAX_RES).contains(r);
+    let bad = match settings.res.iter().find(|r| out_of_range(r)) {
+        Some(&r) => Some(("res", r)),
+        None => out_of_range(&settings.detail_res).then_some(("detail_res", settings.detail_res)),
+    };
+    if let Some((setting, r)) = bad {
+        return Err(PipelineError::setting(setting, format!("must be between 1 and {MAX_RES}, got {r}")));
     }
     let scene = Scene::load(&settings.scene)?;
     with_threads(settings.threads, || measure(settings, scene))?

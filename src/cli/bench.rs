@@ -8,8 +8,8 @@ use clap::{Args, Subcommand};
 
 use super::args::{CellsArg, check_output_file, parse_size, print_json};
 use crate::bench::{
-    CacheBenchReport, EditBenchReport, EditBenchSettings, EvalBenchReport, MeshBenchReport, MeshBenchSettings,
-    RenderBenchSettings, bench_cache, bench_edit, bench_eval, bench_mesh,
+    CacheBenchReport, EditBenchReport, EditBenchSettings, EvalBenchReport, LookupCost, MeshBenchReport,
+    MeshBenchSettings, RenderBenchSettings, bench_cache, bench_edit, bench_eval, bench_mesh,
 };
 use crate::frame::Size;
 use crate::mesh::CellShape;
@@ -224,11 +224,16 @@ fn print_cache_report(a: &EvalBenchArgs, size: String, r: &CacheBenchReport, ray
         r.mean_depth_err,
         r.p99_normal_err_deg
     );
+    print_lookup_costs(&r.lookups);
+}
+
+/// Each cache's lookup cost against an exact evaluation of its subtree.
+fn print_lookup_costs(lookups: &[LookupCost]) {
     println!(
         "  {:12} {:>10} {:>12} {:>12} {:>10} {:>12}",
         "cache", "primitives", "cached ns", "exact ns", "MB held", "MB dense"
     );
-    for l in &r.lookups {
+    for l in lookups {
         println!(
             "  {:12} {:>10} {:>12.1} {:>12.1} {:>10.2} {:>12.2}",
             l.name,
