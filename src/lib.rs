@@ -43,6 +43,7 @@ pub mod geom;
 pub mod mesh;
 pub mod output;
 pub mod pipeline;
+pub mod progress;
 pub mod scene;
 pub mod slice;
 pub mod trace;

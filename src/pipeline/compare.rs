@@ -9,13 +9,13 @@ use serde::Serialize;
 
 use super::error::{PipelineError, Result};
 use super::polygonize::{PolygonizeSettings, color_by_cache_error, polygonize};
-use super::progress::Progress;
 use super::render::{MeshRenderReport, RenderReport, render_field, render_mesh};
 use crate::compare::{
     DiffReport, Metric, Rgb8Image, Scale, Thresholds, differences, frame_image, heat_map, judge, panel, silhouette_map,
 };
 use crate::field::EvalMode;
 use crate::frame::{Frame, Size};
+use crate::progress::Progress;
 use crate::scene::Scene;
 
 /// What to compare.

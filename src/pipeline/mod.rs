@@ -11,8 +11,9 @@
 //! ```
 //! use blobtrace::field::{Edit, EvalMode};
 //! use blobtrace::frame::Size;
-//! use blobtrace::pipeline::{EditSession, PolygonizeSettings, Silent, render_field};
+//! use blobtrace::pipeline::{EditSession, PolygonizeSettings};
 //! use blobtrace::scene::Scene;
+//! use blobtrace::trace::render_model;
 //!
 //! let scene = Scene::parse(
 //!     r#"Scene(camera: Camera(eye: (0.0, 0.0, 5.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
@@ -30,8 +31,9 @@
 //! // Only the rectangles around the moved point were traced again…
 //! assert!(!moved.dirty.is_empty() && moved.row.dirty_fraction < 1.0);
 //!
-//! // …and the frame equals a render of the edited scene from scratch.
-//! let (fresh, _) = render_field(session.scene(), Size(64, 48), EvalMode::Indexed, &Silent);
+//! // …and the frame equals a render of the edited scene from scratch, through
+//! // the session's settings (its tracer and mesh lattices stay the first frame's).
+//! let fresh = render_model(&session.scene().model, EvalMode::Indexed, session.settings(), &|_| {}).0;
 //! assert!(session.field_frame().same_image(&fresh));
 //! assert!(session.verify().mismatch.is_none(), "the mesh equals a fresh polygonization too");
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -44,13 +46,13 @@ mod error;
 mod eval;
 mod image_diff;
 mod polygonize;
-mod progress;
 mod regress;
 mod render;
 mod replay;
 mod slice;
 mod threads;
 
+pub use crate::progress::{Progress, Silent, rows, stage};
 pub use cache_report::{CacheReport, NamedCacheStats};
 pub use compare::{
     COMPARE_OUTPUTS, CompareReport, CompareSettings, Comparison, ErrorImages, ErrorStats, StageSeconds, Tolerances,
@@ -64,7 +66,6 @@ pub use polygonize::{
     MAX_REFINE, MAX_RES, MeshReport, PolygonizeSettings, cells_name, color_by_cache_error, polygonize, polygonizer_on,
     vertex_name,
 };
-pub use progress::{Progress, Silent, rows, stage};
 pub use regress::{
     Entry, Kind, Manifest, RegressRow, RegressSettings, RegressSummary, load_manifest, regress, render_entry,
 };

@@ -8,13 +8,13 @@ use serde::Serialize;
 
 use super::cache_report::CacheReport;
 use super::error::{PipelineError, Result};
-use super::progress::{Progress, stage};
 use crate::compare::{CacheErrorStats, cache_error_at, cache_error_stats, error_colors};
 use crate::field::{EvalMode, Model, ModelField};
 use crate::mesh::{
     CellShape, Lattice, Mesh, PolygonizeOptions, PolygonizeStats, Polygonizer, Topology, TriangleQuality,
     VertexPlacement, skeleton_seeds,
 };
+use crate::progress::{Progress, stage};
 
 /// How to polygonize.
 #[derive(Clone, Copy, Debug, PartialEq)]

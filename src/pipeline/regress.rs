@@ -10,11 +10,11 @@ use serde::Deserialize;
 
 use super::error::{PipelineError, Result};
 use super::polygonize::{PolygonizeSettings, polygonize};
-use super::progress::{Progress, Silent};
 use super::render::{render_field, render_mesh};
 use crate::compare::{DiffReport, Metric, Scale, Thresholds, Verdict, differences, heat_map, judge, load_image};
 use crate::field::EvalMode;
 use crate::frame::{Frame, Size};
+use crate::progress::{Progress, Silent};
 use crate::scene::{Scene, SceneError, values};
 
 /// Where a regression run reads and writes.

@@ -7,11 +7,11 @@ use serde::Serialize;
 
 use super::cache_report::CacheReport;
 use super::polygonize::MeshReport;
-use super::progress::{Progress, rows};
 use crate::bvh::{MeshBvh, MeshRenderStats, StaticMesh, render_mesh as cast_mesh};
 use crate::field::EvalMode;
 use crate::frame::{Frame, Size};
 use crate::mesh::Mesh;
+use crate::progress::{Progress, rows};
 use crate::scene::Scene;
 use crate::trace::{RenderSettings, RenderStats, render_model};
 

@@ -10,10 +10,10 @@ use serde::Serialize;
 use super::edit_session::{EditSession, FrameRow};
 use super::error::{PipelineError, Result};
 use super::polygonize::{PolygonizeSettings, polygonizer_on};
-use super::progress::Progress;
 use crate::field::{Edit, EvalMode, Model};
 use crate::frame::{Frame, Size};
 use crate::mesh::Lattice;
+use crate::progress::Progress;
 use crate::scene::{Scene, Script};
 use crate::trace::{PixelRect, render_model};
 

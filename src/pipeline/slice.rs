@@ -6,10 +6,10 @@
 use glam::Vec3A;
 
 use super::error::{PipelineError, Result};
-use super::progress::Progress;
 use crate::cache::Filter;
 use crate::compare::{Rgb8Image, Scale, heat_map, panel};
 use crate::field::{EvalMode, Field, ModelField};
+use crate::progress::Progress;
 use crate::scene::{Scene, parse_desc};
 use crate::slice::{SlicePlane, iso_contour, sample, sharp_image};
 

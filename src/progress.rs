@@ -1,6 +1,7 @@
-//! The progress hook: every long pipeline reports through it what stage it
-//! is in and how far along, so a command line can draw bars, a window a
-//! status line, and a test nothing at all.
+//! The progress hook: every long job — a pipeline, a polygonization —
+//! reports through it what stage it is in and how far along, so a command
+//! line can draw bars, a window a status line, and a test nothing at all.
+//! It imports nothing, so any stage may report through it.
 
 /// Receives progress from a pipeline, possibly from several worker threads at once.
 pub trait Progress: Sync {
