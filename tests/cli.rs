@@ -238,7 +238,7 @@ fn camera_overrides_change_the_view_and_bad_ones_are_refused() {
     };
     let (plain, plain_hits) = render("plain.png", &[]);
     let (same, _) = render("same.png", &["--fov", "35"]);
-    let (far, far_hits) = render("far.png", &["--eye", "0,0.5,40"]);
+    let (_, far_hits) = render("far.png", &["--eye", "0,0.5,40"]);
     let (wide, wide_hits) = render("wide.png", &["--fov", "90"]);
     assert_eq!(plain, same, "an override equal to the scene's changes nothing");
     assert!(far_hits < plain_hits / 4, "a far eye sees the model small: {far_hits} of {plain_hits}");

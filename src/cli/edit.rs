@@ -100,7 +100,7 @@ fn save_frame(dir: &Path, i: usize, frame: &Frame, rects: &[PixelRect]) -> Resul
     let mut img = frame_image(frame);
     outline_dirty(&mut img, rects);
     let path = dir.join(format!("frame-{i:04}.png"));
-    img.save_png(&path).map_err(|e| PipelineError::File { path, message: format!("{e:#}") })
+    Ok(img.save_png(&path)?)
 }
 
 /// frames.csv and timing.png.
@@ -115,7 +115,7 @@ fn write_outputs(dir: &Path, r: &EditReport) -> anyhow::Result<()> {
         series.push(("from scratch", &full));
     }
     let title = format!("seconds per frame ({})", r.eval);
-    line_plot(&title, "s", &series, 720, 360).save_png(&dir.join("timing.png"))
+    Ok(line_plot(&title, "s", &series, 720, 360).save_png(&dir.join("timing.png"))?)
 }
 
 fn frames_csv(r: &EditReport) -> String {

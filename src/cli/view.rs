@@ -73,5 +73,5 @@ pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
         pool.install(|| viewer.act(action))?;
     }
     eprintln!("{}", viewer.title());
-    viewer.image().save_png(&a.output)
+    Ok(viewer.image().save_png(&a.output)?)
 }

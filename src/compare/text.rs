@@ -86,10 +86,10 @@ impl Rgb8Image {
     }
 
     /// Writes a PNG atomically.
-    pub fn save_png(&self, path: &std::path::Path) -> anyhow::Result<()> {
-        use anyhow::Context;
-        let bytes = self.png_bytes().with_context(|| format!("{}: could not encode", path.display()))?;
-        crate::output::write_atomic(path, &bytes).with_context(|| format!("{}: could not write", path.display()))
+    pub fn save_png(&self, path: &std::path::Path) -> Result<(), crate::frame::FrameIoError> {
+        use crate::frame::FrameIoError;
+        let bytes = self.png_bytes().map_err(|e| FrameIoError::Encode(path.display().to_string(), e.to_string()))?;
+        crate::output::write_atomic(path, &bytes).map_err(|e| FrameIoError::Write(path.display().to_string(), e))
     }
 }
 

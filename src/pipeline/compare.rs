@@ -274,7 +274,7 @@ impl Comparison {
         ];
         for (_, file, img) in &maps {
             let path = dir.join(file);
-            img.save_png(&path).map_err(|e| PipelineError::File { path, message: format!("{e:#}") })?;
+            img.save_png(&path)?;
         }
         Ok(maps.into_iter().map(|(title, _, img)| (title.to_string(), img)).collect())
     }

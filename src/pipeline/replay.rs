@@ -90,8 +90,9 @@ impl EditSession {
         check_names(&self.scene().model, script)?;
         let (mut rows, mut verified) = (vec![], 0);
         let n = script.frames.len() as u64;
+        let stage = if verify { "replaying and verifying frames" } else { "replaying frames" };
         for (i, edits) in script.frames.iter().enumerate() {
-            progress.update(if verify { "replaying and verifying frames" } else { "replaying frames" }, i as u64, n);
+            progress.update(stage, i as u64, n);
             let at = |e: PipelineError| e.at(script.frame_label(i));
             let mut update = self.apply(edits).map_err(at)?;
             if verify {
@@ -106,7 +107,7 @@ impl EditSession {
             after_frame(i, self.field_frame(), &update.dirty).map_err(at)?;
             rows.push(update.row);
         }
-        progress.update("replaying frames", n, n);
+        progress.update(stage, n, n);
         Ok(EditReport::of(rows, verified, self.mode()))
     }
 }
