@@ -5,7 +5,8 @@
 use glam::{Affine3A, Mat3A, Vec3, Vec3A};
 
 use super::model::{Change, Model, ModelError};
-use super::node::{NodeId, NodeKind, Placement};
+use super::node::{NodeKind, Placement};
+use super::node_id::NodeId;
 use crate::geom::{Aabb, Support};
 use crate::scene::values::{self, MAX_MAGNITUDE};
 

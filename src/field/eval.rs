@@ -8,7 +8,8 @@ use glam::{Vec3, Vec3A};
 
 use super::index::{BlendIndex, IndexedLeaf, Leaf};
 use super::model::Model;
-use super::node::{NodeId, NodeKind};
+use super::node::NodeKind;
+use super::node_id::NodeId;
 use super::primitive::Primitive;
 use super::region::Region;
 use super::{DEFAULT_COLOR, EvalMode};

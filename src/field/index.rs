@@ -15,7 +15,7 @@ use std::sync::OnceLock;
 use rayon::prelude::*;
 
 use super::kernel::Kernel;
-use super::node::NodeId;
+use super::node_id::NodeId;
 use super::primitive::Primitive;
 use super::region::Region;
 use super::wide;

@@ -14,6 +14,7 @@ mod index;
 mod kernel;
 mod model;
 mod node;
+mod node_id;
 mod primitive;
 mod region;
 mod root;
@@ -27,7 +28,8 @@ pub use empty::EmptySpace;
 pub use index::{BlendIndex, IndexedLeaf, Leaf};
 pub use kernel::Kernel;
 pub use model::{Change, Model, ModelBuilder, ModelCounts, ModelError};
-pub use node::{Node, NodeId, NodeKind, Placement};
+pub use node::{Node, NodeKind, Placement};
+pub use node_id::NodeId;
 pub use primitive::{Primitive, Skeleton};
 pub use region::Region;
 

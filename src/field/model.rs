@@ -6,7 +6,8 @@ use glam::Vec3;
 
 use super::EvalMode;
 use super::index::{BlendIndex, IndexedLeaf, Leaf, MIN_INDEXED_LEAVES};
-use super::node::{Node, NodeId, NodeKind, Placement};
+use super::node::{Node, NodeKind, Placement};
+use super::node_id::NodeId;
 use super::primitive::Primitive;
 use super::region::Region;
 use crate::cache::{CacheGrid, CacheSpec, CacheStats, Refit, SLOT_BYTES, SamplePool};

@@ -11,7 +11,8 @@
 
 use glam::{Vec3, Vec3A};
 
-use super::node::{NodeId, NodeKind};
+use super::node::NodeKind;
+use super::node_id::NodeId;
 use super::{EvalMode, Model, Region};
 use crate::geom::{Aabb, Interval};
 
