@@ -37,9 +37,10 @@ mod visited;
 
 use glam::Vec3;
 
+pub use edge_vertices::EdgeVertex;
 pub use export::{MeshFormat, write_mesh};
 pub use lattice::{Cell, Lattice};
-pub use polygonizer::{CellShape, EdgeVertex, PolygonizeOptions, PolygonizeStats, Polygonizer, Repolygonized};
+pub use polygonizer::{CellShape, PolygonizeOptions, PolygonizeStats, Polygonizer, Repolygonized};
 pub use seeds::{Seed, skeleton_seeds};
 pub use topology::Topology;
 pub use vertex::VertexPlacement;

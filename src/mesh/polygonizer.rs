@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::corners::CornerValues;
-use super::edge_vertices::EdgeVertices;
+use super::edge_vertices::{EdgeVertex, EdgeVertices};
 use super::lattice::{Cell, EdgeKey, Lattice, LatticePoint, edge_key, ordered_edge, sort_key};
 use super::seeds::{Evaluated, Marched, Rejoin, RowSpans, RowStarts, Seed, SeedMarch, SeedStarts, Start};
 use super::vertex::{VertexPlacement, place_on_edge};
@@ -164,17 +164,6 @@ impl PolygonizeStats {
     pub fn field_evals(&self) -> u64 {
         self.corner_evals + self.root_evals + self.gradient_evals + self.color_evals
     }
-}
-
-/// A vertex on a crossed edge: position, unit outward normal, colour.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct EdgeVertex {
-    /// Position on the surface.
-    pub position: Vec3,
-    /// Unit outward normal from the field gradient (zero where it vanished).
-    pub normal: Vec3,
-    /// Linear RGB colour ([`crate::field::DEFAULT_COLOR`] when the model has one colour).
-    pub color: Vec3,
 }
 
 /// What a local re-polygonization changed, cell by cell.
