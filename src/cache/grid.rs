@@ -20,8 +20,7 @@ use super::filter::{Filter, MAX_SUPPORT_CELLS};
 use super::memo::{self, GatherId};
 use super::pool::{Read, SLOT_WORDS, SamplePool, Slot, UNSET, block_key};
 use super::{CacheSpec, Storage};
-use crate::field::Region;
-use crate::geom::{Aabb, Interval, UniformGrid, cell_coords, linear_index};
+use crate::geom::{Aabb, Interval, Region, UniformGrid, cell_coords, linear_index};
 
 /// Lattice points per block edge along x and y (z doubles for two-byte storage).
 const BLOCK_SHIFT: i32 = 3;

@@ -11,10 +11,9 @@ use super::model::Model;
 use super::node::NodeKind;
 use super::node_id::NodeId;
 use super::primitive::Primitive;
-use super::region::Region;
 use super::{DEFAULT_COLOR, EvalMode};
 use crate::cache::grid::Sampled;
-use crate::geom::{Aabb, Interval};
+use crate::geom::{Aabb, Interval, Region};
 
 /// Above this many index cells, a region's bounds come from the per-cell
 /// bounds; at or below it they may sum the leaves listed there one by one.

@@ -17,9 +17,8 @@ use rayon::prelude::*;
 use super::kernel::Kernel;
 use super::node_id::NodeId;
 use super::primitive::Primitive;
-use super::region::Region;
 use super::wide;
-use crate::geom::{Aabb, Interval, UniformGrid};
+use crate::geom::{Aabb, Interval, Region, UniformGrid};
 
 /// Fewest leaves for which a blend gets an index: below this a plain loop is as fast.
 pub const MIN_INDEXED_LEAVES: usize = 8;

@@ -16,13 +16,13 @@ mod model;
 mod node;
 mod node_id;
 mod primitive;
-mod region;
 mod root;
 pub mod spline;
 mod wide;
 
 use glam::{Vec3, Vec3A};
 
+pub use crate::geom::Region;
 pub use edit::{Edit, Operator};
 pub use empty::EmptySpace;
 pub use index::{BlendIndex, IndexedLeaf, Leaf};
@@ -31,7 +31,6 @@ pub use model::{Change, Model, ModelBuilder, ModelCounts, ModelError};
 pub use node::{Node, NodeKind, Placement};
 pub use node_id::NodeId;
 pub use primitive::{Primitive, Skeleton};
-pub use region::Region;
 
 use root::RootParts;
 

@@ -9,9 +9,8 @@ use super::index::{BlendIndex, IndexedLeaf, Leaf, MIN_INDEXED_LEAVES};
 use super::node::{Node, NodeKind, Placement};
 use super::node_id::NodeId;
 use super::primitive::Primitive;
-use super::region::Region;
 use crate::cache::{CacheGrid, CacheSpec, CacheStats, Refit, SLOT_BYTES, SamplePool};
-use crate::geom::{Aabb, Interval, Support};
+use crate::geom::{Aabb, Interval, Region, Support};
 
 /// Why a model could not be built.
 #[derive(Debug, thiserror::Error, PartialEq)]

@@ -7,8 +7,8 @@
 
 use glam::Vec3A;
 
-use crate::field::{Field, Region, outside_margin};
-use crate::geom::Ray;
+use crate::field::{Field, outside_margin};
+use crate::geom::{Ray, Region};
 
 /// Knobs of the tracer, each with its trade-off.
 #[derive(Clone, Copy, Debug)]
