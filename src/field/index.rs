@@ -14,10 +14,10 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
+use super::eight_wide_sums::{self, Chunk};
 use super::kernel::Kernel;
 use super::node_id::NodeId;
 use super::primitive::Primitive;
-use super::wide;
 use crate::geom::{Aabb, Interval, Region, UniformGrid};
 
 /// Fewest leaves for which a blend gets an index: below this a plain loop is as fast.
@@ -143,7 +143,7 @@ struct PackedPoints {
     terms: Vec<Vec4>,
     weights: Vec<f32>,
     /// Each cell's list packed eight points to a chunk (see [`Self::packed`]).
-    cells: Option<Vec<OnceLock<Box<[wide::Chunk]>>>>,
+    cells: Option<Vec<OnceLock<Box<[Chunk]>>>>,
 }
 
 impl PackedPoints {
@@ -157,7 +157,7 @@ impl PackedPoints {
             .collect::<Option<Vec<_>>>()?
             .into_iter()
             .unzip();
-        let cells = wide::available().then(|| (0..cells).map(|_| OnceLock::new()).collect());
+        let cells = eight_wide_sums::available().then(|| (0..cells).map(|_| OnceLock::new()).collect());
         Some(Self { terms, weights, cells })
     }
 
@@ -166,7 +166,7 @@ impl PackedPoints {
     /// there yet, or the eight-wide sums do not run).
     #[inline]
     fn sum<'a>(&'a self, c: usize, items: impl Fn() -> &'a [u32], p: Vec3A) -> f64 {
-        if let Some(sum) = self.packed(c, &items).and_then(|chunks| wide::sum(chunks, p)) {
+        if let Some(sum) = self.packed(c, &items).and_then(|chunks| eight_wide_sums::sum(chunks, p)) {
             return sum;
         }
         let mut acc = glam::DVec4::ZERO;
@@ -177,7 +177,7 @@ impl PackedPoints {
     /// [`Self::sum`] and the sum of the gradients in one pass, the value to the same bits.
     #[inline]
     fn sum_and_gradient<'a>(&'a self, c: usize, items: impl Fn() -> &'a [u32], p: Vec3A) -> (f64, Vec3A) {
-        if let Some(both) = self.packed(c, &items).and_then(|chunks| wide::sum_and_gradient(chunks, p)) {
+        if let Some(both) = self.packed(c, &items).and_then(|chunks| eight_wide_sums::sum_and_gradient(chunks, p)) {
             return both;
         }
         let (mut values, mut gradients) = (glam::DVec4::ZERO, [Vec4::ZERO; 3]);
@@ -194,13 +194,13 @@ impl PackedPoints {
     /// times the bytes (all of Medusa's would take 160 MB; a render packs
     /// about 100 MB of them).
     #[inline]
-    fn packed<'a>(&'a self, c: usize, items: impl Fn() -> &'a [u32]) -> Option<&'a [wide::Chunk]> {
+    fn packed<'a>(&'a self, c: usize, items: impl Fn() -> &'a [u32]) -> Option<&'a [Chunk]> {
         let list = self.cells.as_ref()?.get(c)?;
-        Some(list.get_or_init(|| wide::pack(&self.terms, &self.weights, items()).collect()))
+        Some(list.get_or_init(|| eight_wide_sums::pack(&self.terms, &self.weights, items()).collect()))
     }
 
     /// Point `i`'s value at the nearest point of box `lo..hi`, in the
-    /// operations of the eight-wide [`wide::interval`], so that it is zero
+    /// operations of the eight-wide [`eight_wide_sums::interval`], so that it is zero
     /// exactly where that bound's lane for `i` is.
     fn value_at_nearest(&self, i: usize, lo: Vec3A, hi: Vec3A) -> f32 {
         let t = self.terms[i];
@@ -216,11 +216,11 @@ impl PackedPoints {
     /// `chunks`: the per-cell bounds of an index of points, each rounded
     /// outwards from its sum in double precision. `None` where the
     /// eight-wide sums do not run.
-    fn cell_bounds(&self, items: &[u32], cell: &Aabb, chunks: &mut Vec<wide::Chunk>) -> Option<(f32, f32, Interval)> {
+    fn cell_bounds(&self, items: &[u32], cell: &Aabb, chunks: &mut Vec<Chunk>) -> Option<(f32, f32, Interval)> {
         chunks.clear();
-        chunks.extend(wide::pack(&self.terms, &self.weights, items));
-        let (slope, bend) = wide::slope_bounds(chunks, cell.min, cell.max)?;
-        let (low, high) = wide::interval(chunks, cell.min, cell.max)?;
+        chunks.extend(eight_wide_sums::pack(&self.terms, &self.weights, items));
+        let (slope, bend) = eight_wide_sums::slope_bounds(chunks, cell.min, cell.max)?;
+        let (low, high) = eight_wide_sums::interval(chunks, cell.min, cell.max)?;
         Some((outward(slope, slope).hi, outward(bend, bend).hi, outward(low, high)))
     }
 
@@ -453,7 +453,9 @@ impl BlendIndex {
                 Some(Interval::ZERO)
             } else {
                 let chunks = points.packed(c, || items);
-                chunks.and_then(|chunks| wide::interval(chunks, from, to)).map(|(low, high)| outward(low, high))
+                chunks
+                    .and_then(|chunks| eight_wide_sums::interval(chunks, from, to))
+                    .map(|(low, high)| outward(low, high))
             };
             let Some(r) = range else { return false };
             hull = Some(hull.map_or(r, |h| h.join(r)));

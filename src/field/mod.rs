@@ -8,6 +8,7 @@
 //! [`Field`], so exact, indexed and cached evaluation stay interchangeable.
 
 mod edit;
+mod eight_wide_sums;
 mod empty;
 mod eval;
 mod index;
@@ -18,7 +19,6 @@ mod node_id;
 mod primitive;
 mod root;
 pub mod spline;
-mod wide;
 
 use glam::{Vec3, Vec3A};
 
