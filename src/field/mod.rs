@@ -17,7 +17,7 @@ mod model;
 mod node;
 mod node_id;
 mod primitive;
-mod root;
+mod root_parts;
 pub mod spline;
 
 use glam::{Vec3, Vec3A};
@@ -32,7 +32,7 @@ pub use node::{Node, NodeKind, Placement};
 pub use node_id::NodeId;
 pub use primitive::{Primitive, Skeleton};
 
-use root::RootParts;
+use root_parts::RootParts;
 
 use crate::geom::{Aabb, Interval, Ray};
 
