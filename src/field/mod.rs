@@ -17,6 +17,7 @@ mod model;
 mod node;
 mod node_id;
 mod primitive;
+mod region_bounds;
 mod root_parts;
 pub mod spline;
 

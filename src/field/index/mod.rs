@@ -7,7 +7,7 @@
 //! curvature bound and a value range of the sum over the cell, precomputed
 //! from the leaves that reach it: a long segment's or a large box's bounds
 //! then cost one grid walk, not a sum. (Short regions may still sum their
-//! leaves, where the cells would be too loose: see `field::eval`.)
+//! leaves, where the cells would be too loose: see `field::region_bounds`.)
 //!
 //! - `lists`: the leaves listed per cell of a grid;
 //! - `packed_points`: an index of points alone, packed for sums four and
