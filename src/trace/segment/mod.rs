@@ -100,53 +100,164 @@ pub fn march<F: Field + ?Sized>(
     field: &F,
     ray: &Ray,
     opts: &TraceOptions,
-    (t_start, t_end): (f32, f32),
+    span: (f32, f32),
 ) -> (Crossing, TraceResult) {
-    let mut out = TraceResult::default();
-    if t_start >= t_end {
-        return (Crossing::None, out);
+    let mut march = match March::start(field, ray, opts, span) {
+        Ok(march) => march,
+        Err(ended) => return ended,
+    };
+    while march.out.steps < opts.max_steps {
+        if let Some(found) = march.step() {
+            return (found, march.out);
+        }
     }
-    let diag = field.bounds().diagonal();
-    let tol = (opts.tolerance * diag).max(f32::EPSILON * t_end.abs());
-    let iso = field.threshold();
-    let outside = outside_margin(iso);
-    let mut t = t_start;
-    let mut v = field.value(ray.at(t)) - iso;
-    out.evals = 1;
-    if v > 0.0 {
-        return (Crossing::InsideAtStart, out);
+    (Crossing::None, march.out)
+}
+
+/// A march in progress along one stretch of a ray: where it is, what it
+/// knows there, and the work spent so far.
+struct March<'a, F: ?Sized> {
+    field: &'a F,
+    ray: &'a Ray,
+    opts: &'a TraceOptions,
+    /// The end of the stretch.
+    t_end: f32,
+    /// The hit tolerance (and the lattice step, where the options fix none).
+    tol: f32,
+    /// The iso-value `T`.
+    iso: f32,
+    /// How far below `T` a value counts as outside (see [`outside_margin`]).
+    outside: f32,
+    /// Where the march is.
+    t: f32,
+    /// The value there, less `T`.
+    v: f32,
+    /// The length the next step's bounds cover.
+    segment: f32,
+    /// Whether over-relaxed steps are still tried.
+    relax: bool,
+    /// Whether the march has just jumped over empty space.
+    skipped: bool,
+    probes_left: u32,
+    /// The point the last step started from, and the value there less `T`.
+    previous: Option<(f32, f32)>,
+    /// The gradient at `t`, when the value there came with it.
+    gradient: Option<Vec3A>,
+    out: TraceResult,
+}
+
+impl<'a, F: Field + ?Sized> March<'a, F> {
+    /// The march over `t_start..t_end`, or what it found where it ends before
+    /// its first step: an empty stretch, or one starting inside.
+    #[inline]
+    fn start(
+        field: &'a F,
+        ray: &'a Ray,
+        opts: &'a TraceOptions,
+        (t_start, t_end): (f32, f32),
+    ) -> Result<Self, (Crossing, TraceResult)> {
+        let mut out = TraceResult::default();
+        if t_start >= t_end {
+            return Err((Crossing::None, out));
+        }
+        let diag = field.bounds().diagonal();
+        let tol = (opts.tolerance * diag).max(f32::EPSILON * t_end.abs());
+        let iso = field.threshold();
+        let v = field.value(ray.at(t_start)) - iso;
+        out.evals = 1;
+        if v > 0.0 {
+            return Err((Crossing::InsideAtStart, out));
+        }
+        Ok(Self {
+            field,
+            ray,
+            opts,
+            t_end,
+            tol,
+            iso,
+            outside: outside_margin(iso),
+            t: t_start,
+            v,
+            segment: opts.first_segment * diag,
+            relax: true,
+            skipped: false,
+            probes_left: MAX_PROBES,
+            previous: None,
+            gradient: None,
+            out,
+        })
     }
-    let mut segment = opts.first_segment * diag;
-    let mut relax = true;
-    let mut skipped = false;
-    let mut probes_left = MAX_PROBES;
-    // The point the last step started from, and the value there less `T`.
-    let mut previous = None;
-    // The gradient at `t`, when the value there came with it.
-    let mut gradient = None;
-    while out.steps < opts.max_steps {
-        if !skipped {
-            match skip_empty(field, ray, (t, t_end), tol) {
-                Skip::ToEnd => return (Crossing::None, out),
+
+    /// The step of a ray's lattice snapped hits lie on.
+    #[inline]
+    fn quantum(&self) -> f32 {
+        self.opts.quantum.unwrap_or(self.tol)
+    }
+
+    /// One step of the march: a jump over the empty space the field knows
+    /// of, or a certified step, which a probe past the root or a crossing it
+    /// brackets may end the march with. `Some` with what the march found
+    /// where it ends.
+    #[inline]
+    fn step(&mut self) -> Option<Crossing> {
+        if !self.skipped {
+            match skip_empty(self.field, self.ray, (self.t, self.t_end), self.tol) {
+                Skip::ToEnd => return Some(Crossing::None),
                 Skip::To(t_skip, v_skip) => {
-                    (t, v, skipped, gradient, previous) = (t_skip, v_skip, true, None, None);
-                    out.evals += 1;
-                    continue;
+                    self.skip_to(t_skip, v_skip);
+                    return None;
                 }
                 Skip::No => {}
             }
         }
-        skipped = false;
-        out.steps += 1;
-        let room = (t + segment).min(t_end) - t;
+        self.skipped = false;
+        self.out.steps += 1;
+        let room = (self.t + self.segment).min(self.t_end) - self.t;
         // Steps are certified for the field as computed: `-v` less the
         // evaluation's rounding (see `outside_margin`).
-        let margin = (-v - outside).max(0.0);
+        let margin = (-self.v - self.outside).max(0.0);
+        let (curved, bound) = self.certified_step(margin, room);
+        self.out.evals += bound.bounds;
+        if let Some(root) = self.probe(curved, &bound) {
+            return Some(Crossing::At(root));
+        }
+        let (t_next, ahead) = self.next_point(curved.is_some(), &bound, margin);
+        if t_next >= self.t_end {
+            // The field is zero on and beyond the end: nothing is left to hit.
+            return Some(Crossing::None);
+        }
+        self.gradient = None;
+        let v_next = ahead.unwrap_or_else(|| self.value_at(t_next, curved.is_some()));
+        match self.settle(t_next, v_next) {
+            Ok((t_next, v_next)) => {
+                self.advance(t_next, v_next);
+                None
+            }
+            Err(found) => Some(found),
+        }
+    }
+
+    /// Jumps to `t` (value `v` less `T`) past empty space: what the march
+    /// knew of the point it left holds no more.
+    #[inline]
+    fn skip_to(&mut self, t: f32, v: f32) {
+        (self.t, self.v, self.skipped, self.gradient, self.previous) = (t, v, true, None, None);
+        self.out.evals += 1;
+    }
+
+    /// The step from `t` its bounds over `room` certify, given the `margin`
+    /// `T - f(t)` less rounding, with the curvature step it came from, if any.
+    #[inline]
+    fn certified_step(&self, margin: f32, room: f32) -> (Option<CurvedStep>, BoundedStep) {
+        let (field, ray, t, v, iso) = (self.field, self.ray, self.t, self.v, self.iso);
         // Near the surface a curvature step is longer than a Lipschitz one
         // in all but one step in two hundred on Medusa: take it alone
         // where the field's gradient is smooth enough to have one.
-        let curved =
-            if -v < CURVATURE_MARGIN * iso { curvature_step(field, ray, (t, gradient), margin, room) } else { None };
+        let curved = if -v < CURVATURE_MARGIN * iso {
+            curvature_step(field, ray, (t, self.gradient), margin, room)
+        } else {
+            None
+        };
         let bound = curved.map_or_else(
             || {
                 let halvings = if -v > HALVING_MARGIN * iso { MAX_BOUNDS_PER_STEP } else { 1 };
@@ -154,31 +265,38 @@ pub fn march<F: Field + ?Sized>(
             },
             |c| c.bound,
         );
-        out.evals += bound.bounds;
-        // Near enough, a probe past the root the tangent points to (or, where
-        // slope bounds alone step and close in by a fixed fraction, as on
-        // cached lattices, the secant through the last two values) may settle
-        // the hit at once.
-        let probe = match (curved, previous) {
-            (Some(c), _) => Some((c.slope, t + c.bound.room, Rise::Curved { curvature: c.curvature })),
-            (None, Some((t_before, v_before))) if -v < CURVATURE_MARGIN * iso && v > v_before => {
-                Some(((v - v_before) / (t - t_before), t_end, Rise::Floor))
+        (curved, bound)
+    }
+
+    /// Near enough, a probe past the root the tangent points to (or, where
+    /// slope bounds alone step and close in by a fixed fraction, as on
+    /// cached lattices, the secant through the last two values) may settle
+    /// the hit at once: the first lattice point inside, where it finds one.
+    #[inline]
+    fn probe(&mut self, curved: Option<CurvedStep>, bound: &BoundedStep) -> Option<f32> {
+        let (t, v) = (self.t, self.v);
+        let (slope, reach, rise) = match (curved, self.previous) {
+            (Some(c), _) => (c.slope, t + c.bound.room, Rise::Curved { curvature: c.curvature }),
+            (None, Some((t_before, v_before))) if -v < CURVATURE_MARGIN * self.iso && v > v_before => {
+                ((v - v_before) / (t - t_before), self.t_end, Rise::Floor)
             }
-            _ => None,
+            _ => return None,
         };
-        if let Some((slope, reach, rise)) = probe
-            && probes_left > 0
-        {
-            probes_left -= 1;
-            let probe = Probe { at: (t, v), slope, certified: t + bound.step, reach, rise };
-            let (found, evals) = probe_past_root(field, ray, &probe, opts.quantum.unwrap_or(tol));
-            out.evals += evals;
-            if let Some(root) = found {
-                return (Crossing::At(root), out);
-            }
+        if self.probes_left == 0 {
+            return None;
         }
-        let mut ahead = None;
-        let t_next = if bound.step < tol && bound.step < bound.room {
+        self.probes_left -= 1;
+        let probe = Probe { at: (t, v), slope, certified: t + bound.step, reach, rise };
+        let (found, evals) = probe_past_root(self.field, self.ray, &probe, self.quantum());
+        self.out.evals += evals;
+        found
+    }
+
+    /// Where the certified step `bound` takes the march, and the value
+    /// there less `T` when it is known already.
+    #[inline]
+    fn next_point(&mut self, curved: bool, bound: &BoundedStep, margin: f32) -> (f32, Option<f32>) {
+        if bound.step < self.tol && bound.step < bound.room {
             // Near the surface the bound's steps shrink towards the crossing:
             // walk the ray's lattice instead, which keeps grazing rays moving
             // and finds the first lattice point inside whatever stretch a
@@ -187,60 +305,75 @@ pub fn march<F: Field + ?Sized>(
             // alone is taken whole, so that the segment grows again after a
             // walk on a lattice finer than the tolerance (the lattice is fixed
             // by the first frame's bounds; edits may grow the tolerance past it).
-            lattice_step(t, bound.step, opts.quantum.unwrap_or(tol))
-        } else if relax && curved.is_none() && bound.step < bound.room {
-            // Try a longer step and keep it if the slope bound still shows,
-            // from both of its ends, that it crosses nothing (Keinert et al.
-            // 2014); after the first miss the march stays conservative.
-            let s = (OVER_RELAXATION * bound.step).min(bound.room);
-            let v_far = field.value(ray.at(t + s)) - iso;
-            out.evals += 1;
-            if v_far <= 0.0 && margin + (-v_far - outside) >= bound.slope * s {
-                ahead = Some(v_far);
-                t + s
-            } else {
-                relax = false;
-                t + bound.step
-            }
+            (lattice_step(self.t, bound.step, self.quantum()), None)
+        } else if self.relax && !curved && bound.step < bound.room {
+            self.over_relaxed(bound, margin)
         } else {
-            t + bound.step
-        };
-        if t_next >= t_end {
-            // The field is zero on and beyond the end: nothing is left to hit.
-            return (Crossing::None, out);
+            (self.t + bound.step, None)
         }
-        // After a curvature step the next is most likely one too: take the
-        // gradient it will need with the value, for less than both apart.
-        gradient = None;
-        let v_next = ahead.unwrap_or_else(|| {
-            out.evals += 1;
-            if curved.is_some() {
-                let (value, g) = field.value_and_gradient(ray.at(t_next));
-                gradient = Some(g);
-                value - iso
-            } else {
-                field.value(ray.at(t_next)) - iso
-            }
-        });
-        let (t_next, v_next) = if v_next > 0.0 {
-            let ((a, b), evals) = refine(field, ray, (t, v), (t_next, v_next), tol);
-            let (snapped, snap_evals) = snap(field, ray, a, b, opts.quantum.unwrap_or(tol));
-            out.evals += evals + snap_evals;
+    }
+
+    /// Tries a longer step than `bound` certifies and keeps it, with the value
+    /// at its end, if the slope bound still shows, from both of its ends,
+    /// that it crosses nothing (Keinert et al. 2014); after the first miss
+    /// the march stays conservative.
+    #[inline]
+    fn over_relaxed(&mut self, bound: &BoundedStep, margin: f32) -> (f32, Option<f32>) {
+        let t = self.t;
+        let s = (OVER_RELAXATION * bound.step).min(bound.room);
+        let v_far = self.field.value(self.ray.at(t + s)) - self.iso;
+        self.out.evals += 1;
+        if v_far <= 0.0 && margin + (-v_far - self.outside) >= bound.slope * s {
+            (t + s, Some(v_far))
+        } else {
+            self.relax = false;
+            (t + bound.step, None)
+        }
+    }
+
+    /// The value less `T` at `t_next`. After a curvature step the next is
+    /// most likely one too: the gradient it will need is taken with the
+    /// value, for less than both apart.
+    #[inline]
+    fn value_at(&mut self, t_next: f32, curved: bool) -> f32 {
+        self.out.evals += 1;
+        if curved {
+            let (value, g) = self.field.value_and_gradient(self.ray.at(t_next));
+            self.gradient = Some(g);
+            value - self.iso
+        } else {
+            self.field.value(self.ray.at(t_next)) - self.iso
+        }
+    }
+
+    /// Where the march goes on from after stepping to `t_next` (value
+    /// `v_next` less `T`): there, or, where the step crossed into the
+    /// surface, past a touch between lattice points; `Err` with what the
+    /// march found where it ends.
+    #[inline]
+    fn settle(&mut self, t_next: f32, v_next: f32) -> Result<(f32, f32), Crossing> {
+        if v_next > 0.0 {
+            let ((a, b), evals) = refine(self.field, self.ray, (self.t, self.v), (t_next, v_next), self.tol);
+            let (snapped, snap_evals) = snap(self.field, self.ray, a, b, self.quantum());
+            self.out.evals += evals + snap_evals;
             match snapped {
-                Snapped::Hit(root) => return (Crossing::At(root), out),
+                Snapped::Hit(root) => Err(Crossing::At(root)),
                 // The surface was touched between lattice points only: march on.
-                Snapped::Past(t_past, v_past) if t_past < t_end => (t_past, v_past),
-                Snapped::Past(..) => return (Crossing::None, out),
+                Snapped::Past(t_past, v_past) if t_past < self.t_end => Ok((t_past, v_past)),
+                Snapped::Past(..) => Err(Crossing::None),
             }
         } else {
-            (t_next, v_next)
-        };
-        segment = opts.growth * (t_next - t);
-        previous = Some((t, v));
-        t = t_next;
-        v = v_next;
+            Ok((t_next, v_next))
+        }
     }
-    (Crossing::None, out)
+
+    /// Moves the march to `t_next`, the next segment grown from the step taken.
+    #[inline]
+    fn advance(&mut self, t_next: f32, v_next: f32) {
+        self.segment = self.opts.growth * (t_next - self.t);
+        self.previous = Some((self.t, self.v));
+        (self.t, self.v) = (t_next, v_next);
+    }
 }
 
 /// What the field's empty space allows from a point of a march.
