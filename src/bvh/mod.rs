@@ -3,7 +3,7 @@
 //! needs, and a brute-force loop that tests check it against.
 
 mod dynamic;
-mod render;
+mod mesh_render;
 
 use std::time::{Duration, Instant};
 
@@ -15,7 +15,7 @@ use obvhs::ray::RayHit;
 use obvhs::triangle::Triangle;
 
 pub use dynamic::{BvhUpdate, DynamicMesh};
-pub use render::{MeshRenderStats, render_mesh, rerender_mesh, surface_at};
+pub use mesh_render::{MeshRenderStats, render_mesh, rerender_mesh, surface_at};
 
 use crate::geom::Ray;
 use crate::mesh::Mesh;

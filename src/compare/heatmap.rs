@@ -2,7 +2,7 @@
 //! a colour bar and its fixed scale printed under the image, so two heat maps
 //! made with the same scale can be compared by eye.
 
-use super::text::{LINE_HEIGHT, Rgb8Image};
+use super::rgb8_image::{LINE_HEIGHT, Rgb8Image};
 
 /// How values map to colours.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -7,7 +7,7 @@ mod heatmap;
 mod load;
 mod panel;
 mod plot;
-mod text;
+mod rgb8_image;
 
 pub use cache_error::{CacheErrorStats, cache_error_at, cache_error_stats, error_colors};
 pub use diff::{DiffReport, Metric, Thresholds, Verdict, difference_at, differences, edge_mask, judge};
@@ -15,4 +15,4 @@ pub use heatmap::{MISMATCH, NO_VALUE, SILHOUETTE_COLORS, Scale, heat_map, silhou
 pub use load::{LoadedImage, load_image};
 pub use panel::{frame_image, panel};
 pub use plot::line_plot;
-pub use text::{CHAR_WIDTH, LINE_HEIGHT, Rgb8Image};
+pub use rgb8_image::{CHAR_WIDTH, LINE_HEIGHT, Rgb8Image};

@@ -1,7 +1,7 @@
 //! Panels: several images side by side, each under its title, ready to drop
 //! into a paper or an issue.
 
-use super::text::{LINE_HEIGHT, Rgb8Image};
+use super::rgb8_image::{LINE_HEIGHT, Rgb8Image};
 use crate::frame::Frame;
 
 /// Space between images and around the panel.

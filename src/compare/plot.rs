@@ -1,7 +1,7 @@
 //! Line plots of per-frame timings (the caching paper's Figure 8), drawn
 //! directly on an RGB image with labelled axes and a legend.
 
-use super::text::{LINE_HEIGHT, Rgb8Image};
+use super::rgb8_image::{LINE_HEIGHT, Rgb8Image};
 
 /// Colours of successive series.
 const SERIES_COLORS: [[u8; 3]; 4] = [[200, 60, 40], [40, 110, 200], [60, 160, 60], [150, 80, 170]];

@@ -6,7 +6,8 @@ use glam::{Affine3A, Mat3A, Vec3, Vec3A};
 
 use super::MAX_MAGNITUDE;
 use super::model::{Change, Model, ModelError};
-use super::node::{NodeId, NodeKind, Placement};
+use super::node::{NodeKind, Placement};
+use super::node_id::NodeId;
 use crate::geom::{Aabb, Support};
 
 /// An edit of a named node. [`Model::apply`] checks its numbers before

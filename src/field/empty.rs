@@ -305,7 +305,7 @@ mod tests {
         fn interval(&self, b: &Aabb) -> Interval {
             Interval::new(0.0, (1.0 - b.distance_squared(self.centre)).max(0.0))
         }
-        fn lipschitz(&self, _: &super::super::Region) -> f32 {
+        fn lipschitz(&self, _: &crate::geom::Region) -> f32 {
             4.0
         }
         fn bounds(&self) -> Aabb {

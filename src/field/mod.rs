@@ -8,35 +8,37 @@
 //! [`Field`], so exact, indexed and cached evaluation stay interchangeable.
 
 mod edit;
+mod eight_wide_sums;
 mod empty;
 mod eval;
 mod index;
 mod kernel;
 mod model;
 mod node;
+mod node_id;
 mod primitive;
-mod region;
-mod root;
+mod region_bounds;
+mod root_parts;
 pub mod spline;
-mod wide;
 
 use glam::{Vec3, Vec3A};
 
+pub use crate::geom::Region;
 pub use edit::{Edit, Operator};
 pub use empty::EmptySpace;
 pub use index::{BlendIndex, IndexedLeaf, Leaf};
 pub use kernel::Kernel;
 pub use model::{Change, Model, ModelBuilder, ModelCounts, ModelError};
-pub use node::{Node, NodeId, NodeKind, Placement};
+pub use node::{Node, NodeKind, Placement};
+pub use node_id::NodeId;
 pub use primitive::{Primitive, Skeleton};
-pub use region::Region;
 
 /// Largest magnitude of any number in a model or an edit: beyond it, squared
 /// distances and sums of supports leave single precision's useful range (a
 /// radius of 1e20 squares to infinity). Scene files are held to it as they parse.
 pub const MAX_MAGNITUDE: f32 = 1e6;
 
-use root::RootParts;
+use root_parts::RootParts;
 
 use crate::geom::{Aabb, Interval, Ray};
 

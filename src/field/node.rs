@@ -3,12 +3,10 @@
 use glam::{Affine3A, Mat3A, Vec3, Vec3A};
 
 use super::index::BlendIndex;
+use super::node_id::NodeId;
 use super::primitive::Primitive;
 use crate::cache::CacheSpec;
 use crate::geom::Aabb;
-
-/// Index of a node in [`super::Model`]'s arena.
-pub type NodeId = u32;
 
 /// One node of the tree: what it computes, where its support lies, who owns it.
 #[derive(Clone, Debug)]

@@ -4,7 +4,7 @@
 use glam::{Vec3A, Vec4};
 
 use super::kernel::Kernel;
-use crate::geom::{Aabb, Interval};
+use crate::geom::{Aabb, Interval, Region};
 
 /// The skeleton of a primitive.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -263,10 +263,10 @@ fn axial_radial_range(b: &Aabb, c: Vec3A, n: Vec3A) -> (Interval, Interval) {
 impl Primitive {
     /// Bounds `[min, max]` of the distance to the skeleton over a region.
     #[must_use]
-    pub fn distance_range(&self, region: &super::Region) -> (f32, f32) {
+    pub fn distance_range(&self, region: &Region) -> (f32, f32) {
         match region {
-            super::Region::Segment(a, b) => self.distance_range_segment(*a, *b),
-            super::Region::Box(b) => self.distance_range_box(b),
+            Region::Segment(a, b) => self.distance_range_segment(*a, *b),
+            Region::Box(b) => self.distance_range_box(b),
         }
     }
 
@@ -275,7 +275,7 @@ impl Primitive {
     /// negative weight's falls back on the Hessian's norm); infinite for a
     /// circle, whose distance is not smooth on its axis.
     #[must_use]
-    pub fn curvature_over(&self, region: &super::Region) -> f32 {
+    pub fn curvature_over(&self, region: &Region) -> f32 {
         let (near, far) = match self.skeleton {
             Skeleton::Circle { .. } => return f32::INFINITY,
             _ => self.distance_range(region),
@@ -291,8 +291,8 @@ impl Primitive {
     /// A bound on `|∇f|` over a region: a Lipschitz constant of the field there.
     #[inline]
     #[must_use]
-    pub fn lipschitz_over(&self, region: &super::Region) -> f32 {
-        if let (Skeleton::Point { center }, super::Region::Segment(a, b)) = (self.skeleton, region) {
+    pub fn lipschitz_over(&self, region: &Region) -> f32 {
+        if let (Skeleton::Point { center }, Region::Segment(a, b)) = (self.skeleton, region) {
             return self.point_lipschitz_on_segment(center, *a, *b);
         }
         let (near, far) = self.distance_range(region);

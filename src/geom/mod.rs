@@ -1,17 +1,19 @@
 //! Small geometric building blocks shared by every pipeline stage: axis-aligned
-//! boxes, closed intervals of field values, rays, and the supports edits bound
-//! their changes by.
+//! boxes, closed intervals of field values, rays, the regions slope bounds are
+//! taken over, and the supports edits bound their changes by.
 
 mod aabb;
 mod grid;
 mod interval;
 mod ray;
+mod region;
 mod support;
 
 pub use aabb::Aabb;
 pub use grid::{UniformGrid, cell_coords, linear_index};
 pub use interval::Interval;
 pub use ray::Ray;
+pub use region::Region;
 pub use support::Support;
 
 /// Deterministic points in `[-r, r]³`, a xorshift sequence from `seed`: the

@@ -15,8 +15,8 @@
 use glam::IVec3;
 use rustc_hash::FxHashMap;
 
-use super::held;
 use super::lattice::LatticePoint;
+use super::slot_bits;
 use crate::geom::Aabb;
 
 /// Points along each side of a brick, as a power of two.
@@ -40,20 +40,20 @@ impl Brick {
     const EMPTY: Self = Self { known: [0; BRICK_POINTS / 64], values: [0.0; BRICK_POINTS] };
 
     fn get(&self, slot: usize) -> Option<f32> {
-        held::is_held(&self.known, slot).then(|| self.values[slot])
+        slot_bits::is_held(&self.known, slot).then(|| self.values[slot])
     }
 
     fn set(&mut self, slot: usize, value: f32) {
-        held::hold(&mut self.known, slot);
+        slot_bits::hold(&mut self.known, slot);
         self.values[slot] = value;
     }
 
     fn forget(&mut self, slot: usize) {
-        held::release(&mut self.known, slot);
+        slot_bits::release(&mut self.known, slot);
     }
 
     fn is_empty(&self) -> bool {
-        held::none_held(&self.known)
+        slot_bits::none_held(&self.known)
     }
 }
 

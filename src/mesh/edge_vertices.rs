@@ -8,10 +8,21 @@
 //! the mesh looks its edges' slots up in parallel, leaving the serial pass
 //! to walk dense slot numbers.
 
+use glam::Vec3;
 use rustc_hash::FxHashMap;
 
 use super::lattice::EdgeKey;
-use super::polygonizer::EdgeVertex;
+
+/// A vertex on a crossed edge: position, unit outward normal, colour.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EdgeVertex {
+    /// Position on the surface.
+    pub position: Vec3,
+    /// Unit outward normal from the field gradient (zero where it vanished).
+    pub normal: Vec3,
+    /// Linear RGB colour ([`crate::field::DEFAULT_COLOR`] when the model has one colour).
+    pub color: Vec3,
+}
 
 /// Vertices by edge.
 #[derive(Clone, Debug, Default)]
@@ -82,7 +93,7 @@ impl EdgeVertices {
 
 #[cfg(test)]
 mod tests {
-    use glam::{IVec3, Vec3};
+    use glam::IVec3;
 
     use super::*;
 

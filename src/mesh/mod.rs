@@ -27,19 +27,20 @@ mod corners;
 mod cubes;
 mod edge_vertices;
 mod export;
-mod held;
 mod lattice;
 mod polygonizer;
 mod seeds;
+mod slot_bits;
 mod topology;
 mod vertex;
 mod visited;
 
 use glam::Vec3;
 
+pub use edge_vertices::EdgeVertex;
 pub use export::{MeshFormat, write_mesh};
 pub use lattice::{Cell, Lattice};
-pub use polygonizer::{CellShape, EdgeVertex, PolygonizeOptions, PolygonizeStats, Polygonizer, Repolygonized};
+pub use polygonizer::{CellShape, PolygonizeOptions, PolygonizeStats, Polygonizer, Repolygonized};
 pub use seeds::{Seed, skeleton_seeds};
 pub use topology::Topology;
 pub use vertex::VertexPlacement;

@@ -21,8 +21,8 @@ use rustc_hash::FxHashMap;
 
 use super::corners::CornerValues;
 use super::lattice::{Lattice, LatticePoint, sort_key};
-use crate::field::{Field, Model, NodeId, NodeKind, Region, Skeleton, outside_margin};
-use crate::geom::Aabb;
+use crate::field::{Field, Model, NodeId, NodeKind, Skeleton, outside_margin};
+use crate::geom::{Aabb, Region};
 
 /// A point on a skeleton and how far its primitive's support reaches from it.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -10,8 +10,8 @@
 use glam::IVec3;
 use rustc_hash::FxHashMap;
 
-use super::held;
 use super::lattice::Cell;
+use super::slot_bits;
 
 /// Cubes along each side of a brick, as a power of two.
 const BRICK_SHIFT: i32 = 3;
@@ -32,21 +32,21 @@ impl Brick {
 
     #[inline]
     fn get(&self, slot: usize) -> Option<u8> {
-        held::is_held(&self.visited, slot).then(|| self.masks[slot])
+        slot_bits::is_held(&self.visited, slot).then(|| self.masks[slot])
     }
 
     #[inline]
     fn set(&mut self, slot: usize, mask: u8) {
-        held::hold(&mut self.visited, slot);
+        slot_bits::hold(&mut self.visited, slot);
         self.masks[slot] = mask;
     }
 
     fn forget(&mut self, slot: usize) {
-        held::release(&mut self.visited, slot);
+        slot_bits::release(&mut self.visited, slot);
     }
 
     fn is_empty(&self) -> bool {
-        held::none_held(&self.visited)
+        slot_bits::none_held(&self.visited)
     }
 }
 

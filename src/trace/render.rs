@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
-use super::changed::ChangedSpace;
+use super::changed_space::ChangedSpace;
 use super::segment::{Crossing, TraceOptions, march, snap_reach, trace_ray};
 use super::shade::Lighting;
 use crate::camera::Camera;

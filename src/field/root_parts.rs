@@ -11,9 +11,10 @@
 
 use glam::{Vec3, Vec3A};
 
-use super::node::{NodeId, NodeKind};
-use super::{EvalMode, Model, Region};
-use crate::geom::{Aabb, Interval};
+use super::node::NodeKind;
+use super::node_id::NodeId;
+use super::{EvalMode, Model};
+use crate::geom::{Aabb, Interval, Region};
 
 /// Most children a root blend may have to be split into [`RootParts`].
 const MAX_PARTS: usize = 8;

@@ -4,7 +4,7 @@
 //! moved subtree of hundreds of primitives fills much less of its bounding box
 //! than the box itself, and a ball a little over half of its own.
 
-use super::dirty::{PixelRect, screen_rect};
+use super::dirty_rects::{PixelRect, screen_rect};
 use crate::camera::Camera;
 use crate::geom::{Aabb, Ray, Support, UniformGrid};
 

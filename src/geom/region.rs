@@ -3,7 +3,7 @@
 
 use glam::{Affine3A, Vec3A};
 
-use crate::geom::Aabb;
+use super::Aabb;
 
 /// A segment or a box: the set of points a gradient bound must cover.
 #[derive(Clone, Copy, Debug)]

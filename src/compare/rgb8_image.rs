@@ -1,5 +1,5 @@
-//! Text on RGB images, in the public-domain 8×8 bitmap font, for the scales
-//! and titles printed on heat maps and panels.
+//! The 8-bit RGB images heat maps, plots and panels are drawn on, and text
+//! on them in the public-domain 8×8 bitmap font, for their scales and titles.
 
 use font8x8::legacy::BASIC_LEGACY;
 

@@ -1,0 +1,123 @@
+//! The mesh of the crossed cells, and the triangles of one of them, cut from
+//! the cells' polygons and the vertices on their edges in a canonical order.
+
+use rayon::prelude::*;
+
+use super::{Polygonizer, crossed};
+use crate::mesh::Mesh;
+use crate::mesh::edge_vertices::EdgeVertex;
+use crate::mesh::lattice::{Cell, EdgeKey, edge_key};
+use crate::mesh::vertex::VertexPlacement;
+
+impl Polygonizer {
+    /// The crossed cells, sorted by lattice position.
+    #[must_use]
+    pub fn crossed_cell_list(&self) -> Vec<Cell> {
+        let mut cells: Vec<Cell> = self.crossed_with_masks().into_iter().map(|(c, _)| c).collect();
+        cells.sort_unstable_by_key(Cell::order_key);
+        cells
+    }
+
+    /// The triangles of one crossed cell (none for a cell not crossed), each
+    /// as its three vertices, exactly as [`Polygonizer::mesh`] cuts them.
+    #[must_use]
+    pub fn cell_triangles(&self, cell: Cell) -> Vec<[EdgeVertex; 3]> {
+        let mut out = vec![];
+        let Some(mask) = self.cells.get(cell).filter(|&m| crossed(m, self.options.cells)) else {
+            return out;
+        };
+        let mut local = Vec::with_capacity(12);
+        self.options.cells.polygons(cell, mask, &mut |polygon| {
+            let vertices: Vec<EdgeVertex> = polygon.iter().map(|&[a, b]| self.vertex(edge_key(a, b))).collect();
+            let ids: Vec<u32> = (0..vertices.len() as u32).collect();
+            local.clear();
+            crate::mesh::triangulate(&ids, |i| vertices[i as usize].position, &mut local);
+            out.extend(local.iter().map(|t| t.map(|i| vertices[i as usize])));
+        });
+        out
+    }
+
+    /// The mesh of the crossed cells, in a canonical order (cells by lattice
+    /// position, vertices by first use), so equal polygonizations give equal meshes.
+    #[must_use]
+    pub fn mesh(&self) -> Mesh {
+        let mut crossed_cells = self.crossed_with_masks();
+        crossed_cells.par_sort_unstable_by_key(|(c, _)| c.order_key());
+        let loops = self.polygon_loops(&crossed_cells);
+        // Numbering by first use is the one serial pass, over dense slot numbers.
+        const UNNUMBERED: u32 = u32::MAX;
+        let mut number = vec![UNNUMBERED; self.vertices.slot_count()];
+        let mut used = Vec::with_capacity(self.vertices.len());
+        let ids: Vec<u32> = loops
+            .slots
+            .iter()
+            .map(|&slot| {
+                let n = &mut number[slot as usize];
+                if *n == UNNUMBERED {
+                    *n = used.len() as u32;
+                    used.push(slot);
+                }
+                *n
+            })
+            .collect();
+        let vertices: Vec<EdgeVertex> = used.par_iter().map(|&slot| self.vertices.at(slot)).collect();
+        let mut mesh = Mesh {
+            positions: vertices.iter().map(|v| v.position).collect(),
+            normals: vertices.iter().map(|v| v.normal).collect(),
+            colors: (self.with_colors && !vertices.is_empty()).then(|| vertices.iter().map(|v| v.color).collect()),
+            ..Mesh::default()
+        };
+        let mut first = 0;
+        for &len in &loops.lengths {
+            let end = first + usize::from(len);
+            mesh.push_polygon(&ids[first..end]);
+            first = end;
+        }
+        if self.options.vertex == VertexPlacement::Linear {
+            mesh.set_normals_from_faces();
+        }
+        mesh
+    }
+
+    /// The slot of edge `key`'s vertex, which every crossed edge of a crossed cell has.
+    fn vertex_slot(&self, key: EdgeKey) -> u32 {
+        self.vertices.slot(key).unwrap_or_else(|| panic!("no vertex on the edge with key {key}"))
+    }
+
+    /// Edge `key`'s vertex, which every crossed edge of a crossed cell has.
+    fn vertex(&self, key: EdgeKey) -> EdgeVertex {
+        self.vertices.get(key).unwrap_or_else(|| panic!("no vertex on the edge with key {key}"))
+    }
+
+    /// The polygons of `cells`, in order, as loops of their vertices' slots; in parallel.
+    fn polygon_loops(&self, cells: &[(Cell, u8)]) -> PolygonLoops {
+        const CELLS_PER_TASK: usize = 4096;
+        let shape = self.options.cells;
+        let parts: Vec<PolygonLoops> = cells
+            .par_chunks(CELLS_PER_TASK)
+            .map(|chunk| {
+                let mut part = PolygonLoops::default();
+                for &(cell, mask) in chunk {
+                    shape.polygons(cell, mask, &mut |polygon| {
+                        part.slots.extend(polygon.iter().map(|&[a, b]| self.vertex_slot(edge_key(a, b))));
+                        part.lengths.push(polygon.len() as u8);
+                    });
+                }
+                part
+            })
+            .collect();
+        let mut loops = PolygonLoops::default();
+        for part in parts {
+            loops.slots.extend(part.slots);
+            loops.lengths.extend(part.lengths);
+        }
+        loops
+    }
+}
+
+/// Polygons as consecutive loops of their vertices' slots.
+#[derive(Default)]
+struct PolygonLoops {
+    slots: Vec<u32>,
+    lengths: Vec<u8>,
+}
