@@ -14,7 +14,7 @@ use crate::mesh::{
     CellShape, Lattice, Mesh, PolygonizeOptions, PolygonizeStats, Polygonizer, Topology, TriangleQuality,
     VertexPlacement, skeleton_seeds,
 };
-use crate::progress::{Progress, stage};
+use crate::progress::{Progress, Silent, stage};
 
 /// How to polygonize.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -69,7 +69,8 @@ impl PolygonizeSettings {
         let probe_res = self.res.min(PROBE_RES);
         let probe_options = PolygonizeOptions { vertex: VertexPlacement::Linear, ..self.options() };
         let probe = Lattice::for_model(model, probe_res);
-        let crossed = run_polygonizer(model, EvalMode::Indexed, probe, probe_options, 0).1.crossed_cells as f64;
+        let crossed =
+            run_polygonizer(model, EvalMode::Indexed, probe, probe_options, 0, &Silent).1.crossed_cells as f64;
         let needed = crossed * (fine_res as f64 / f64::from(probe_res)).powi(2) * BYTES_PER_CROSSED_CELL;
         let available = available_memory_bytes();
         if needed >= 0.8 * available {
@@ -181,8 +182,7 @@ pub fn polygonize(
     stage(progress, "sizing the mesh", || settings.check(model))?;
     let coarse = Lattice::for_model(model, settings.res);
     let start = Instant::now();
-    let (mesh, counts) =
-        stage(progress, "polygonizing", || run_polygonizer(model, mode, coarse, settings.options(), settings.refine));
+    let (mesh, counts) = run_polygonizer(model, mode, coarse, settings.options(), settings.refine, progress);
     let seconds = start.elapsed().as_secs_f64();
     let cell_size = coarse.refined(settings.refine).cell;
     let report = report(model, mode, settings, &mesh, counts, seconds, cell_size);
@@ -256,20 +256,21 @@ fn run_polygonizer(
     lattice: Lattice,
     options: PolygonizeOptions,
     refine: u32,
+    progress: &dyn Progress,
 ) -> (Mesh, RunCounts) {
     let field = ModelField::new(model, mode);
     let mut coarse = Polygonizer::new(lattice, options);
-    coarse.polygonize(&field, &skeleton_seeds(model, model.root()));
+    coarse.polygonize_reporting(&field, &skeleton_seeds(model, model.root()), progress);
     let mut stats = coarse.stats();
     let polygonizer = if refine == 0 {
         coarse
     } else {
         let mut fine = Polygonizer::new(lattice.refined(refine), options);
-        fine.refine(&field, &coarse, refine);
+        stage(progress, "refining the mesh", || fine.refine(&field, &coarse, refine));
         stats = stats.plus(&fine.stats());
         fine
     };
-    let mesh = polygonizer.mesh();
+    let mesh = stage(progress, "assembling the mesh", || polygonizer.mesh());
     (mesh, RunCounts { stats, crossed_cells: polygonizer.crossed_cells() as u64 })
 }
 

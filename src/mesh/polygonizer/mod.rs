@@ -39,6 +39,7 @@ use super::seeds::{Evaluated, Seed, SeedStarts};
 use super::vertex::VertexPlacement;
 use super::visited::VisitedCells;
 use crate::field::Field;
+use crate::progress::{Progress, Silent, stage};
 
 pub use cell_shape::CellShape;
 use cell_shape::crossed;
@@ -122,11 +123,18 @@ impl Polygonizer {
     /// Polygonizes the surface of `field` reachable from the `seeds` (points on
     /// skeletons, see [`super::skeleton_seeds`]).
     pub fn polygonize<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Seed]) {
+        self.polygonize_reporting(field, seeds, &Silent);
+    }
+
+    /// [`Self::polygonize`], reporting each stage (seeding, growth, vertex
+    /// placement) to `progress` as it starts and ends.
+    pub fn polygonize_reporting<F: Field + ?Sized>(&mut self, field: &F, seeds: &[Seed], progress: &dyn Progress) {
         self.with_colors = field.varies_in_color();
         self.threshold = field.threshold();
-        let frontier = self.seed(field, seeds, None);
-        self.grow(field, frontier);
-        self.place_vertices(field, &self.crossed_with_masks());
+        let frontier = stage(progress, "seeding the mesh", || self.seed(field, seeds, None));
+        stage(progress, "growing the mesh", || self.grow(field, frontier));
+        let crossed = self.crossed_with_masks();
+        stage(progress, "placing vertices", || self.place_vertices(field, &crossed));
     }
 
     /// Polygonizes on this polygonizer's lattice, which must be `coarse`'s refined
