@@ -159,7 +159,7 @@ fn bad_scenes_give_positions_and_no_panic() {
     assert_rejected(
         "far-model",
         &GOOD.replace("center: (0.0, 0.0, 0.0), radius: 1.0", "center: (9e5, 0.0, 0.0), radius: 0.1"),
-        None,
+        Some((4, 5)),
         "farther than",
     );
     assert_rejected(
@@ -180,7 +180,7 @@ fn bad_scenes_give_positions_and_no_panic() {
     assert_rejected("bad-filter", &cached("value: Cubic, "), Some((5, 31)), "cubic");
     assert_rejected("bad-res", &cached("").replace("res: 32", "res: 5000"), Some((5, 20)), "resolution");
     assert_rejected("eye-on-target", &GOOD.replace("eye: (0.0, 0.0, 3.0)", "eye: (0.0, 0.0, 0.0)"), None, "coincide");
-    assert_rejected("duplicate-name", &GOOD.replace("Point(center: (0.0, 0.0, 0.0), radius: 1.0),", "Named(\"a\", Point(center: (0.0, 0.0, 0.0), radius: 1.0)), Named(\"a\", Point(center: (1.0, 0.0, 0.0), radius: 1.0)),"), None, "used twice");
+    assert_rejected("duplicate-name", &GOOD.replace("Point(center: (0.0, 0.0, 0.0), radius: 1.0),", "Named(\"a\", Point(center: (0.0, 0.0, 0.0), radius: 1.0)), Named(\"a\", Point(center: (1.0, 0.0, 0.0), radius: 1.0)),"), Some((5, 66)), "used twice");
 }
 
 #[test]

@@ -15,6 +15,7 @@ use crate::pipeline::{
     EditSession, FrameRow, PipelineError, PolygonizeSettings, Result, ScratchFrame, Silent, replay_from_scratch,
     with_threads,
 };
+use crate::progress::Progress;
 use crate::scene::{Scene, Script, load_script};
 
 /// What `bench edit` replays.
@@ -104,15 +105,17 @@ impl ModeTotals {
 }
 
 /// Replays the script with and without caches, locally and from scratch; writes the plot.
-pub fn bench_edit(a: &EditBenchSettings) -> Result<EditBenchReport> {
+pub fn bench_edit(a: &EditBenchSettings, progress: &dyn Progress) -> Result<EditBenchReport> {
     let script = load_script(&a.script)?;
     let polygonize = PolygonizeSettings { res: a.res, ..Default::default() };
     // Per round, the replays of each mode; the plot shows the round whose
     // cached local updates were fastest.
     let mut rounds: Vec<Vec<Replayed>> = vec![];
-    for _ in 0..a.repeat {
+    for r in 0..a.repeat {
         let mut round = vec![];
         for mode in [EvalMode::Cached, EvalMode::Naive] {
+            let done = 2 * u64::from(r) + u64::from(mode == EvalMode::Naive);
+            progress.update("replays (cached, naive per round)", done, 2 * u64::from(a.repeat));
             round.push(replay_both_ways(a, &script, &polygonize, mode)?);
         }
         rounds.push(round);

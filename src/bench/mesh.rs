@@ -14,6 +14,7 @@ use crate::pipeline::{
     MAX_RES, MeshReport, PipelineError, PolygonizeSettings, Result, Silent, cells_name, polygonize, render_mesh,
     with_threads,
 };
+use crate::progress::Progress;
 use crate::scene::Scene;
 
 /// What `bench mesh` measures.
@@ -34,7 +35,7 @@ pub struct MeshBenchSettings {
 }
 
 /// Measures every figure of `bench mesh`.
-pub fn bench_mesh(settings: &MeshBenchSettings) -> Result<MeshBenchReport> {
+pub fn bench_mesh(settings: &MeshBenchSettings, progress: &dyn Progress) -> Result<MeshBenchReport> {
     let out_of_range = |r: &u32| !(1..=MAX_RES).contains(r);
     let bad = match settings.res.iter().find(|r| out_of_range(r)) {
         Some(&r) => Some(("res", r)),
@@ -44,7 +45,7 @@ pub fn bench_mesh(settings: &MeshBenchSettings) -> Result<MeshBenchReport> {
         return Err(PipelineError::setting(setting, format!("must be between 1 and {MAX_RES}, got {r}")));
     }
     let scene = Scene::load(&settings.scene)?;
-    with_threads(settings.threads, || measure(settings, scene))?
+    with_threads(settings.threads, || measure(settings, scene, progress))?
 }
 
 /// One row of Table 1.
@@ -139,10 +140,11 @@ pub struct MeshBenchReport {
 const PAPER_RATIOS: [(u32, f64); 5] = [(32, 0.8), (64, 1.4), (128, 3.0), (256, 6.5), (512, 16.0)];
 
 /// Every figure of the report, on the calling pool's threads.
-fn measure(a: &MeshBenchSettings, mut scene: Scene) -> Result<MeshBenchReport> {
+fn measure(a: &MeshBenchSettings, mut scene: Scene, progress: &dyn Progress) -> Result<MeshBenchReport> {
     let mut table1 = vec![];
     let mut skipped_res = vec![];
-    for &res in &a.res {
+    for (row, &res) in a.res.iter().enumerate() {
+        progress.update("Table 1 rows", row as u64, a.res.len() as u64);
         let settings = PolygonizeSettings { res, cells: a.cells, ..Default::default() };
         if settings.check(&scene.model).is_err() {
             skipped_res.push(res);
@@ -150,6 +152,7 @@ fn measure(a: &MeshBenchSettings, mut scene: Scene) -> Result<MeshBenchReport> {
         }
         table1.push(table_row(&mut scene, &settings)?);
     }
+    progress.update("triangle and ray rates", 0, 0);
     let detail = PolygonizeSettings { res: a.detail_res, cells: a.cells, ..Default::default() };
     detail.check(&scene.model)?;
     let evals_per_triangle = [CellShape::Cubes, CellShape::Bcc]

@@ -12,6 +12,7 @@ use serde::Serialize;
 use crate::field::{EvalMode, Model, NodeId, NodeKind};
 use crate::frame::{Frame, Size};
 use crate::pipeline::{PipelineError, RenderReport, Result, Silent, render_field, with_threads};
+use crate::progress::Progress;
 use crate::scene::Scene;
 
 /// What `bench eval` and `bench cache` render.
@@ -71,11 +72,12 @@ pub struct EvalBenchReport {
 }
 
 /// Renders `settings.scene` exact, indexed and naive, in interleaved rounds.
-pub fn bench_eval(settings: &RenderBenchSettings) -> Result<EvalBenchReport> {
+pub fn bench_eval(settings: &RenderBenchSettings, progress: &dyn Progress) -> Result<EvalBenchReport> {
     let scene = Scene::load(&settings.scene)?;
     let size = settings.size.unwrap_or(scene.size);
     let (mut indexed, mut naive) = (Fastest::new(), Fastest::new());
-    for _ in 0..settings.repeat {
+    for round in 0..settings.repeat {
+        progress.update("benchmark rounds", u64::from(round), u64::from(settings.repeat));
         indexed.offer(with_threads(settings.threads, || render_field(&scene, size, EvalMode::Indexed, &Silent))?);
         naive.offer(with_threads(settings.threads, || render_field(&scene, size, EvalMode::Naive, &Silent))?);
     }
@@ -160,7 +162,7 @@ pub struct LookupCost {
 
 /// Renders `settings.scene` exact (naive and indexed) and cached (cold and
 /// warm) in interleaved rounds, and times one lookup of each cache.
-pub fn bench_cache(settings: &RenderBenchSettings) -> Result<CacheBenchReport> {
+pub fn bench_cache(settings: &RenderBenchSettings, progress: &dyn Progress) -> Result<CacheBenchReport> {
     let a = settings;
     let scene = Scene::load(&a.scene)?;
     if scene.model.counts().caches == 0 {
@@ -168,7 +170,8 @@ pub fn bench_cache(settings: &RenderBenchSettings) -> Result<CacheBenchReport> {
     }
     let size = a.size.unwrap_or(scene.size);
     let (mut naive, mut exact, mut cold, mut warm) = (Fastest::new(), Fastest::new(), Fastest::new(), Fastest::new());
-    for _ in 0..a.repeat {
+    for round in 0..a.repeat {
+        progress.update("benchmark rounds", u64::from(round), u64::from(a.repeat));
         // Every round's cold render starts from empty caches.
         let scene = Scene::load(&a.scene)?;
         let run = |mode| with_threads(a.threads, || render_field(&scene, size, mode, &Silent));

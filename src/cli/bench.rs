@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use clap::{Args, Subcommand};
 
 use super::args::{CellsArg, check_output_file, parse_size, print_json};
+use super::progress::Bars;
 use crate::bench::{
     CacheBenchReport, EditBenchReport, EditBenchSettings, EvalBenchReport, LookupCost, MeshBenchReport,
     MeshBenchSettings, RenderBenchSettings, bench_cache, bench_edit, bench_eval, bench_mesh,
@@ -106,21 +107,25 @@ pub struct EditBenchArgs {
     pub json: bool,
 }
 
-/// Runs `blobtrace bench`.
+/// Runs `blobtrace bench` (each bar is gone before the figures print).
 pub fn run(c: &BenchCommand) -> anyhow::Result<()> {
     match c {
         BenchCommand::Eval(a) => {
-            let report = bench_eval(&a.settings())?;
-            emit(a.json, &report, |r| print_eval(a, size_of(a, &r.indexed), r))
+            let report = bench_eval(&a.settings(), &Bars::new())?;
+            emit(a.json, &report, |r| print_eval(a, size_of(&r.indexed), r))
         }
         BenchCommand::Cache(a) => {
-            let report = bench_cache(&a.settings())?;
-            emit(a.json, &report, |r| print_cache_report(a, size_of(a, &r.cached), r, r.cached.stats.rays))
+            let report = bench_cache(&a.settings(), &Bars::new())?;
+            emit(a.json, &report, |r| print_cache_report(a, size_of(&r.cached), r, r.cached.stats.rays))
         }
-        BenchCommand::Mesh(a) => emit(a.json, &bench_mesh(&a.settings())?, |r| print_mesh(a, r)),
+        BenchCommand::Mesh(a) => {
+            let report = bench_mesh(&a.settings(), &Bars::new())?;
+            emit(a.json, &report, |r| print_mesh(a, r))
+        }
         BenchCommand::Edit(a) => {
             check_output_file(&a.output, "png")?;
-            emit(a.json, &bench_edit(&a.settings())?, |r| print_edit(a, r))
+            let report = bench_edit(&a.settings(), &Bars::new())?;
+            emit(a.json, &report, |r| print_edit(a, r))
         }
     }
 }
@@ -135,7 +140,7 @@ fn emit<R: serde::Serialize>(json: bool, report: &R, print: impl FnOnce(&R)) -> 
 }
 
 /// The image size a render bench ran at.
-fn size_of(_: &EvalBenchArgs, r: &RenderReport) -> String {
+fn size_of(r: &RenderReport) -> String {
     format!("{}x{}", r.width, r.height)
 }
 

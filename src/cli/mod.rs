@@ -37,29 +37,40 @@ pub struct Cli {
 const EXIT_CODES: &str = "Exit codes: 0 success; 1 error (bad scene or script, failed write, failed check); \
 64 usage error (bad option or value). `diff` exits as idiff does: 0 pass, 1 warn, 2 fail, 3 size mismatch, 4 file error.";
 
+/// `diff`'s exit codes, as its `--help` lists them.
+const DIFF_EXIT_CODES: &str = "Exit codes (idiff's): 0 pass, 1 warn, 2 fail, 3 size mismatch, 4 file error; 64 usage error (bad option or value).";
+
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Render a scene by tracing rays through its field; write a PNG (and an EXR of all AOVs).
+    #[command(after_help = EXIT_CODES)]
     Render(render::RenderArgs),
     /// Polygonize a scene's surface and write it as PLY, OBJ or STL.
+    #[command(after_help = EXIT_CODES)]
     Mesh(mesh::MeshArgs),
     /// Render a scene by tracing its field and by ray casting its polygonized
     /// surface, and show where they disagree: renders, heat maps, a panel, stats.
+    #[command(after_help = EXIT_CODES)]
     Compare(compare::CompareArgs),
     /// Images of the field on a plane: f, the sharp view, error_C and gradient
     /// error of the caches per filter and resolution.
+    #[command(after_help = EXIT_CODES)]
     Slice(slice::SliceArgs),
     /// Replay an edit script, updating only what each edit changed (dirty
     /// rectangles, local mesh cells, BVH2 triangles); time it, optionally verify it.
+    #[command(after_help = EXIT_CODES)]
     Edit(edit::EditArgs),
     /// Render every entry of images/ref/manifest.ron and compare it with its
     /// reference (--bless rewrites them); exits non-zero on any failure.
+    #[command(after_help = EXIT_CODES)]
     Regress(regress::RegressArgs),
     /// Compare two images (PNG or EXR) like idiff: exit 0 pass, 1 warn, 2 fail,
     /// 3 size mismatch, 4 file error; optionally write a heat map.
+    #[command(after_help = DIFF_EXIT_CODES)]
     Diff(diff::DiffArgs),
     /// Print what a scene holds: node, primitive and cache counts, names, bounds.
+    #[command(after_help = EXIT_CODES)]
     Info(info::InfoArgs),
     /// Preview a scene in a window: arrow keys move its named nodes along the
     /// screen (Space steps an edit script), each move updating only what it
@@ -67,9 +78,10 @@ pub enum Command {
     /// depth difference, R outlines the dirty rectangles, P snapshots, A/D/W/S orbit, Z/X
     /// zoom. --headless takes the keys from --keys and writes the last view.
     #[cfg(feature = "viewer")]
+    #[command(after_help = EXIT_CODES)]
     View(view::ViewArgs),
     /// Measure performance figures in one process, as ratios against a baseline.
-    #[command(subcommand)]
+    #[command(subcommand, after_help = EXIT_CODES)]
     Bench(bench::BenchCommand),
 }
 

@@ -6,6 +6,7 @@
 mod build;
 mod desc;
 mod edit_desc;
+mod locate;
 mod script;
 pub mod values;
 
@@ -85,7 +86,12 @@ impl Scene {
     /// Builds a scene from RON text; `label` names the source in errors.
     pub fn parse(text: &str, label: &str) -> Result<Scene, SceneError> {
         let desc = parse_desc(text, label)?;
-        Scene::from_desc(&desc).map_err(|cause| SceneError::Model { path: label.to_string(), cause })
+        Scene::from_desc(&desc).map_err(|cause| match locate::locate(text, &cause) {
+            Some((line, column)) => {
+                SceneError::Syntax { path: label.to_string(), line, column, message: cause.to_string() }
+            }
+            None => SceneError::Model { path: label.to_string(), cause },
+        })
     }
 
     /// Builds a scene from its parsed description.

@@ -200,25 +200,7 @@ impl Viewer {
     /// carried too far for the mesh lattice) is taken back and reported.
     pub fn act(&mut self, action: Action) -> anyhow::Result<()> {
         match action {
-            Action::Move(axis, sign) => {
-                let Some(node) = self.names.get(self.selected).cloned() else {
-                    eprintln!("the scene names no node to move");
-                    return Ok(());
-                };
-                let by = Vec3::from(self.screen_axis(axis) * (sign * self.step_length));
-                let bounds = |v: &Self| {
-                    let model = &v.session.scene().model;
-                    model.find(&node).map(|id| model.node(id).bounds)
-                };
-                let before = bounds(self);
-                if let Err(e) = self.apply(&[Edit::Translate { node: node.clone(), by }]) {
-                    eprintln!("move refused: {e:#}");
-                    // Refused after the model moved (by the frame's checks): move it back.
-                    if bounds(self) != before {
-                        self.apply(&[Edit::Translate { node, by: -by }]).context("taking the refused move back")?;
-                    }
-                }
-            }
+            Action::Move(axis, sign) => self.move_selected(axis, sign)?,
             Action::NextNode => self.selected = (self.selected + 1) % self.names.len().max(1),
             Action::NextView => {
                 self.view = match self.view {
@@ -244,6 +226,29 @@ impl Viewer {
                 let camera = self.orbit.moved(action);
                 self.session.set_camera(camera);
                 self.dirty.0.clear();
+            }
+        }
+        Ok(())
+    }
+
+    /// Moves the selected node one step along screen axis `axis` in direction
+    /// `sign`; a move the frame's checks refuse is taken back and reported.
+    fn move_selected(&mut self, axis: usize, sign: f32) -> anyhow::Result<()> {
+        let Some(node) = self.names.get(self.selected).cloned() else {
+            eprintln!("the scene names no node to move");
+            return Ok(());
+        };
+        let by = Vec3::from(self.screen_axis(axis) * (sign * self.step_length));
+        let bounds = |v: &Self| {
+            let model = &v.session.scene().model;
+            model.find(&node).map(|id| model.node(id).bounds)
+        };
+        let before = bounds(self);
+        if let Err(e) = self.apply(&[Edit::Translate { node: node.clone(), by }]) {
+            eprintln!("move refused: {e:#}");
+            // Refused after the model moved (by the frame's checks): move it back.
+            if bounds(self) != before {
+                self.apply(&[Edit::Translate { node, by: -by }]).context("taking the refused move back")?;
             }
         }
         Ok(())
