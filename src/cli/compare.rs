@@ -55,7 +55,6 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
         polygonize: a.polygonize.settings(),
         error_scale: a.error.scale(),
     };
-    settings.polygonize.check(&scene.model)?;
     create_dir(&a.out_dir)?;
     // A set half old and half new is worse than none: every name must be writable first.
     for name in COMPARE_OUTPUTS {

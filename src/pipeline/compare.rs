@@ -8,7 +8,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::error::{PipelineError, Result};
-use super::polygonize::{PolygonizeSettings, color_by_cache_error, polygonize};
+use super::polygonize::{PolygonizeSettings, color_by_cache_error, polygonize_checked};
 use super::render::{MeshRenderReport, RenderReport, render_field, render_mesh};
 use crate::compare::{
     DiffReport, Metric, Rgb8Image, Scale, Thresholds, differences, frame_image, heat_map, judge, panel, silhouette_map,
@@ -149,7 +149,8 @@ pub struct Comparison {
     pub report: CompareReport,
 }
 
-/// Renders `scene` both ways in `mode` and measures where they disagree.
+/// Renders `scene` both ways in `mode` and measures where they disagree;
+/// checks the polygonization settings before any work.
 pub fn compare(
     scene: &Scene,
     mode: EvalMode,
@@ -158,7 +159,7 @@ pub fn compare(
 ) -> Result<Comparison> {
     settings.polygonize.check(&scene.model)?;
     let (ray, ray_report) = render_field(scene, settings.size, mode, progress);
-    let (mesh_model, mut mesh_report) = polygonize(&scene.model, mode, &settings.polygonize, progress)?;
+    let (mesh_model, mut mesh_report) = polygonize_checked(&scene.model, mode, &settings.polygonize, progress);
     let by_error = match settings.error_scale {
         Some(scale) => {
             let mut by_error = mesh_model.clone();

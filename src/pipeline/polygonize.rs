@@ -180,13 +180,23 @@ pub fn polygonize(
     progress: &dyn Progress,
 ) -> Result<(Mesh, MeshReport)> {
     stage(progress, "sizing the mesh", || settings.check(model))?;
+    Ok(polygonize_checked(model, mode, settings, progress))
+}
+
+/// [`polygonize`] with settings already checked against `model`.
+pub(super) fn polygonize_checked(
+    model: &Model,
+    mode: EvalMode,
+    settings: &PolygonizeSettings,
+    progress: &dyn Progress,
+) -> (Mesh, MeshReport) {
     let coarse = Lattice::for_model(model, settings.res);
     let start = Instant::now();
     let (mesh, counts) = run_polygonizer(model, mode, coarse, settings.options(), settings.refine, progress);
     let seconds = start.elapsed().as_secs_f64();
     let cell_size = coarse.refined(settings.refine).cell;
     let report = report(model, mode, settings, &mesh, counts, seconds, cell_size);
-    Ok((mesh, report))
+    (mesh, report)
 }
 
 fn report(
