@@ -65,7 +65,7 @@ impl Axis {
 /// Plots `series` (name, one value per frame) against the frame number,
 /// titled `title`, y values in `unit`: on a y axis from 0 to the largest
 /// value, or logarithmic over whole decades when the values spread over more
-/// than [`LOG_AXIS_SPREAD`].
+/// than `LOG_AXIS_SPREAD`.
 #[must_use]
 pub fn line_plot(title: &str, unit: &str, series: &[(&str, &[f64])], width: u32, height: u32) -> Rgb8Image {
     let mut img = Rgb8Image::filled(width, height, [255, 255, 255]);

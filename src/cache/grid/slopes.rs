@@ -71,7 +71,7 @@ impl CacheGrid {
     /// `a..b` (cache frame). In each lattice cell the segment crosses, each
     /// axis derivative of the value filter is a convex combination of the
     /// differences along that axis between the samples it reads there (see
-    /// [`Self::cell_slope`]), so it lies between the least and the greatest.
+    /// `cell_slope`), so it lies between the least and the greatest.
     /// Off the lattice the reconstruction is zero, and so is its derivative.
     pub fn slope_floor(&self, (a, b): (Vec3A, Vec3A), u: Vec3A, pool: &SamplePool, eval: &impl Sampled) -> f32 {
         let on_lattice = self.lattice.bounds();

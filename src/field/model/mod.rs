@@ -257,7 +257,7 @@ impl Model {
     }
 
     /// Checks that the model lies near enough the origin for its size (see
-    /// [`MAX_OFFSET_IN_SIZES`] and [`MAX_REACH`]); an empty model passes.
+    /// `MAX_OFFSET_IN_SIZES` and `MAX_REACH`); an empty model passes.
     pub fn check_reach(&self) -> Result<(), ModelError> {
         let b = self.bounds();
         if b.is_empty() {
