@@ -5,7 +5,6 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use clap::Args;
 
 use super::args::{
@@ -14,6 +13,7 @@ use super::args::{
 use super::progress::Bars;
 use crate::compare::{frame_image, line_plot};
 use crate::frame::{Frame, Size};
+use crate::output::FileSet;
 use crate::pipeline::{EditReport, EditSession, PipelineError, check_names, outline_dirty};
 use crate::scene::load_script;
 use crate::trace::PixelRect;
@@ -103,9 +103,8 @@ fn save_frame(dir: &Path, i: usize, frame: &Frame, rects: &[PixelRect]) -> Resul
     Ok(img.save_png(&path)?)
 }
 
-/// frames.csv and timing.png.
+/// frames.csv and timing.png, both or neither.
 fn write_outputs(dir: &Path, r: &EditReport) -> anyhow::Result<()> {
-    crate::output::write_atomic(&dir.join("frames.csv"), frames_csv(r).as_bytes()).context("writing frames.csv")?;
     let incremental: Vec<f64> = r.per_frame.iter().map(|f| f.incremental_s).collect();
     let field: Vec<f64> = r.per_frame.iter().map(|f| f.field_s).collect();
     let mesh: Vec<f64> = r.per_frame.iter().map(|f| f.polygonize_s + f.bvh_s + f.mesh_render_s).collect();
@@ -115,7 +114,11 @@ fn write_outputs(dir: &Path, r: &EditReport) -> anyhow::Result<()> {
         series.push(("from scratch", &full));
     }
     let title = format!("seconds per frame ({})", r.eval);
-    Ok(line_plot(&title, "s", &series, 720, 360).save_png(&dir.join("timing.png"))?)
+    let timing = dir.join("timing.png");
+    let mut files = FileSet::new();
+    files.add(dir.join("frames.csv"), frames_csv(r).into_bytes());
+    files.add(&timing, line_plot(&title, "s", &series, 720, 360).png_bytes_for(&timing)?);
+    Ok(files.commit()?)
 }
 
 fn frames_csv(r: &EditReport) -> String {

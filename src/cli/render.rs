@@ -11,6 +11,7 @@ use super::args::{
 use super::progress::Bars;
 use crate::field::EvalMode;
 use crate::frame::{Frame, Size};
+use crate::output::FileSet;
 use crate::pipeline::{polygonize, render_field, render_mesh};
 use crate::scene::Scene;
 
@@ -106,11 +107,12 @@ fn run_mesh(a: &RenderArgs, scene: &Scene, mode: EvalMode, size: Size, output: &
     Ok(())
 }
 
-/// Writes the PNG and, when asked, the EXR: both or, as far as the files allow, neither.
+/// Writes the PNG and, when asked, the EXR: both or neither.
 fn save(frame: &Frame, png: &Path, exr: Option<&Path>) -> anyhow::Result<()> {
-    let Some(exr) = exr else { return Ok(frame.save_png(png)?) };
-    // The EXR first: were it refused, the PNG would be left old rather than mixed.
-    frame.save_exr(exr)?;
-    frame.save_png(png)?;
-    Ok(())
+    let mut files = FileSet::new();
+    files.add(png, frame.png_bytes_for(png)?);
+    if let Some(exr) = exr {
+        files.add(exr, frame.exr_bytes(exr)?);
+    }
+    Ok(files.commit()?)
 }

@@ -85,6 +85,11 @@ impl Rgb8Image {
         Ok(out)
     }
 
+    /// PNG bytes, with an error naming `path`.
+    pub fn png_bytes_for(&self, path: &std::path::Path) -> Result<Vec<u8>, crate::frame::FrameIoError> {
+        self.png_bytes().map_err(|e| crate::frame::FrameIoError::Encode(path.display().to_string(), e.to_string()))
+    }
+
     /// Writes a PNG atomically.
     pub fn save_png(&self, path: &std::path::Path) -> Result<(), crate::frame::FrameIoError> {
         use crate::frame::FrameIoError;

@@ -143,6 +143,17 @@ impl Frame {
         crate::output::write_atomic(path, &bytes).map_err(|e| FrameIoError::Write(path.display().to_string(), e))
     }
 
+    /// Every channel (`R,G,B,A`, `Z`, `N.X,N.Y,N.Z`, extras) as float EXR bytes;
+    /// `path` names the file in the error.
+    pub fn exr_bytes(&self, path: &std::path::Path) -> Result<Vec<u8>, FrameIoError> {
+        exr_io::exr_bytes(self).map_err(|e| FrameIoError::Encode(path.display().to_string(), e))
+    }
+
+    /// PNG bytes, with an error naming `path`.
+    pub fn png_bytes_for(&self, path: &std::path::Path) -> Result<Vec<u8>, FrameIoError> {
+        self.png_bytes().map_err(|e| FrameIoError::Encode(path.display().to_string(), e.to_string()))
+    }
+
     /// Writes every channel (`R,G,B,A`, `Z`, `N.X,N.Y,N.Z`, extras) as a float EXR, atomically.
     pub fn save_exr(&self, path: &std::path::Path) -> Result<(), FrameIoError> {
         let bytes = exr_io::exr_bytes(self).map_err(|e| FrameIoError::Encode(path.display().to_string(), e))?;

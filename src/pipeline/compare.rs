@@ -14,7 +14,8 @@ use crate::compare::{
     DiffReport, Metric, Rgb8Image, Scale, Thresholds, differences, frame_image, heat_map, judge, panel, silhouette_map,
 };
 use crate::field::EvalMode;
-use crate::frame::{Frame, Size};
+use crate::frame::{Frame, FrameIoError, Size};
+use crate::output::FileSet;
 use crate::progress::Progress;
 use crate::scene::Scene;
 
@@ -231,31 +232,43 @@ pub const COMPARE_OUTPUTS: [&str; 11] = [
 ];
 
 impl Comparison {
-    /// Writes the renders, EXRs, heat maps, the panel and stats.json into `dir`;
-    /// returns stats.json's text.
+    /// Writes the renders, EXRs, heat maps, the panel and stats.json into
+    /// `dir`, all of them or none; returns stats.json's text.
     pub fn save(&self, dir: &Path) -> Result<String> {
-        let heat_maps = self.save_images(dir)?;
-        if let Some(frame) = &self.by_error {
-            frame.save_png(&dir.join("mesh_error.png"))?;
+        let mut files = FileSet::new();
+        let mut add_png = |name: &str, bytes: &dyn Fn(&Path) -> std::result::Result<Vec<u8>, FrameIoError>| {
+            let path = dir.join(name);
+            let png = bytes(&path)?;
+            files.add(path, png);
+            Ok::<(), PipelineError>(())
+        };
+        add_png("ray.png", &|p| self.ray.png_bytes_for(p))?;
+        add_png("mesh.png", &|p| self.mesh.png_bytes_for(p))?;
+        let heat_maps = self.heat_maps();
+        for (_, file, img) in &heat_maps {
+            add_png(file, &|p| img.png_bytes_for(p))?;
         }
-        self.save_panel(dir, heat_maps)?;
+        if let Some(frame) = &self.by_error {
+            add_png("mesh_error.png", &|p| frame.png_bytes_for(p))?;
+        }
+        let panel = self.panel(heat_maps.into_iter().map(|(title, _, img)| (title.to_string(), img)).collect());
+        add_png("panel.png", &|p| panel.png_bytes_for(p))?;
+        for (name, frame) in [("ray.exr", &self.ray), ("mesh.exr", &self.mesh)] {
+            let path = dir.join(name);
+            files.add(&path, frame.exr_bytes(&path)?);
+        }
         let json = serde_json::to_string_pretty(&self.report).expect("reports encode as JSON");
-        let path = dir.join("stats.json");
-        crate::output::write_atomic(&path, json.as_bytes())
-            .map_err(|e| PipelineError::File { path, message: e.to_string() })?;
+        files.add(dir.join("stats.json"), json.clone().into_bytes());
+        files.commit()?;
         Ok(json)
     }
 
-    /// Writes the renders, EXRs and heat maps; returns the heat maps with their panel titles.
-    fn save_images(&self, dir: &Path) -> Result<Vec<(String, Rgb8Image)>> {
+    /// The heat maps: panel title, file name, image.
+    fn heat_maps(&self) -> [(&'static str, &'static str, Rgb8Image); 4] {
         let (ray, mesh, errors) = (&self.ray, &self.mesh, &self.errors);
-        ray.save_png(&dir.join("ray.png"))?;
-        mesh.save_png(&dir.join("mesh.png"))?;
-        ray.save_exr(&dir.join("ray.exr"))?;
-        mesh.save_exr(&dir.join("mesh.exr"))?;
         let (w, h) = (ray.width, ray.height);
         let heat = |values: &[f32], scale, title, unit| heat_map(values, w, h, scale, title, unit);
-        let maps = [
+        [
             ("silhouette", "silhouette.png", silhouette_map(&ray.depth, &mesh.depth, w, h, ["field", "mesh"])),
             (
                 "depth error",
@@ -272,16 +285,11 @@ impl Comparison {
                 "color_error.png",
                 heat(&errors.color, Scale::Magnitude { max: 0.1 }, "colour difference", ""),
             ),
-        ];
-        for (_, file, img) in &maps {
-            let path = dir.join(file);
-            img.save_png(&path)?;
-        }
-        Ok(maps.into_iter().map(|(title, _, img)| (title.to_string(), img)).collect())
+        ]
     }
 
     /// The panel: both renders, the mesh by error_C when asked, and the heat maps.
-    fn save_panel(&self, dir: &Path, heat_maps: Vec<(String, Rgb8Image)>) -> Result<()> {
+    fn panel(&self, heat_maps: Vec<(String, Rgb8Image)>) -> Rgb8Image {
         let mesh = &self.report.mesh.mesh;
         let mut items = vec![
             ("field (ray traced)".to_string(), frame_image(&self.ray)),
@@ -291,9 +299,6 @@ impl Comparison {
             items.push((format!("mesh by error_C, magma 0..{scale}"), frame_image(f)));
         }
         items.extend(heat_maps);
-        let path = dir.join("panel.png");
         panel(&items, if self.by_error.is_some() { 4 } else { 3 })
-            .save_png(&path)
-            .map_err(|e| PipelineError::File { path, message: format!("{e:#}") })
     }
 }

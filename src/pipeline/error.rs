@@ -98,5 +98,11 @@ impl PipelineError {
     }
 }
 
+impl From<crate::output::FileSetError> for PipelineError {
+    fn from(e: crate::output::FileSetError) -> Self {
+        Self::File { path: e.path, message: format!("could not write: {}", e.source) }
+    }
+}
+
 /// A pipeline's result.
 pub type Result<T> = std::result::Result<T, PipelineError>;
