@@ -4,7 +4,12 @@
 //!
 //! The pipeline runs one way: a scene file becomes a [`field::Model`]; the
 //! tracer ([`trace`]) queries it through the [`field::Field`] interface and
-//! writes a [`frame::Frame`] of colour and AOVs.
+//! writes a [`frame::Frame`] of colour and AOVs; the polygonizer ([`mesh`])
+//! meshes it and [`bvh`] ray casts the mesh; [`compare`] measures where they
+//! differ. [`pipeline`] joins the stages into the jobs a user runs (render,
+//! polygonize, compare, an edit session, regression), with plain settings
+//! and a [`progress`] hook; the command line (`cli`) and the previewer
+//! (`viewer`) are thin layers over it. Below, one stage by hand:
 //!
 //! ```
 //! use blobtrace::field::{ModelField, EvalMode, Field};
