@@ -631,6 +631,40 @@ fn slices_show_the_field_and_the_caches_errors() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success() && err.contains(words), "{all:?}: {err}");
     }
+    // Slices that show less than was asked say so, and still succeed.
+    let plain = String::from_utf8_lossy(&field.stderr).to_string();
+    assert!(!plain.contains("warning"), "{plain}");
+    let warned = png("w.png");
+    for (args, words) in [
+        (vec!["--plane", "z=100"], "misses the model"),
+        (vec!["--plane", "z=0", "--res-sweep", "16"], "sweep is ignored"),
+    ] {
+        let mut all = vec!["slice", "scenes/pair.ron", "--size", "40x30", "-o", &warned];
+        all.extend(args);
+        let out = run(&all);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success() && err.contains("warning") && err.contains(words), "{all:?}: {err}");
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn an_empty_render_warns_and_a_diff_of_no_pixels_fails() {
+    let dir = scratch("empty");
+    let png = dir.join("away.png");
+    let exr = dir.join("away.exr");
+    let (p, e) = (png.to_str().unwrap(), exr.to_str().unwrap());
+    // Looking away from the model: every ray misses.
+    let out = blobtrace(&["render", "scenes/pair.ron", "--size", "32x24", "--target", "0,0,10", "-o", p, "--exr", e]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && err.contains("warning: no ray hit"), "{err}");
+    let hit = blobtrace(&["render", "scenes/pair.ron", "--size", "32x24", "-o", p]);
+    assert!(!String::from_utf8_lossy(&hit.stderr).contains("warning"));
+    // Depth where both images miss everywhere: nothing is compared, and that fails.
+    let out = blobtrace(&["diff", e, e, "--metric", "depth"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("no pixel was compared"), "{err}");
     std::fs::remove_dir_all(dir).unwrap();
 }
 

@@ -90,6 +90,12 @@ pub fn run(a: &DiffArgs) -> ExitCode {
     }
     match diff_images(&a.a, &a.b, &a.settings()) {
         Ok(report) => {
+            if report.compared == 0 {
+                eprintln!(
+                    "warning: no pixel was compared (all {} masked or missed by both): the diff fails",
+                    report.pixels
+                );
+            }
             print_report(a, &report);
             ExitCode::from(match report.verdict {
                 Verdict::Pass => 0,

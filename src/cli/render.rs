@@ -67,6 +67,7 @@ fn run_field(a: &RenderArgs, scene: &Scene, mode: EvalMode, size: Size, output: 
     let (frame, report) = with_threads(a.threads, || render_field(scene, size, mode, &bars))?;
     bars.finish();
     save(&frame, output, a.exr.as_deref())?;
+    warn_if_empty(report.stats.hits);
     if a.json {
         return print_json(&report);
     }
@@ -90,6 +91,7 @@ fn run_mesh(a: &RenderArgs, scene: &Scene, mode: EvalMode, size: Size, output: &
     })??;
     bars.finish();
     save(&frame, output, a.exr.as_deref())?;
+    warn_if_empty(report.stats.hits);
     if a.json {
         return print_json(&report);
     }
@@ -105,6 +107,15 @@ fn run_mesh(a: &RenderArgs, scene: &Scene, mode: EvalMode, size: Size, output: &
         s.rays
     );
     Ok(())
+}
+
+/// Says so when no ray hit the surface: an empty image is rarely what was meant.
+fn warn_if_empty(hits: u64) {
+    if hits == 0 {
+        eprintln!(
+            "warning: no ray hit the surface (is the threshold above the field's maximum, or the camera looking away?)"
+        );
+    }
 }
 
 /// Writes the PNG and, when asked, the EXR: both or neither.

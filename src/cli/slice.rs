@@ -9,7 +9,7 @@ use super::args::{check_output_file, parse_size, scene_stem, with_threads};
 use super::progress::Bars;
 use crate::cache::Filter;
 use crate::frame::Size;
-use crate::pipeline::{SliceSettings, SliceView, slice};
+use crate::pipeline::{SliceSettings, SliceView, slice, slice_warnings};
 use crate::scene::Scene;
 use crate::slice::SlicePlane;
 use anyhow::Context;
@@ -86,6 +86,9 @@ pub fn run(a: &SliceArgs) -> anyhow::Result<()> {
     let plane = SlicePlane::parse(&a.plane, &scene.model.bounds(), a.size.0, a.size.1)?;
     let settings = a.settings();
     settings.check(&scene)?;
+    for warning in slice_warnings(&scene, &plane, &settings) {
+        eprintln!("warning: {warning}");
+    }
     let show = format!("{:?}", a.show).to_lowercase();
     let output = a.output.clone().unwrap_or_else(|| PathBuf::from(format!("{}-{show}.png", scene_stem(&a.scene))));
     check_output_file(&output, "png")?;

@@ -5,7 +5,9 @@
 use std::path::{Path, PathBuf};
 
 use super::error::PipelineError;
-use crate::compare::{DiffReport, Metric, Scale, Thresholds, differences, edge_mask, heat_map, judge, load_image};
+use crate::compare::{
+    DiffReport, Metric, Scale, Thresholds, Verdict, differences, edge_mask, heat_map, judge, load_image,
+};
 
 /// How to compare two images.
 #[derive(Clone, Debug)]
@@ -67,7 +69,8 @@ impl ImageDiffSettings {
     }
 }
 
-/// Compares the images at `a` and `b`.
+/// Compares the images at `a` and `b`; a comparison of no pixel at all (every
+/// one masked, or missed by both for depth and normals) fails.
 pub fn diff_images(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<DiffReport, ImageDiffError> {
     settings.check().map_err(ImageDiffError::Setting)?;
     let (first, second) = (load_image(a).map_err(ImageDiffError::File)?, load_image(b).map_err(ImageDiffError::File)?);
@@ -82,7 +85,11 @@ pub fn diff_images(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<D
     }
     let values = differences(fa, fb, settings.metric);
     let masked = settings.mask_edges.map_or_else(|| vec![false; values.len()], |k| edge_mask(fa, fb, k));
-    let report = judge(settings.metric, &values, &masked, settings.thresholds);
+    let mut report = judge(settings.metric, &values, &masked, settings.thresholds);
+    // Nothing compared proves nothing: such a diff fails rather than passes.
+    if report.compared == 0 {
+        report.verdict = Verdict::Fail;
+    }
     if let Some(out) = &settings.heat_map {
         let title = format!("{:?} difference: {} vs {}", settings.metric, file_name(a), file_name(b)).to_lowercase();
         let img = heat_map(&values, fa.width, fa.height, settings.heat_scale(), &title, settings.metric.unit());

@@ -71,5 +71,5 @@ pub use regress::{
 };
 pub use render::{MeshRenderReport, RenderReport, render_field, render_mesh};
 pub use replay::{EditReport, ScratchFrame, check_names, replay_from_scratch};
-pub use slice::{SliceSettings, SliceView, slice};
+pub use slice::{SliceSettings, SliceView, slice, slice_warnings};
 pub use threads::{MAX_THREADS, with_threads, worker_pool};

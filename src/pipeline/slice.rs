@@ -59,6 +59,23 @@ impl SliceSettings {
     }
 }
 
+/// What a slice of `scene` on `plane` would show that the user may not expect:
+/// a plane beside the model, a setting the view ignores.
+#[must_use]
+pub fn slice_warnings(scene: &Scene, plane: &SlicePlane, settings: &SliceSettings) -> Vec<String> {
+    let mut warnings = vec![];
+    if !plane.meets(&scene.model.bounds()) {
+        warnings.push("the plane misses the model's bounds: the slice shows only empty space".to_string());
+    }
+    if settings.view == SliceView::Field && !settings.res_sweep.is_empty() {
+        warnings.push("the field view shows the exact field: the resolution sweep is ignored".to_string());
+    }
+    if settings.view == SliceView::Field && settings.filter.is_some() {
+        warnings.push("the field view shows the exact field: the filter is ignored".to_string());
+    }
+    warnings
+}
+
 /// Draws `settings`'s view of the scene written in `text` (named `label` in
 /// errors) on `plane`; cache variants are built from the text afresh.
 pub fn slice(

@@ -50,6 +50,19 @@ impl SlicePlane {
         Ok(Self::through(point, normal, bounds, width, height))
     }
 
+    /// Whether the plane passes through `bounds` (a slice beside the model
+    /// shows only empty space).
+    #[must_use]
+    pub fn meets(&self, bounds: &Aabb) -> bool {
+        let normal = self.right.cross(self.down).normalize_or_zero();
+        let (lo, hi) = (0..8).fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), k| {
+            let corner = Vec3A::select(glam::BVec3A::new(k & 1 != 0, k & 2 != 0, k & 4 != 0), bounds.max, bounds.min);
+            let d = (corner - self.origin).dot(normal);
+            (lo.min(d), hi.max(d))
+        });
+        !bounds.is_empty() && lo <= 0.0 && hi >= 0.0
+    }
+
     /// The plane through `point` with unit `normal`, framed on `bounds`.
     #[must_use]
     pub fn through(point: Vec3A, normal: Vec3A, bounds: &Aabb, width: u32, height: u32) -> Self {
