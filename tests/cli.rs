@@ -693,10 +693,14 @@ fn regression_passes_on_the_bundled_references_and_fails_on_a_perturbed_model() 
     assert!(bad_report.join("actual-pair-field-96x72.png").exists());
     assert!(bad_report.join("diff-pair-field-96x72.png").exists());
     assert!(bad_report.join("heat-pair-field-96x72.png").exists());
+    let page = std::fs::read_to_string(bad_report.join("index.html")).unwrap();
+    assert!(bad_report.join("ref-pair-field-96x72.png").exists() && page.contains("ref-pair-field-96x72.png"));
     assert!(!bad_report.join("actual-sphere-field-64x48.png").exists());
     // Blessing into a fresh directory reproduces the bundled references, which then pass.
     let refs = dir.join("refs");
     std::fs::create_dir_all(&refs).unwrap();
+    let bare = blobtrace(&["regress", "--refs", refs.to_str().unwrap(), "--bless"]);
+    assert!(String::from_utf8_lossy(&bare.stderr).contains("copy images/ref/manifest.ron"), "a hint, not a bare error");
     std::fs::copy("images/ref/manifest.ron", refs.join("manifest.ron")).unwrap();
     assert!(blobtrace(&["regress", "--refs", refs.to_str().unwrap(), "--bless"]).status.success());
     assert_eq!(
@@ -716,6 +720,15 @@ fn regression_passes_on_the_bundled_references_and_fails_on_a_perturbed_model() 
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success() && err.contains("manifest.ron:1:") && err.contains(words), "{entry}: {err}");
     }
+    // A scene missing from the second entry is found before anything renders,
+    // at its entry, and no report folder is made.
+    let text = "Manifest(entries: [\n  Entry(scene: \"sphere.ron\", size: (8, 8), kind: Field),\n  Entry(scene: \"gone.ron\", size: (8, 8), kind: Field),\n])";
+    std::fs::write(refs.join("manifest.ron"), text).unwrap();
+    let unmade = dir.join("unmade");
+    let out = blobtrace(&["regress", "--refs", refs.to_str().unwrap(), "--report", unmade.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("manifest.ron:3:3") && err.contains("gone.ron"), "{err}");
+    assert!(!unmade.exists());
     std::fs::remove_dir_all(dir).unwrap();
 }
 

@@ -15,7 +15,7 @@ use crate::compare::{DiffReport, Metric, Scale, Thresholds, Verdict, differences
 use crate::field::EvalMode;
 use crate::frame::{Frame, Size};
 use crate::progress::{Progress, Silent};
-use crate::scene::{Scene, SceneError, values};
+use crate::scene::{Scene, SceneError, entry_positions, values};
 
 /// Where a regression run reads and writes.
 #[derive(Clone, Debug)]
@@ -114,21 +114,37 @@ impl RegressSummary {
     }
 }
 
-/// Reads `refs/manifest.ron`.
-pub fn load_manifest(refs: &Path) -> Result<Manifest> {
+/// Reads `refs/manifest.ron`, and checks that every scene it names loads,
+/// before anything is rendered: a scene missing is reported at its entry.
+pub fn load_manifest(refs: &Path, scenes: &Path) -> Result<Manifest> {
     let path = refs.join("manifest.ron");
     let label = path.display().to_string();
-    let text = std::fs::read_to_string(&path).map_err(|cause| SceneError::Io { path: label.clone(), cause })?;
-    ron::from_str(&text).map_err(|e| {
-        let (line, column, message) = (e.span.start.line, e.span.start.col, e.code.to_string());
-        PipelineError::Scene(SceneError::Syntax { path: label, line, column, message })
-    })
+    let text = std::fs::read_to_string(&path).map_err(|cause| match cause.kind() {
+        std::io::ErrorKind::NotFound => PipelineError::Unsuitable(format!(
+            "{label}: no manifest here; a reference folder starts from one (copy images/ref/manifest.ron, keep the entries to guard, then --bless)"
+        )),
+        _ => SceneError::Io { path: label.clone(), cause }.into(),
+    })?;
+    let syntax =
+        |line, column, message| PipelineError::Scene(SceneError::Syntax { path: label.clone(), line, column, message });
+    let manifest: Manifest =
+        ron::from_str(&text).map_err(|e| syntax(e.span.start.line, e.span.start.col, e.code.to_string()))?;
+    let positions = entry_positions(&text);
+    for (k, entry) in manifest.entries.iter().enumerate() {
+        let scene = scenes.join(&entry.scene);
+        if !scene.is_file() {
+            let (line, column) = positions.get(k).copied().unwrap_or((1, 1));
+            return Err(syntax(line, column, format!("no scene {:?} in {}", entry.scene, scenes.display())));
+        }
+        Scene::load(&scene)?;
+    }
+    Ok(manifest)
 }
 
 /// Renders every entry of the manifest and compares it with its reference,
 /// or blesses them all; `log` hears one line per entry.
 pub fn regress(settings: &RegressSettings, progress: &dyn Progress, log: &dyn Fn(&str)) -> Result<RegressSummary> {
-    let manifest = load_manifest(&settings.refs)?;
+    let manifest = load_manifest(&settings.refs, &settings.scenes)?;
     if !settings.bless {
         std::fs::create_dir_all(&settings.report)
             .map_err(|e| PipelineError::File { path: settings.report.clone(), message: e.to_string() })?;
@@ -204,28 +220,31 @@ fn check_entry(
     };
     let diff = judge(Metric::Abs, &values, &vec![false; values.len()], thresholds);
     if diff.verdict == Verdict::Fail {
-        save_failure(&name, actual, &quantized, frame, &values, report)?;
+        save_failure(&name, reference, actual, &quantized, &values, report)?;
     }
     log(&format!("{:?} {name}: max {:.4}, {} pixels above {}", diff.verdict, diff.max, diff.over_fail_px, entry.fail));
     Ok((name, Some(diff)))
 }
 
-/// The images of a failed entry: the render, the brightened difference, a heat map.
+/// The images of a failed entry: its reference, the render, the brightened
+/// difference and a heat map (titled by metric alone: the page names the entry).
 fn save_failure(
     name: &str,
+    reference: &Path,
     actual: &Frame,
     quantized: &Frame,
-    expected: &Frame,
     values: &[f32],
     report: &Path,
 ) -> Result<()> {
+    let expected =
+        load_image(reference).map_err(|message| PipelineError::File { path: reference.to_path_buf(), message })?.frame;
+    let copy = report.join(format!("ref-{name}"));
+    std::fs::copy(reference, &copy).map_err(|e| PipelineError::File { path: copy, message: e.to_string() })?;
     actual.save_png(&report.join(format!("actual-{name}")))?;
-    difference_image(quantized, expected).save_png(&report.join(format!("diff-{name}")))?;
-    let title = format!("abs difference, {name}");
+    difference_image(quantized, &expected).save_png(&report.join(format!("diff-{name}")))?;
     let path = report.join(format!("heat-{name}"));
-    heat_map(values, expected.width, expected.height, Scale::Magnitude { max: 0.1 }, &title, "")
-        .save_png(&path)
-        .map_err(|e| PipelineError::File { path, message: format!("{e:#}") })
+    let scale = Scale::Magnitude { max: 0.1 };
+    Ok(heat_map(values, expected.width, expected.height, scale, "abs difference", "").save_png(&path)?)
 }
 
 /// |actual − expected| per channel, brightened eightfold so small differences show.
@@ -250,7 +269,7 @@ fn write_html(path: &Path, rows: &[RegressRow]) -> Result<()> {
     let mut html = String::from(
         "<!doctype html><meta charset=utf-8><title>blobtrace regression</title>\
          <style>body{font-family:sans-serif}td,th{padding:4px 8px}.Fail{color:#b00}.Pass{color:#070}</style>\
-         <h1>blobtrace regression</h1><table><tr><th>reference<th>verdict<th>max<th>pixels above<th>images</tr>",
+         <h1>blobtrace regression</h1><table><tr><th>reference<th>verdict<th>max<th>pixels above<th>reference | actual | difference ×8 | heat map</tr>",
     );
     for (name, diff) in rows {
         let (verdict, max, over) = match diff {
@@ -258,7 +277,9 @@ fn write_html(path: &Path, rows: &[RegressRow]) -> Result<()> {
             None => ("Fail".into(), "no reference".into(), "-".into()),
         };
         let images = if verdict == "Fail" {
-            format!("<img src=\"actual-{name}\"> <img src=\"diff-{name}\"> <img src=\"heat-{name}\">")
+            ["ref", "actual", "diff", "heat"]
+                .map(|kind| format!("<img src=\"{kind}-{name}\" title=\"{kind}\">"))
+                .join(" ")
         } else {
             String::new()
         };

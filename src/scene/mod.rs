@@ -17,7 +17,7 @@ use glam::Vec3;
 pub use crate::frame::Size;
 pub use desc::{CameraDesc, NodeDesc, SceneDesc};
 pub use edit_desc::{EditDesc, OperatorDesc};
-pub use script::{Script, load_script, parse_script};
+pub use script::{Script, entry_positions, load_script, parse_script};
 pub use values::{Color, Finite, Positive, V3};
 
 use crate::camera::{Camera, LookAt};

@@ -102,7 +102,7 @@ pub fn parse_script(text: &str, label: &str) -> Result<Script, SceneError> {
 /// that the outermost parentheses hold (or the name before it), skipping
 /// strings and comments. (The `#![enable(…)]` lines RON allows first open
 /// their brackets the other way round.)
-fn entry_positions(text: &str) -> Vec<(usize, usize)> {
+pub fn entry_positions(text: &str) -> Vec<(usize, usize)> {
     let mut text = Cursor { chars: text.chars().peekable(), line: 1, column: 0 };
     let mut open: Vec<char> = vec![];
     let mut entries = vec![];
