@@ -549,6 +549,22 @@ fn compare_writes_renders_heat_maps_panel_and_stats() {
     assert_eq!(v["ray"]["rays"], 64 * 48);
     let panel = image::open(dir.join("panel.png")).unwrap();
     assert!(panel.width() > 3 * 64 && panel.height() > 2 * 48);
+    // Scales chosen from the data are round numbers; the signed depth bias is reported.
+    let chosen = v["scales"]["normal_deg"].as_f64().unwrap();
+    assert!([1.0, 2.0, 5.0].iter().any(|m| (chosen / m).log10().fract().abs() < 1e-4), "{chosen}");
+    assert!(v["depth_bias_cells"].as_f64().unwrap().abs() <= v["depth_error_cells"]["mean"].as_f64().unwrap());
+    // Scales and tolerances given are the ones used; a tight normal scale marks pixels beyond it.
+    let fixed = dir.join("fixed");
+    let args = ["--scale-normal", "0.5", "--tol-depth", "0.5", "--tol-color", "0"];
+    let mut all = vec!["compare", "scenes/pair.ron", "--size", "64x48", "--res", "24", "--json", "--out-dir"];
+    all.push(fixed.to_str().unwrap());
+    all.extend(args);
+    let v = json(&blobtrace(&all));
+    assert_eq!((v["scales"]["normal_deg"].as_f64(), v["tolerances"]["depth_cells"].as_f64()), (Some(0.5), Some(0.5)));
+    let heat = image::open(fixed.join("normal_error.png")).unwrap().to_rgb8();
+    assert!(heat.pixels().filter(|p| p.0 == [80, 255, 40]).count() > 10, "values beyond the scale are marked");
+    let bad = blobtrace(&["compare", "scenes/pair.ron", "--scale-depth", "-1", "--out-dir", fixed.to_str().unwrap()]);
+    assert_eq!(bad.status.code(), Some(64), "{}", String::from_utf8_lossy(&bad.stderr));
     std::fs::remove_dir_all(dir).unwrap();
 }
 

@@ -13,7 +13,7 @@ use super::args::{
 use super::mesh::CacheErrorArgs;
 use super::progress::Bars;
 use crate::frame::Size;
-use crate::pipeline::{COMPARE_OUTPUTS, CompareReport, CompareSettings, compare};
+use crate::pipeline::{COMPARE_OUTPUTS, CompareReport, CompareSettings, ErrorScales, Tolerances, compare};
 
 /// Options of `blobtrace compare`.
 #[derive(Debug, Args)]
@@ -35,6 +35,9 @@ pub struct CompareArgs {
     /// Also render the mesh coloured by error_C (needs Cache nodes).
     #[command(flatten)]
     pub error: CacheErrorArgs,
+    /// Heat-map scales and tolerances.
+    #[command(flatten)]
+    pub judging: JudgingArgs,
     /// Directory for the images and stats.json (created if missing).
     #[arg(long, default_value = "compare")]
     pub out_dir: PathBuf,
@@ -46,6 +49,39 @@ pub struct CompareArgs {
     pub json: bool,
 }
 
+/// The heat maps' full scales and the tolerances of the statistics.
+#[derive(Clone, Copy, Debug, Args)]
+pub struct JudgingArgs {
+    /// Full scale of the depth heat map, in lattice cells either way (default: the p99, rounded up).
+    #[arg(long, value_name = "CELLS", allow_negative_numbers = true)]
+    pub scale_depth: Option<f32>,
+    /// Full scale of the normal heat map, in degrees (default: the p99, rounded up).
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    pub scale_normal: Option<f32>,
+    /// Full scale of the colour heat map, largest linear RGB difference (default: the p99, rounded up).
+    #[arg(long, value_name = "V", allow_negative_numbers = true)]
+    pub scale_color: Option<f32>,
+    /// Depth tolerance in lattice cells, behind "fraction above tolerance".
+    #[arg(long, value_name = "CELLS", default_value_t = Tolerances::default().depth_cells, allow_negative_numbers = true)]
+    pub tol_depth: f32,
+    /// Normal tolerance in degrees.
+    #[arg(long, value_name = "DEG", default_value_t = Tolerances::default().normal_deg, allow_negative_numbers = true)]
+    pub tol_normal: f32,
+    /// Colour tolerance, largest linear RGB difference.
+    #[arg(long, value_name = "V", default_value_t = Tolerances::default().color, allow_negative_numbers = true)]
+    pub tol_color: f32,
+}
+
+impl JudgingArgs {
+    fn scales(&self) -> ErrorScales {
+        ErrorScales { depth_cells: self.scale_depth, normal_deg: self.scale_normal, color: self.scale_color }
+    }
+
+    fn tolerances(&self) -> Tolerances {
+        Tolerances { depth_cells: self.tol_depth, normal_deg: self.tol_normal, color: self.tol_color }
+    }
+}
+
 /// Runs `blobtrace compare`.
 pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
     let mut scene = load_scene(&a.scene, &a.camera)?;
@@ -54,6 +90,8 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
         size: a.size.unwrap_or(scene.size),
         polygonize: a.polygonize.settings(),
         error_scale: a.error.scale(),
+        scales: a.judging.scales(),
+        tolerances: a.judging.tolerances(),
     };
     create_dir(&a.out_dir)?;
     // A set half old and half new is worse than none: every name must be writable first.
@@ -74,9 +112,10 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
 
 fn print_summary(dir: &std::path::Path, r: &CompareReport) {
     eprintln!(
-        "{}: {} pixels hit by one render only; depth error mean {:.3} cells (p99 {:.3}); normal error mean {:.2}° (p99 {:.2}°); mesh of {} triangles",
+        "{}: {} pixels hit by one render only; depth error bias {:+.3}, mean {:.3} cells (p99 {:.3}); normal error mean {:.2}° (p99 {:.2}°); mesh of {} triangles",
         dir.display(),
         r.mismatch_px,
+        r.depth_bias_cells,
         r.depth_error_cells.mean,
         r.depth_error_cells.p99,
         r.normal_error_deg.mean,

@@ -67,7 +67,7 @@ pub struct DiffArgs {
     /// Write a heat map of the differences with its colour bar.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
-    /// The heat map's full-scale value (default: 0.1 for abs and rel, 10 degrees, 0.05 units of depth).
+    /// The heat map's full-scale value (default: chosen from the data, the p99 rounded up).
     #[arg(long)]
     pub scale: Option<f32>,
     /// Print one JSON object of statistics on stdout.

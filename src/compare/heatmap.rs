@@ -1,18 +1,22 @@
 //! Heat maps: per-pixel values through a perceptually uniform colour map, with
-//! a colour bar and its fixed scale printed under the image, so two heat maps
-//! made with the same scale can be compared by eye.
+//! a colour bar and its scale printed under the image, so two heat maps made
+//! with the same scale can be compared by eye. Values beyond the scale are
+//! drawn in a colour of their own and their share is printed: a heat map
+//! never clips silently. A scale is fixed by the caller or chosen from the
+//! data ([`Scale::from_data`]).
 
 use super::rgb8_image::{LINE_HEIGHT, Rgb8Image};
 
 /// How values map to colours.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Scale {
-    /// `0..=max` through magma (larger is brighter); above `max` saturates.
+    /// `0..=max` through magma (larger is brighter); above `max`: [`OVER_RANGE`].
     Magnitude {
         /// The value drawn in the brightest colour.
         max: f32,
     },
-    /// `-max..=max` through a red–blue diverging map (positive red, zero white).
+    /// `-max..=max` through a red–blue diverging map (positive red, zero
+    /// white); beyond: [`OVER_RANGE`].
     Signed {
         /// The magnitude drawn in the strongest colours.
         max: f32,
@@ -24,8 +28,12 @@ pub const NO_VALUE: [u8; 3] = [40, 40, 46];
 /// Colour of pixels whose value is infinite: hit in one image only.
 pub const MISMATCH: [u8; 3] = [0, 230, 230];
 
-/// Height of the strip under the image holding the title and the colour bar.
-const STRIP: u32 = 5 * LINE_HEIGHT + 14;
+/// Colour of pixels whose value lies beyond the scale (in neither map).
+pub const OVER_RANGE: [u8; 3] = [80, 255, 40];
+
+/// Height of the strip under the image holding the title, the colour bar,
+/// its labels and two rows of legend.
+const STRIP: u32 = 6 * LINE_HEIGHT + 20;
 /// Narrowest canvas, so the scale stays legible under small images.
 const MIN_WIDTH: u32 = 280;
 
@@ -39,6 +47,9 @@ impl Scale {
         if v.is_infinite() {
             return MISMATCH;
         }
+        if self.is_beyond(v) {
+            return OVER_RANGE;
+        }
         let c = match *self {
             Scale::Magnitude { max } => colorous::MAGMA.eval_continuous(f64::from((v / max).clamp(0.0, 1.0))),
             Scale::Signed { max } => {
@@ -46,6 +57,35 @@ impl Scale {
             }
         };
         [c.r, c.g, c.b]
+    }
+
+    /// A scale for `values` chosen from the data: their 99th percentile (of
+    /// the finite magnitudes) rounded up to 1, 2 or 5 times a power of ten, so
+    /// outliers do not wash the rest out and are marked beyond the scale;
+    /// `fallback` where no value is positive.
+    #[must_use]
+    pub fn from_data(values: &[f32], signed: bool, fallback: f32) -> Self {
+        let mut magnitudes: Vec<f32> = values.iter().filter(|v| v.is_finite()).map(|v| v.abs()).collect();
+        magnitudes.sort_by(f32::total_cmp);
+        let p99 = magnitudes.get((magnitudes.len().saturating_sub(1) * 99) / 100).copied().unwrap_or(0.0);
+        let max = if p99 > 0.0 { nice_ceiling(p99) } else { fallback };
+        if signed { Scale::Signed { max } } else { Scale::Magnitude { max } }
+    }
+
+    /// The scale's full-scale magnitude.
+    #[must_use]
+    pub fn max(&self) -> f32 {
+        match *self {
+            Scale::Magnitude { max } | Scale::Signed { max } => max,
+        }
+    }
+
+    /// Whether finite `v` lies beyond the scale.
+    fn is_beyond(&self, v: f32) -> bool {
+        match *self {
+            Scale::Magnitude { max } => v > max,
+            Scale::Signed { max } => v.abs() > max,
+        }
     }
 
     /// The lowest and highest values of the bar.
@@ -61,6 +101,34 @@ impl Scale {
 /// `title` and a colour bar labelled in `unit`.
 #[must_use]
 pub fn heat_map(values: &[f32], width: u32, height: u32, scale: Scale, title: &str, unit: &str) -> Rgb8Image {
+    heat_map_labelled(values, (width, height), scale, (title, unit), &SpecialLabels::default())
+}
+
+/// What a heat map's special colours mean where its values come from.
+#[derive(Clone, Copy, Debug)]
+pub struct SpecialLabels<'a> {
+    /// Pixels without a value (`NaN`).
+    pub no_value: &'a str,
+    /// Pixels with an infinite value.
+    pub infinite: &'a str,
+}
+
+impl Default for SpecialLabels<'_> {
+    /// The labels of a comparison of two renders.
+    fn default() -> Self {
+        Self { no_value: "missed by both", infinite: "hit in one only" }
+    }
+}
+
+/// [`heat_map`], with the special colours' legend saying what they mean here.
+#[must_use]
+pub fn heat_map_labelled(
+    values: &[f32],
+    (width, height): (u32, u32),
+    scale: Scale,
+    (title, unit): (&str, &str),
+    labels: &SpecialLabels,
+) -> Rgb8Image {
     let canvas_width = width.max(MIN_WIDTH);
     let mut img = Rgb8Image::filled(canvas_width, height + STRIP, [255, 255, 255]);
     for y in 0..height {
@@ -68,14 +136,44 @@ pub fn heat_map(values: &[f32], width: u32, height: u32, scale: Scale, title: &s
             img.put(i64::from(x), i64::from(y), scale.color(values[(y * width + x) as usize]));
         }
     }
-    let special = values.iter().any(|v| !v.is_finite());
-    draw_bar(&mut img, height, scale, title, unit, special);
+    draw_bar(&mut img, height, scale, title, unit, &legend(values, scale, labels));
     img
 }
 
-/// Draws the title, the bar and its labels; the legend of special colours only
-/// when the image uses them.
-fn draw_bar(img: &mut Rgb8Image, top: u32, scale: Scale, title: &str, unit: &str, legend: bool) {
+/// The legend entries an image needs: only the special colours it uses, and
+/// the share of its values beyond the scale.
+fn legend(values: &[f32], scale: Scale, labels: &SpecialLabels) -> Vec<([u8; 3], String)> {
+    let (mut nan, mut inf, mut beyond, mut finite) = (false, false, 0usize, 0usize);
+    for &v in values {
+        nan |= v.is_nan();
+        inf |= v.is_infinite();
+        if v.is_finite() {
+            finite += 1;
+            beyond += usize::from(scale.is_beyond(v));
+        }
+    }
+    let mut entries = vec![];
+    if inf {
+        entries.push((MISMATCH, labels.infinite.to_string()));
+    }
+    if nan {
+        entries.push((NO_VALUE, labels.no_value.to_string()));
+    }
+    if beyond > 0 {
+        let share = 100.0 * beyond as f64 / finite as f64;
+        entries.push((OVER_RANGE, format!("beyond scale: {} px ({share:.2}%)", beyond)));
+    }
+    entries
+}
+
+/// The smallest of 1, 2 and 5 times a power of ten at or above `x > 0`.
+fn nice_ceiling(x: f32) -> f32 {
+    let power = 10f32.powf(x.log10().floor());
+    [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * power).find(|&v| v >= x * (1.0 - 1e-6)).unwrap_or(10.0 * power)
+}
+
+/// Draws the title, the bar, its labels and the `legend` entries, two a row.
+fn draw_bar(img: &mut Rgb8Image, top: u32, scale: Scale, title: &str, unit: &str, legend: &[([u8; 3], String)]) {
     let black = [0, 0, 0];
     let margin = 8i64;
     let y0 = i64::from(top) + 4;
@@ -91,12 +189,15 @@ fn draw_bar(img: &mut Rgb8Image, top: u32, scale: Scale, title: &str, unit: &str
     for (x, y, text) in bar_labels(img.width, top, scale, unit) {
         img.text(x, y, &text, black);
     }
-    if !legend {
-        return;
-    }
     let legend_y = label_y + i64::from(LINE_HEIGHT) + 3;
-    for (k, (color, name)) in [(MISMATCH, "hit in one only"), (NO_VALUE, "missed by both")].into_iter().enumerate() {
-        img.legend_entry(margin + k as i64 * 140, legend_y, color, name);
+    // The share beyond the scale is long: it takes a row of its own.
+    let (mut row, mut column) = (0, 0);
+    for (color, name) in legend {
+        if column == 2 || (*color == OVER_RANGE && column > 0) {
+            (row, column) = (row + 1, 0);
+        }
+        img.legend_entry(margin + column * 140, legend_y + row * 12, *color, name);
+        column += 1;
     }
 }
 
@@ -172,8 +273,11 @@ mod tests {
     #[test]
     fn scales_saturate_and_mark_special_values() {
         let m = Scale::Magnitude { max: 2.0 };
-        assert_eq!(m.color(5.0), m.color(2.0));
+        // Beyond the scale is marked, not clipped into its brightest colour.
+        assert_eq!(m.color(5.0), OVER_RANGE);
+        assert_ne!(m.color(2.0), OVER_RANGE);
         assert_ne!(m.color(0.0), m.color(2.0));
+        assert_eq!(Scale::Signed { max: 1.0 }.color(-1.5), OVER_RANGE);
         assert_eq!(m.color(f32::NAN), NO_VALUE);
         assert_eq!(m.color(f32::INFINITY), MISMATCH);
         let s = Scale::Signed { max: 1.0 };
@@ -206,6 +310,30 @@ mod tests {
                 assert!(count > 5, "label {text} drawn");
             }
         }
+    }
+
+    #[test]
+    fn a_scale_from_the_data_is_a_round_number_at_the_99th_percentile() {
+        let mut values: Vec<f32> = (1..=1000).map(|k| k as f32 * 0.0037).collect();
+        values.extend([1e6, f32::NAN, f32::INFINITY]);
+        assert_eq!(Scale::from_data(&values, false, 1.0), Scale::Magnitude { max: 5.0 });
+        let negative: Vec<f32> = values.iter().map(|v| -v).collect();
+        assert_eq!(Scale::from_data(&negative, true, 1.0), Scale::Signed { max: 5.0 });
+        assert_eq!(Scale::from_data(&[0.0, f32::NAN], false, 0.1), Scale::Magnitude { max: 0.1 });
+        assert_eq!([nice_ceiling(0.29), nice_ceiling(41.9), nice_ceiling(1.0)], [0.5, 50.0, 1.0]);
+    }
+
+    #[test]
+    fn values_beyond_the_scale_are_counted_on_the_bar() {
+        let values = [0.5, 3.0, 0.1, 9.0];
+        let entries = legend(&values, Scale::Magnitude { max: 1.0 }, &SpecialLabels::default());
+        assert_eq!(entries, [(OVER_RANGE, "beyond scale: 2 px (50.00%)".to_string())]);
+        let img = heat_map(&values, 2, 2, Scale::Magnitude { max: 1.0 }, "t", "u");
+        let green = img.pixels.chunks(3).filter(|p| *p == OVER_RANGE).count();
+        assert!(green > 2, "the two pixels and the legend's swatch: {green}");
+        let labels = SpecialLabels { no_value: "gradient vanishes", infinite: "-" };
+        let entries = legend(&[f32::NAN, 0.0], Scale::Magnitude { max: 1.0 }, &labels);
+        assert_eq!(entries, [(NO_VALUE, "gradient vanishes".to_string())], "only what the image shows");
     }
 
     #[test]

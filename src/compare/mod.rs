@@ -11,7 +11,10 @@ mod rgb8_image;
 
 pub use cache_error::{CacheErrorStats, cache_error_at, cache_error_stats, error_colors};
 pub use diff::{DiffReport, Metric, Thresholds, Verdict, difference_at, differences, edge_mask, judge};
-pub use heatmap::{MISMATCH, NO_VALUE, SILHOUETTE_COLORS, Scale, heat_map, silhouette_map};
+pub use heatmap::{
+    MISMATCH, NO_VALUE, OVER_RANGE, SILHOUETTE_COLORS, Scale, SpecialLabels, heat_map, heat_map_labelled,
+    silhouette_map,
+};
 pub use load::{LoadedImage, load_image};
 pub use panel::{frame_image, panel};
 pub use plot::line_plot;

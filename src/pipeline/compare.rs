@@ -28,10 +28,41 @@ pub struct CompareSettings {
     pub polygonize: PolygonizeSettings,
     /// Also render the mesh coloured by error_C, brightest at this error (needs Cache nodes).
     pub error_scale: Option<f32>,
+    /// Full scales of the heat maps; each unset one is chosen from the data.
+    pub scales: ErrorScales,
+    /// The tolerances behind each error's "fraction above tolerance".
+    pub tolerances: Tolerances,
+}
+
+/// Full scales of a comparison's heat maps (`None`: chosen from the data).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct ErrorScales {
+    /// Depth error, lattice cells either way.
+    pub depth_cells: Option<f32>,
+    /// Normal error, degrees.
+    pub normal_deg: Option<f32>,
+    /// Colour difference, largest linear RGB channel.
+    pub color: Option<f32>,
+}
+
+impl ErrorScales {
+    /// Checks that every scale given is positive.
+    pub fn check(&self) -> Result<()> {
+        for (setting, v) in
+            [("scale_depth", self.depth_cells), ("scale_normal", self.normal_deg), ("scale_color", self.color)]
+        {
+            if let Some(v) = v
+                && !(v.is_finite() && v > 0.0)
+            {
+                return Err(PipelineError::setting(setting, format!("must be positive, got {v}")));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Tolerances behind each error image's "fraction above tolerance".
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Tolerances {
     /// Depth, in lattice cells.
     pub depth_cells: f32,
@@ -39,6 +70,26 @@ pub struct Tolerances {
     pub normal_deg: f32,
     /// Colour, largest linear RGB difference.
     pub color: f32,
+}
+
+impl Default for Tolerances {
+    fn default() -> Self {
+        Self { depth_cells: 0.25, normal_deg: 5.0, color: 0.05 }
+    }
+}
+
+impl Tolerances {
+    /// Checks that every tolerance is a non-negative number.
+    pub fn check(&self) -> Result<()> {
+        for (setting, v) in
+            [("tol_depth", self.depth_cells), ("tol_normal", self.normal_deg), ("tol_color", self.color)]
+        {
+            if !(v >= 0.0 && v.is_finite()) {
+                return Err(PipelineError::setting(setting, format!("must be a non-negative number, got {v}")));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Wall-clock seconds of each stage of a comparison.
@@ -96,18 +147,34 @@ pub struct CompareReport {
     pub stage_seconds: StageSeconds,
     /// Pixels hit by one render only.
     pub mismatch_px: usize,
-    /// Depth error (mesh − field), in lattice cells.
+    /// Depth error (mesh − field), in lattice cells: magnitudes.
     pub depth_error_cells: ErrorStats,
+    /// Mean signed depth error over pixels both hit, in lattice cells
+    /// (positive: the mesh lies behind the field's surface).
+    pub depth_bias_cells: f64,
     /// Normal angle error, degrees.
     pub normal_error_deg: ErrorStats,
     /// Colour difference.
     pub color_error: ErrorStats,
     /// The tolerances used.
     pub tolerances: Tolerances,
+    /// The heat maps' full scales, as given or chosen from the data.
+    pub scales: UsedScales,
     /// The field render.
     pub ray: RenderReport,
     /// The mesh render, with the polygonization.
     pub mesh: MeshRenderReport,
+}
+
+/// The full scales a comparison's heat maps were drawn with.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct UsedScales {
+    /// Depth error, lattice cells either way.
+    pub depth_cells: f32,
+    /// Normal error, degrees.
+    pub normal_deg: f32,
+    /// Colour difference.
+    pub color: f32,
 }
 
 /// The per-pixel errors of the mesh render against the field render.
@@ -158,6 +225,8 @@ pub fn compare(
     settings: &CompareSettings,
     progress: &dyn Progress,
 ) -> Result<Comparison> {
+    settings.scales.check()?;
+    settings.tolerances.check()?;
     settings.polygonize.check(&scene.model)?;
     let (ray, ray_report) = render_field(scene, settings.size, mode, progress);
     let (mesh_model, mut mesh_report) = polygonize_checked(&scene.model, mode, &settings.polygonize, progress);
@@ -170,7 +239,7 @@ pub fn compare(
         None => None,
     };
     let (mesh, mesh_render) = render_mesh(scene, &mesh_model, mesh_report, settings.size, progress);
-    let (errors, report) = measure(&ray, &mesh, ray_report, mesh_render);
+    let (errors, report) = measure(&ray, &mesh, ray_report, mesh_render, settings);
     Ok(Comparison { ray, mesh, by_error, error_scale: settings.error_scale, errors, report })
 }
 
@@ -180,10 +249,17 @@ fn measure(
     mesh: &Frame,
     ray_report: RenderReport,
     mesh_report: MeshRenderReport,
+    settings: &CompareSettings,
 ) -> (ErrorImages, CompareReport) {
     let start = std::time::Instant::now();
-    let tolerances = Tolerances { depth_cells: 0.25, normal_deg: 5.0, color: 0.05 };
+    let tolerances = settings.tolerances;
     let errors = ErrorImages::of(ray, mesh, mesh_report.mesh.cell_size);
+    let given = settings.scales;
+    let scales = UsedScales {
+        depth_cells: given.depth_cells.unwrap_or_else(|| Scale::from_data(&errors.depth_cells, true, 1.0).max()),
+        normal_deg: given.normal_deg.unwrap_or_else(|| Scale::from_data(&errors.normal_deg, false, 10.0).max()),
+        color: given.color.unwrap_or_else(|| Scale::from_data(&errors.color, false, 0.1).max()),
+    };
     let depth_error_cells = error_stats(&errors.depth_cells, tolerances.depth_cells);
     let normal_error_deg = error_stats(&errors.normal_deg, tolerances.normal_deg);
     let color_error = error_stats(&errors.color, tolerances.color);
@@ -198,13 +274,21 @@ fn measure(
         stage_seconds,
         mismatch_px: ray.depth.iter().zip(&mesh.depth).filter(|(a, b)| a.is_finite() != b.is_finite()).count(),
         depth_error_cells,
+        depth_bias_cells: finite_mean(&errors.depth_cells),
         normal_error_deg,
         color_error,
         tolerances,
+        scales,
         ray: ray_report,
         mesh: mesh_report,
     };
     (errors, report)
+}
+
+/// The mean of the finite values (pixels both renders hit), signs kept.
+fn finite_mean(values: &[f32]) -> f64 {
+    let (sum, n) = values.iter().filter(|v| v.is_finite()).fold((0.0, 0usize), |(s, n), &v| (s + f64::from(v), n + 1));
+    sum / n.max(1) as f64
 }
 
 /// The statistics of one error image over the pixels both renders hit.
@@ -251,7 +335,7 @@ impl Comparison {
         if let Some(frame) = &self.by_error {
             add_png("mesh_error.png", &|p| frame.png_bytes_for(p))?;
         }
-        let panel = self.panel(heat_maps.into_iter().map(|(title, _, img)| (title.to_string(), img)).collect());
+        let panel = self.panel(heat_maps.into_iter().map(|(title, _, img)| (title, img)).collect());
         add_png("panel.png", &|p| panel.png_bytes_for(p))?;
         for (name, frame) in [("ray.exr", &self.ray), ("mesh.exr", &self.mesh)] {
             let path = dir.join(name);
@@ -263,27 +347,32 @@ impl Comparison {
         Ok(json)
     }
 
-    /// The heat maps: panel title, file name, image.
-    fn heat_maps(&self) -> [(&'static str, &'static str, Rgb8Image); 4] {
-        let (ray, mesh, errors) = (&self.ray, &self.mesh, &self.errors);
+    /// The heat maps: panel title (with the headline statistics), file name, image.
+    fn heat_maps(&self) -> [(String, &'static str, Rgb8Image); 4] {
+        let (ray, mesh, errors, r) = (&self.ray, &self.mesh, &self.errors, &self.report);
         let (w, h) = (ray.width, ray.height);
         let heat = |values: &[f32], scale, title, unit| heat_map(values, w, h, scale, title, unit);
+        let (d, n, c, s) = (&r.depth_error_cells, &r.normal_error_deg, &r.color_error, r.scales);
         [
-            ("silhouette", "silhouette.png", silhouette_map(&ray.depth, &mesh.depth, w, h, ["field", "mesh"])),
             (
-                "depth error",
+                format!("silhouette: {} px hit by one only", r.mismatch_px),
+                "silhouette.png",
+                silhouette_map(&ray.depth, &mesh.depth, w, h, ["field", "mesh"]),
+            ),
+            (
+                format!("depth error: bias {:+.3}, mean {:.3}, p99 {:.3} cells", r.depth_bias_cells, d.mean, d.p99),
                 "depth_error.png",
-                heat(&errors.depth_cells, Scale::Signed { max: 1.0 }, "depth error, mesh - field", "cells"),
+                heat(&errors.depth_cells, Scale::Signed { max: s.depth_cells }, "depth error, mesh - field", "cells"),
             ),
             (
-                "normal error",
+                format!("normal error: mean {:.2}, p99 {:.1}, max {:.0} deg", n.mean, n.p99, n.max),
                 "normal_error.png",
-                heat(&errors.normal_deg, Scale::Magnitude { max: 10.0 }, "normal error", "deg"),
+                heat(&errors.normal_deg, Scale::Magnitude { max: s.normal_deg }, "normal error, angle", "deg"),
             ),
             (
-                "colour difference",
+                format!("colour difference: mean {:.4}, p99 {:.3}, max {:.2}", c.mean, c.p99, c.max),
                 "color_error.png",
-                heat(&errors.color, Scale::Magnitude { max: 0.1 }, "colour difference", ""),
+                heat(&errors.color, Scale::Magnitude { max: s.color }, "colour difference, max |dRGB|", "linear"),
             ),
         ]
     }

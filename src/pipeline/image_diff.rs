@@ -20,7 +20,7 @@ pub struct ImageDiffSettings {
     pub mask_edges: Option<u32>,
     /// Write a heat map of the differences here.
     pub heat_map: Option<PathBuf>,
-    /// The heat map's full-scale value (default: 0.1 for abs and rel, 10 degrees, 0.05 units of depth).
+    /// The heat map's full-scale value (default: chosen from the data, the p99 rounded up).
     pub scale: Option<f32>,
 }
 
@@ -59,12 +59,13 @@ impl ImageDiffSettings {
         }
     }
 
-    /// The heat map's fixed scale.
-    fn heat_scale(&self) -> Scale {
-        match self.metric {
-            Metric::Abs | Metric::Rel => Scale::Magnitude { max: self.scale.unwrap_or(0.1) },
-            Metric::Normal => Scale::Magnitude { max: self.scale.unwrap_or(10.0) },
-            Metric::Depth => Scale::Signed { max: self.scale.unwrap_or(0.05) },
+    /// The heat map's scale: the one given, or one chosen from `values`.
+    fn heat_scale(&self, values: &[f32]) -> Scale {
+        let signed = self.metric == Metric::Depth;
+        match self.scale {
+            Some(max) if signed => Scale::Signed { max },
+            Some(max) => Scale::Magnitude { max },
+            None => Scale::from_data(values, signed, if self.metric == Metric::Normal { 10.0 } else { 0.1 }),
         }
     }
 }
@@ -92,7 +93,7 @@ pub fn diff_images(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<D
     }
     if let Some(out) = &settings.heat_map {
         let title = format!("{:?} difference: {} vs {}", settings.metric, file_name(a), file_name(b)).to_lowercase();
-        let img = heat_map(&values, fa.width, fa.height, settings.heat_scale(), &title, settings.metric.unit());
+        let img = heat_map(&values, fa.width, fa.height, settings.heat_scale(&values), &title, settings.metric.unit());
         img.save_png(out).map_err(|e| ImageDiffError::File(format!("{e:#}")))?;
     }
     Ok(report)

@@ -55,8 +55,8 @@ mod threads;
 pub use crate::progress::{Progress, Silent, rows, stage};
 pub use cache_report::{CacheReport, NamedCacheStats};
 pub use compare::{
-    COMPARE_OUTPUTS, CompareReport, CompareSettings, Comparison, ErrorImages, ErrorStats, StageSeconds, Tolerances,
-    compare,
+    COMPARE_OUTPUTS, CompareReport, CompareSettings, Comparison, ErrorImages, ErrorScales, ErrorStats, StageSeconds,
+    Tolerances, UsedScales, compare,
 };
 pub use edit_session::{EditSession, FrameRow, FrameUpdate, Verification, outline_dirty};
 pub use error::{PipelineError, Result};

@@ -7,7 +7,7 @@ use glam::Vec3A;
 
 use super::error::{PipelineError, Result};
 use crate::cache::Filter;
-use crate::compare::{Rgb8Image, Scale, heat_map, panel};
+use crate::compare::{Rgb8Image, Scale, SpecialLabels, heat_map, heat_map_labelled, panel};
 use crate::field::{EvalMode, Field, ModelField};
 use crate::progress::Progress;
 use crate::scene::{Scene, parse_desc};
@@ -192,7 +192,9 @@ fn error_map(errors: &[f32], plane: &SlicePlane, view: SliceView, scale: Option<
         _ => (scale.unwrap_or(10.0), "gradient angle error", "deg"),
     };
     let title = format!("{title}, mean {:.2e}", mean_finite(errors));
-    heat_map(errors, plane.width, plane.height, Scale::Magnitude { max: scale }, &title, unit)
+    // A pixel without a value is one where a gradient vanishes.
+    let labels = SpecialLabels { no_value: "a gradient vanishes", infinite: "infinite" };
+    heat_map_labelled(errors, (plane.width, plane.height), Scale::Magnitude { max: scale }, (&title, unit), &labels)
 }
 
 /// Per pixel: the value of `field` (for error), or the angle in degrees
