@@ -22,12 +22,12 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 
 /// A file of a [`FileSet`] that could not be written.
 #[derive(Debug, thiserror::Error)]
-#[error("{}: could not write: {source}", path.display())]
+#[error("{}: could not write: {error}", path.display())]
 pub struct FileSetError {
     /// The file.
     pub path: PathBuf,
-    /// Why.
-    pub source: std::io::Error,
+    /// Why (in the message, not a separate cause, so it is said once).
+    pub error: std::io::Error,
 }
 
 /// Files written together: each goes to a temporary file first, and only
@@ -59,7 +59,7 @@ impl FileSet {
             if let Err(source) = write_synced(&tmp, bytes) {
                 let _ = std::fs::remove_file(&tmp);
                 remove_all(&written);
-                return Err(FileSetError { path: path.clone(), source });
+                return Err(FileSetError { path: path.clone(), error: source });
             }
             written.push((tmp, path));
         }
@@ -68,7 +68,7 @@ impl FileSet {
         for (k, (tmp, path)) in written.iter().enumerate() {
             if let Err(source) = std::fs::rename(tmp, path) {
                 remove_all(&written[k..]);
-                return Err(FileSetError { path: path.to_path_buf(), source });
+                return Err(FileSetError { path: path.to_path_buf(), error: source });
             }
         }
         Ok(())

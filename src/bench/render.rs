@@ -183,7 +183,9 @@ pub fn bench_cache(settings: &RenderBenchSettings, progress: &dyn Progress) -> R
     let ((_, naive, naive_runs), (exact_frame, exact, exact_runs)) = (naive.take(), exact.take());
     let ((cold_frame, cold, cold_runs), (warm_frame, warm, warm_runs)) = (cold.take(), warm.take());
     if cold_frame.color != warm_frame.color {
-        return Err(PipelineError::Mismatch("the warm cached render differs from the cold one".into()));
+        return Err(PipelineError::Unsuitable(
+            "internal error: the warm cached render differs from the cold one".into(),
+        ));
     }
     let diff = warm_frame.geometry_difference(&exact_frame);
     let mut lookups = with_threads(Some(1), || lookup_costs(&scene.model))?;

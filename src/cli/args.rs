@@ -214,11 +214,10 @@ pub fn check_output_dir(path: &Path) -> anyhow::Result<()> {
 pub fn check_output_file(path: &Path, extension: &str) -> anyhow::Result<()> {
     check_output_dir(path)?;
     let named = path.extension().is_some_and(|e| e.eq_ignore_ascii_case(extension));
-    anyhow::ensure!(
-        named,
-        "{}: the output is written as {extension}, so its name must end in .{extension}",
-        path.display()
-    );
+    if !named {
+        let problem = format!("the output is written as {extension}, so its name must end in .{extension}");
+        return Err(UsageError(format!("{}: {problem}", path.display())).into());
+    }
     Ok(())
 }
 

@@ -93,14 +93,17 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
         scales: a.judging.scales(),
         tolerances: a.judging.tolerances(),
     };
-    create_dir(&a.out_dir)?;
-    // A set half old and half new is worse than none: every name must be writable first.
-    for name in COMPARE_OUTPUTS {
-        check_output_dir(&a.out_dir.join(name))?;
+    // A set half old and half new is worse than none: every name must be
+    // writable before the work, and the folder is made only once it is done
+    // (a setting refused leaves no empty folder behind).
+    if a.out_dir.exists() {
+        check_outputs(&a.out_dir)?;
     }
     let bars = Bars::new();
     let comparison = with_threads(a.threads, || compare(&scene, mode, &settings, &bars))??;
     bars.finish();
+    create_dir(&a.out_dir)?;
+    check_outputs(&a.out_dir)?;
     let json = comparison.save(&a.out_dir)?;
     if a.json {
         println!("{json}");
@@ -108,6 +111,11 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
         print_summary(&a.out_dir, &comparison.report);
     }
     Ok(())
+}
+
+/// Checks that every name `compare` writes in `dir` can be written.
+fn check_outputs(dir: &std::path::Path) -> anyhow::Result<()> {
+    COMPARE_OUTPUTS.iter().try_for_each(|name| check_output_dir(&dir.join(name)))
 }
 
 fn print_summary(dir: &std::path::Path, r: &CompareReport) {

@@ -6,6 +6,7 @@ use anyhow::Context;
 use clap::Args;
 
 use super::args::{EvalOptions, PolygonizeArgs, check_output_dir, output_or_default, print_json, with_threads};
+use super::exit::UsageError;
 use super::progress::Bars;
 use crate::mesh::{MeshFormat, write_mesh};
 use crate::pipeline::{MeshReport, color_by_cache_error, polygonize};
@@ -62,7 +63,7 @@ pub fn run(a: &MeshArgs) -> anyhow::Result<()> {
     let mut scene = Scene::load(&a.scene)?;
     let mode = a.field.apply(&mut scene.model)?;
     let output = output_or_default(a.output.as_deref(), &a.scene, "ply");
-    let format = MeshFormat::from_path(&output).map_err(anyhow::Error::msg)?;
+    let format = MeshFormat::from_path(&output).map_err(UsageError)?;
     check_output_dir(&output)?;
     let bars = Bars::new();
     let (mesh, report) = with_threads(a.threads, || -> anyhow::Result<_> {

@@ -6,6 +6,7 @@
 use std::path::PathBuf;
 
 use super::args::{check_output_file, parse_size, scene_stem, with_threads};
+use super::exit::UsageError;
 use super::progress::Bars;
 use crate::cache::Filter;
 use crate::frame::Size;
@@ -83,7 +84,8 @@ pub fn run(a: &SliceArgs) -> anyhow::Result<()> {
     let text = std::fs::read_to_string(&a.scene).with_context(|| format!("reading {}", a.scene.display()))?;
     let label = a.scene.display().to_string();
     let scene = Scene::parse(&text, &label)?;
-    let plane = SlicePlane::parse(&a.plane, &scene.model.bounds(), a.size.0, a.size.1)?;
+    let plane = SlicePlane::parse(&a.plane, &scene.model.bounds(), a.size.0, a.size.1)
+        .map_err(|e| UsageError(e.to_string()))?;
     let settings = a.settings();
     settings.check(&scene)?;
     for warning in slice_warnings(&scene, &plane, &settings) {

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::args::{CameraArgs, EvalOptions, PolygonizeArgs, check_output_file, load_scene, parse_size, worker_pool};
+use super::exit::UsageError;
 use crate::frame::Size;
 use crate::pipeline::{EditSession, check_names};
 use crate::scene::{Script, load_script};
@@ -51,7 +52,8 @@ pub struct ViewArgs {
 
 /// Runs `blobtrace view`.
 pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
-    let actions = a.keys.iter().map(|k| Action::named(k)).collect::<anyhow::Result<Vec<_>>>()?;
+    let actions = a.keys.iter().map(|k| Action::named(k)).collect::<anyhow::Result<Vec<_>>>();
+    let actions = actions.map_err(|e| UsageError(format!("{e:#}")))?;
     check_output_file(&a.output, "png")?;
     let mut scene = load_scene(&a.scene, &a.camera)?;
     let mode = a.field.apply(&mut scene.model)?;

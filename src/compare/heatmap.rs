@@ -10,7 +10,7 @@ use super::rgb8_image::{LINE_HEIGHT, Rgb8Image};
 /// How values map to colours.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Scale {
-    /// `0..=max` through magma (larger is brighter); above `max`: [`OVER_RANGE`].
+    /// `0..=max` through magma (larger is brighter); above `max` or below 0: [`OVER_RANGE`].
     Magnitude {
         /// The value drawn in the brightest colour.
         max: f32,
@@ -62,7 +62,7 @@ impl Scale {
     /// A scale for `values` chosen from the data: their 99th percentile (of
     /// the finite magnitudes) rounded up to 1, 2 or 5 times a power of ten, so
     /// outliers do not wash the rest out and are marked beyond the scale;
-    /// `fallback` where no value is positive.
+    /// `fallback` where that percentile is zero.
     #[must_use]
     pub fn from_data(values: &[f32], signed: bool, fallback: f32) -> Self {
         let mut magnitudes: Vec<f32> = values.iter().filter(|v| v.is_finite()).map(|v| v.abs()).collect();
@@ -83,7 +83,7 @@ impl Scale {
     /// Whether finite `v` lies beyond the scale.
     fn is_beyond(&self, v: f32) -> bool {
         match *self {
-            Scale::Magnitude { max } => v > max,
+            Scale::Magnitude { max } => v > max || v < 0.0,
             Scale::Signed { max } => v.abs() > max,
         }
     }
@@ -169,7 +169,8 @@ fn legend(values: &[f32], scale: Scale, labels: &SpecialLabels) -> Vec<([u8; 3],
 /// The smallest of 1, 2 and 5 times a power of ten at or above `x > 0`.
 fn nice_ceiling(x: f32) -> f32 {
     let power = 10f32.powf(x.log10().floor());
-    [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * power).find(|&v| v >= x * (1.0 - 1e-6)).unwrap_or(10.0 * power)
+    let nice = [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * power).find(|&v| v >= x * (1.0 - 1e-6));
+    nice.filter(|v| v.is_finite()).unwrap_or(f32::MAX)
 }
 
 /// Draws the title, the bar, its labels and the `legend` entries, two a row.
@@ -278,6 +279,8 @@ mod tests {
         assert_ne!(m.color(2.0), OVER_RANGE);
         assert_ne!(m.color(0.0), m.color(2.0));
         assert_eq!(Scale::Signed { max: 1.0 }.color(-1.5), OVER_RANGE);
+        assert_eq!(m.color(-0.1), OVER_RANGE, "a magnitude scale has no room below zero either");
+        assert_eq!(nice_ceiling(3e38), f32::MAX);
         assert_eq!(m.color(f32::NAN), NO_VALUE);
         assert_eq!(m.color(f32::INFINITY), MISMATCH);
         let s = Scale::Signed { max: 1.0 };

@@ -190,28 +190,42 @@ impl EditSession {
     }
 
     /// Applies one frame's edits and updates everything incrementally. An edit
-    /// the model refuses leaves it as it was; an edited model the frame's work
-    /// cannot handle (grown too far for the lattice) is reported after the
-    /// edits were applied, and the images are then not updated.
+    /// the model refuses (which leaves the model as it was) ends the frame:
+    /// the edits before it stay applied, the images and mesh follow them, and
+    /// the refusal is returned. An edited model the frame's work cannot handle
+    /// (grown too far for the lattice) is reported with its edits applied and
+    /// the images not updated.
     pub fn apply(&mut self, edits: &[Edit]) -> Result<FrameUpdate> {
         let mut row = FrameRow { frame: self.frames, ..Default::default() };
         let clock = Instant::now();
-        let (mut regions, mut support_regions) = (vec![], vec![]);
+        let (mut regions, mut support_regions, mut refused) = (vec![], vec![], None);
         let cached = self.mode == EvalMode::Cached;
         for edit in edits {
-            let change = self.scene.model.apply(edit)?;
+            let change = match self.scene.model.apply(edit) {
+                Ok(change) => change,
+                Err(e) => {
+                    refused = Some(e);
+                    break;
+                }
+            };
             row.samples_cleared += change.samples_cleared;
             regions.push(self.scene.model.change_region(&change, cached));
             support_regions.extend(self.scene.model.change_support_regions(&change, cached));
         }
         row.apply_s = clock.elapsed().as_secs_f64();
+        if let Some(e) = refused.take_if(|_| regions.is_empty()) {
+            return Err(e.into());
+        }
         check_edited_model(&self.scene.model, self.polygonizer.lattice())?;
         let dirty = self.retrace(&support_regions, &mut row);
         self.remesh(&regions, &support_regions, &mut row);
         row.incremental_s = row.apply_s + row.field_s + row.polygonize_s + row.bvh_s + row.mesh_render_s + row.diff_s;
         row.triangles = self.dynamic.triangle_count();
         self.frames += 1;
-        Ok(FrameUpdate { row, dirty })
+        match refused {
+            Some(e) => Err(e.into()),
+            None => Ok(FrameUpdate { row, dirty }),
+        }
     }
 
     /// Re-traces the rays the change may have altered; returns the dirty rectangles.

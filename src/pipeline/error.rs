@@ -100,7 +100,7 @@ impl PipelineError {
 
 impl From<crate::output::FileSetError> for PipelineError {
     fn from(e: crate::output::FileSetError) -> Self {
-        Self::File { path: e.path, message: format!("could not write: {}", e.source) }
+        Self::File { path: e.path, message: format!("could not write: {}", e.error) }
     }
 }
 

@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 
 use super::error::PipelineError;
 use crate::compare::{
-    DiffReport, Metric, Scale, Thresholds, Verdict, differences, edge_mask, heat_map, judge, load_image,
+    DiffReport, Metric, Scale, SpecialLabels, Thresholds, Verdict, differences, edge_mask, heat_map_labelled, judge,
+    load_image,
 };
 
 /// How to compare two images.
@@ -93,7 +94,12 @@ pub fn diff_images(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<D
     }
     if let Some(out) = &settings.heat_map {
         let title = format!("{:?} difference: {} vs {}", settings.metric, file_name(a), file_name(b)).to_lowercase();
-        let img = heat_map(&values, fa.width, fa.height, settings.heat_scale(&values), &title, settings.metric.unit());
+        let labels = match settings.metric {
+            Metric::Depth | Metric::Normal => SpecialLabels::default(),
+            Metric::Abs | Metric::Rel => SpecialLabels { no_value: "not a number", infinite: "infinite" },
+        };
+        let (size, text) = ((fa.width, fa.height), (title.as_str(), settings.metric.unit()));
+        let img = heat_map_labelled(&values, size, settings.heat_scale(&values), text, &labels);
         img.save_png(out).map_err(|e| ImageDiffError::File(format!("{e:#}")))?;
     }
     Ok(report)

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use super::error::{PipelineError, Result};
-use super::polygonize::{PolygonizeSettings, polygonize};
+use super::polygonize::{MAX_RES, PolygonizeSettings, polygonize};
 use super::render::{render_field, render_mesh};
 use crate::compare::{DiffReport, Metric, Scale, Thresholds, Verdict, differences, heat_map, judge, load_image};
 use crate::field::EvalMode;
@@ -135,6 +135,12 @@ pub fn load_manifest(refs: &Path, scenes: &Path) -> Result<Manifest> {
         if !scene.is_file() {
             let (line, column) = positions.get(k).copied().unwrap_or((1, 1));
             return Err(syntax(line, column, format!("no scene {:?} in {}", entry.scene, scenes.display())));
+        }
+        if let Kind::Mesh(res) = entry.kind
+            && !(1..=MAX_RES).contains(&res)
+        {
+            let (line, column) = positions.get(k).copied().unwrap_or((1, 1));
+            return Err(syntax(line, column, format!("Mesh({res}): the resolution must be between 1 and {MAX_RES}")));
         }
         Scene::load(&scene)?;
     }
@@ -276,7 +282,9 @@ fn write_html(path: &Path, rows: &[RegressRow]) -> Result<()> {
             Some(d) => (format!("{:?}", d.verdict), format!("{:.4}", d.max), d.over_fail_px.to_string()),
             None => ("Fail".into(), "no reference".into(), "-".into()),
         };
-        let images = if verdict == "Fail" {
+        let images = if diff.is_none() {
+            format!("<img src=\"actual-{name}\" title=\"actual\">")
+        } else if verdict == "Fail" {
             ["ref", "actual", "diff", "heat"]
                 .map(|kind| format!("<img src=\"{kind}-{name}\" title=\"{kind}\">"))
                 .join(" ")
