@@ -203,7 +203,7 @@ fn missing_scene_and_bad_options_fail_cleanly() {
 
 #[test]
 fn usage_errors_exit_64_in_every_command_and_other_errors_1() {
-    let usage: [&[&str]; 9] = [
+    let usage: [&[&str]; 13] = [
         &["render", "scenes/pair.ron", "--size", "0x10"],
         &["render", "scenes/pair.ron", "--mesh", "--res", "0", "-o", "/tmp/blobtrace-never.png"],
         &["mesh", "scenes/pair.ron", "--res", "0", "-o", "/tmp/blobtrace-never.ply"],
@@ -213,6 +213,10 @@ fn usage_errors_exit_64_in_every_command_and_other_errors_1() {
         &["render", "scenes/pair.ron", "--cache-budget", "0.001"],
         &["render", "scenes/pair.ron", "--eye", "1,2"],
         &["diff", "a.png"],
+        &["slice", "scenes/pair.ron", "--plane", "w=1"],
+        &["view", "scenes/pair.ron", "--headless", "--keys", "f13"],
+        &["render", "scenes/pair.ron", "-o", "/tmp/blobtrace-never.jpg"],
+        &["mesh", "scenes/pair.ron", "-o", "/tmp/blobtrace-never.gltf"],
     ];
     for args in usage {
         let out = blobtrace(args);

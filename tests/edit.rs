@@ -316,3 +316,19 @@ fn a_part_without_support_turns_and_scales_about_its_parts() {
     let b = scene.model.sizing_bounds_of(apart);
     assert!(b.center().length() < 1e-5 && (b.size().y - 1.5).abs() < 1e-4, "halved along y: {b:?}");
 }
+
+#[test]
+fn an_edit_refused_mid_frame_leaves_the_session_following_the_edits_before_it() {
+    let scene = bundled("hair_point.ron");
+    let polygonize = PolygonizeSettings { res: 16, ..Default::default() };
+    let mut session = EditSession::new(scene, EvalMode::Cached, Size(48, 36), &polygonize).unwrap();
+    let frame = [
+        Edit::Translate { node: "probe".into(), by: Vec3::new(0.2, 0.0, 0.0) },
+        Edit::Translate { node: "nobody".into(), by: Vec3::X },
+    ];
+    let err = session.apply(&frame).expect_err("the second edit is refused").to_string();
+    assert!(err.contains("no node is named"), "{err}");
+    assert_eq!(session.frames(), 1, "the first edit made a frame");
+    let check = session.verify().mismatch;
+    assert!(check.is_none(), "the images and mesh follow the first edit: {check:?}");
+}
