@@ -753,6 +753,52 @@ fn regression_passes_on_the_bundled_references_and_fails_on_a_perturbed_model() 
 }
 
 #[test]
+fn regress_shards_cover_every_entry_once_and_report_junit() {
+    let dir = scratch("shards");
+    let manifest = std::fs::read_to_string("images/ref/manifest.ron").unwrap();
+    let entries = manifest.lines().filter(|l| l.trim_start().starts_with("Entry(")).count();
+    let mut seen: Vec<String> = vec![];
+    for shard in ["1/3", "2/3", "3/3"] {
+        let junit = dir.join(format!("junit-{}.xml", &shard[..1]));
+        let report = dir.join(format!("report-{}", &shard[..1]));
+        let args = ["regress", "--shard", shard, "--threads", "1", "--junit", junit.to_str().unwrap(), "--report"];
+        let out = blobtrace(&[&args[..], &[report.to_str().unwrap()]].concat());
+        assert!(out.status.success(), "{shard}: {}", String::from_utf8_lossy(&out.stderr));
+        let xml = std::fs::read_to_string(&junit).unwrap();
+        let doc = roxmltree::Document::parse(&xml).expect("JUnit XML parses");
+        let cases: Vec<String> = doc
+            .descendants()
+            .filter(|n| n.has_tag_name("testcase"))
+            .map(|n| n.attribute("name").unwrap().to_string())
+            .collect();
+        assert!(!cases.is_empty() && doc.descendants().all(|n| !n.has_tag_name("failure")), "{xml}");
+        seen.extend(cases);
+    }
+    let mut unique = seen.clone();
+    unique.sort();
+    unique.dedup();
+    assert_eq!((seen.len(), unique.len()), (entries, entries), "every entry once: {seen:?}");
+    // A filter runs only the entries it names.
+    let junit = dir.join("pair.xml");
+    let out = blobtrace(&[
+        "regress",
+        "--filter",
+        "pair-",
+        "--junit",
+        junit.to_str().unwrap(),
+        "--report",
+        dir.join("p").to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    assert_eq!(xml.matches("<testcase").count(), 2, "{xml}");
+    for bad in ["0/3", "4/3", "x"] {
+        assert_eq!(blobtrace(&["regress", "--shard", bad]).status.code(), Some(64), "{bad}");
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
 fn edit_replays_a_script_incrementally_and_verifies_every_frame() {
     let dir = scratch("edit");
     let out = blobtrace(&[

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use super::args::{check_output_file, with_threads};
 use super::progress::Bars;
 use crate::pipeline::{RegressSettings, regress};
 
@@ -25,15 +26,46 @@ pub struct RegressArgs {
     /// Directory for actual images, heat maps of failures and index.html.
     #[arg(long, default_value = "regress-report")]
     pub report: PathBuf,
+    /// Only the entries whose reference name contains PATTERN.
+    #[arg(long, value_name = "PATTERN")]
+    pub filter: Option<String>,
+    /// Only shard I of N (e.g. 2/3): N shards, one per CI job, run every entry once.
+    #[arg(long, value_name = "I/N", value_parser = parse_shard)]
+    pub shard: Option<(usize, usize)>,
+    /// Also write JUnit XML of the results (one test case per entry) here.
+    #[arg(long, value_name = "FILE")]
+    pub junit: Option<PathBuf>,
+    /// Worker threads (default: all cores). The renders are identical for any count.
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// Parses `I/N`.
+fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let parse = |v: &str| v.trim().parse::<usize>().ok();
+    match s.split_once('/').and_then(|(i, n)| Some((parse(i)?, parse(n)?))) {
+        Some((i, n)) if (1..=n).contains(&i) => Ok((i, n)),
+        _ => Err(format!("expected I/N with 1 <= I <= N, such as 2/3, got {s:?}")),
+    }
 }
 
 /// Runs `blobtrace regress`.
 pub fn run(a: &RegressArgs) -> anyhow::Result<()> {
-    let settings =
-        RegressSettings { scenes: a.scenes.clone(), refs: a.refs.clone(), bless: a.bless, report: a.report.clone() };
+    if let Some(junit) = &a.junit {
+        check_output_file(junit, "xml")?;
+    }
+    let settings = RegressSettings {
+        scenes: a.scenes.clone(),
+        refs: a.refs.clone(),
+        bless: a.bless,
+        report: a.report.clone(),
+        filter: a.filter.clone(),
+        shard: a.shard,
+        junit: a.junit.clone(),
+    };
     let bars = Bars::new();
     let log = |line: &str| bars.suspend(|| eprintln!("{line}"));
-    let summary = regress(&settings, &bars, &log)?;
+    let summary = with_threads(a.threads, || regress(&settings, &bars, &log))??;
     bars.finish();
     if a.bless {
         return Ok(());

@@ -45,6 +45,7 @@ mod edit_session;
 mod error;
 mod eval;
 mod image_diff;
+mod junit;
 mod polygonize;
 mod regress;
 mod render;
@@ -62,6 +63,7 @@ pub use edit_session::{EditSession, FrameRow, FrameUpdate, Verification, outline
 pub use error::{PipelineError, Result};
 pub use eval::{EvalSettings, ExactLookup, FieldChoice, MB};
 pub use image_diff::{ImageDiffError, ImageDiffSettings, diff_images};
+pub use junit::junit_xml;
 pub use polygonize::{
     MAX_REFINE, MAX_RES, MeshReport, PolygonizeSettings, cells_name, color_by_cache_error, polygonize, polygonizer_on,
     vertex_name,

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use super::error::{PipelineError, Result};
+use super::junit::junit_xml;
 use super::polygonize::{MAX_RES, PolygonizeSettings, polygonize};
 use super::render::{render_field, render_mesh};
 use crate::compare::{DiffReport, Metric, Scale, Thresholds, Verdict, differences, heat_map, judge, load_image};
@@ -28,6 +29,31 @@ pub struct RegressSettings {
     pub bless: bool,
     /// Directory for actual images, heat maps of failures and index.html.
     pub report: PathBuf,
+    /// Only the entries whose reference name contains this.
+    pub filter: Option<String>,
+    /// Only shard `i` of `n` (from 1): the entries whose place in the manifest
+    /// is `i − 1` modulo `n`, so `n` shards together run every entry once.
+    pub shard: Option<(usize, usize)>,
+    /// Also write JUnit XML of the results here.
+    pub junit: Option<PathBuf>,
+}
+
+impl RegressSettings {
+    /// Whether the entry at `place` in the manifest, named `name`, runs.
+    fn selects(&self, place: usize, name: &str) -> bool {
+        let in_shard = self.shard.is_none_or(|(i, n)| place % n == i - 1);
+        in_shard && self.filter.as_deref().is_none_or(|f| name.contains(f))
+    }
+
+    /// Checks the shard before any work.
+    fn check(&self) -> Result<()> {
+        match self.shard {
+            Some((i, n)) if !(1..=n).contains(&i) => {
+                Err(PipelineError::setting("shard", format!("must be I/N with 1 <= I <= N, got {i}/{n}")))
+            }
+            _ => Ok(()),
+        }
+    }
 }
 
 /// The manifest: which renders are guarded, and how strictly.
@@ -150,14 +176,22 @@ pub fn load_manifest(refs: &Path, scenes: &Path) -> Result<Manifest> {
 /// Renders every entry of the manifest and compares it with its reference,
 /// or blesses them all; `log` hears one line per entry.
 pub fn regress(settings: &RegressSettings, progress: &dyn Progress, log: &dyn Fn(&str)) -> Result<RegressSummary> {
+    settings.check()?;
     let manifest = load_manifest(&settings.refs, &settings.scenes)?;
+    let entries: Vec<&Entry> = manifest
+        .entries
+        .iter()
+        .enumerate()
+        .filter(|(k, e)| settings.selects(*k, &e.file_name()))
+        .map(|(_, e)| e)
+        .collect();
     if !settings.bless {
         std::fs::create_dir_all(&settings.report)
             .map_err(|e| PipelineError::File { path: settings.report.clone(), message: e.to_string() })?;
     }
     let mut summary = RegressSummary { rows: vec![], blessed: vec![] };
-    let n = manifest.entries.len() as u64;
-    for (i, entry) in manifest.entries.iter().enumerate() {
+    let n = entries.len() as u64;
+    for (i, entry) in entries.into_iter().enumerate() {
         progress.update("regression entries", i as u64, n);
         let actual = render_entry(&settings.scenes, entry).map_err(|e| e.at(entry.file_name()))?;
         let reference = settings.refs.join(entry.file_name());
@@ -172,6 +206,10 @@ pub fn regress(settings: &RegressSettings, progress: &dyn Progress, log: &dyn Fn
     progress.update("regression entries", n, n);
     if !settings.bless {
         write_html(&settings.report.join("index.html"), &summary.rows)?;
+    }
+    if let Some(path) = &settings.junit {
+        crate::output::write_atomic(path, junit_xml("blobtrace regress", &summary.rows).as_bytes())
+            .map_err(|e| PipelineError::File { path: path.clone(), message: e.to_string() })?;
     }
     Ok(summary)
 }
