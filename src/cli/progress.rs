@@ -2,7 +2,7 @@
 //! stage, shown only once a job has run for about a second, and never when
 //! stderr is not a terminal.
 
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -14,13 +14,39 @@ const SHOW_AFTER: Duration = Duration::from_secs(1);
 
 /// Draws the stage being reported as a bar (a spinner when its length is unknown).
 pub struct Bars {
+    shared: Arc<Shared>,
+}
+
+/// What the job's thread and the thread that reveals the bar share.
+struct Shared {
     start: Instant,
-    current: Mutex<Option<(String, ProgressBar)>>,
+    state: Mutex<State>,
+}
+
+#[derive(Default)]
+struct State {
+    /// The stage shown and its bar.
+    current: Option<(String, ProgressBar)>,
+    /// Whether the job is done: nothing more is to be drawn.
+    finished: bool,
 }
 
 impl Default for Bars {
     fn default() -> Self {
-        Self { start: Instant::now(), current: Mutex::new(None) }
+        let shared = Arc::new(Shared { start: Instant::now(), state: Mutex::new(State::default()) });
+        // A stage still running after the delay is revealed even if it reports
+        // nothing more (a long polygonization's growth, say).
+        let waiting = Arc::clone(&shared);
+        std::thread::spawn(move || {
+            std::thread::sleep(SHOW_AFTER);
+            if let Ok(state) = waiting.state.lock()
+                && !state.finished
+                && let Some((_, bar)) = &state.current
+            {
+                bar.set_draw_target(ProgressDrawTarget::stderr());
+            }
+        });
+        Self { shared }
     }
 }
 
@@ -33,19 +59,20 @@ impl Bars {
 
     /// Runs `f` (which prints) with the bar out of the way.
     pub fn suspend<R>(&self, f: impl FnOnce() -> R) -> R {
-        let bar = self.current.lock().ok().and_then(|c| c.as_ref().map(|(_, b)| b.clone()));
+        let bar = self.shared.state.lock().ok().and_then(|s| s.current.as_ref().map(|(_, b)| b.clone()));
         match bar {
             Some(bar) => bar.suspend(f),
             None => f(),
         }
     }
 
-    /// Removes the bar.
+    /// Removes the bar; nothing is drawn after.
     pub fn finish(&self) {
-        if let Ok(mut current) = self.current.lock()
-            && let Some((_, bar)) = current.take()
-        {
-            bar.finish_and_clear();
+        if let Ok(mut state) = self.shared.state.lock() {
+            state.finished = true;
+            if let Some((_, bar)) = state.current.take() {
+                bar.finish_and_clear();
+            }
         }
     }
 }
@@ -58,16 +85,18 @@ impl Drop for Bars {
 
 impl Progress for Bars {
     fn update(&self, stage: &str, done: u64, total: u64) {
-        let Ok(mut current) = self.current.lock() else { return };
-        if current.as_ref().is_none_or(|(name, _)| name != stage) {
-            if let Some((_, old)) = current.take() {
+        let Ok(mut state) = self.shared.state.lock() else { return };
+        if state.finished {
+            return;
+        }
+        if state.current.as_ref().is_none_or(|(name, _)| name != stage) {
+            if let Some((_, old)) = state.current.take() {
                 old.finish_and_clear();
             }
-            *current = Some((stage.to_string(), new_bar(stage, total)));
+            state.current = Some((stage.to_string(), new_bar(stage, total)));
         }
-        let Some((_, bar)) = current.as_ref() else { return };
-        // A stage of unknown length shows at once: nothing later would reveal it.
-        if bar.is_hidden() && (total == 0 || self.start.elapsed() > SHOW_AFTER) {
+        let Some((_, bar)) = state.current.as_ref() else { return };
+        if bar.is_hidden() && self.shared.start.elapsed() > SHOW_AFTER {
             // stderr() draws nothing when stderr is not a terminal.
             bar.set_draw_target(ProgressDrawTarget::stderr());
         }
