@@ -82,6 +82,15 @@ pub enum CellsArg {
     Bcc,
 }
 
+impl From<CellsArg> for CellShape {
+    fn from(c: CellsArg) -> Self {
+        match c {
+            CellsArg::Cubes => CellShape::Cubes,
+            CellsArg::Bcc => CellShape::Bcc,
+        }
+    }
+}
+
 /// Vertex placement on crossed edges.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
 pub enum VertexArg {
@@ -116,10 +125,7 @@ impl PolygonizeArgs {
     pub fn settings(&self) -> PolygonizeSettings {
         PolygonizeSettings {
             res: self.res,
-            cells: match self.cells {
-                CellsArg::Cubes => CellShape::Cubes,
-                CellsArg::Bcc => CellShape::Bcc,
-            },
+            cells: self.cells.into(),
             vertex: match self.vertex {
                 VertexArg::Root => VertexPlacement::default(),
                 VertexArg::Linear => VertexPlacement::Linear,

@@ -13,7 +13,6 @@ use crate::bench::{
     MeshBenchSettings, RenderBenchSettings, bench_cache, bench_edit, bench_eval, bench_mesh,
 };
 use crate::frame::Size;
-use crate::mesh::CellShape;
 use crate::pipeline::RenderReport;
 
 /// Benchmarks.
@@ -157,10 +156,7 @@ impl MeshBenchArgs {
             res: self.res.clone(),
             detail_res: self.detail_res,
             size: self.size,
-            cells: match self.cells {
-                CellsArg::Cubes => CellShape::Cubes,
-                CellsArg::Bcc => CellShape::Bcc,
-            },
+            cells: self.cells.into(),
             threads: self.threads,
         }
     }

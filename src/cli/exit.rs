@@ -40,9 +40,6 @@ fn with_flags(err: &PipelineError) -> String {
     match err {
         PipelineError::Setting { setting, problem } => format!("--{} {problem}", setting.replace('_', "-")),
         PipelineError::At { at, source } => format!("{at}: {}", with_flags(source)),
-        PipelineError::MeshTooLarge { .. } | PipelineError::EditedTooLarge { .. } => {
-            err.to_string().replace("res ", "--res ").replace("for res", "for --res")
-        }
         _ => err.to_string(),
     }
 }

@@ -14,7 +14,7 @@ use crate::compare::{
     DiffReport, Metric, Rgb8Image, Scale, Thresholds, differences, frame_image, heat_map, judge, panel, silhouette_map,
 };
 use crate::field::EvalMode;
-use crate::frame::{Frame, FrameIoError, Size};
+use crate::frame::{Frame, Size};
 use crate::output::FileSet;
 use crate::progress::Progress;
 use crate::scene::Scene;
@@ -320,23 +320,20 @@ impl Comparison {
     /// `dir`, all of them or none; returns stats.json's text.
     pub fn save(&self, dir: &Path) -> Result<String> {
         let mut files = FileSet::new();
-        let mut add_png = |name: &str, bytes: &dyn Fn(&Path) -> std::result::Result<Vec<u8>, FrameIoError>| {
+        let mut frames = vec![("ray.png", &self.ray), ("mesh.png", &self.mesh)];
+        frames.extend(self.by_error.as_ref().map(|frame| ("mesh_error.png", frame)));
+        for (name, frame) in frames {
             let path = dir.join(name);
-            let png = bytes(&path)?;
-            files.add(path, png);
-            Ok::<(), PipelineError>(())
-        };
-        add_png("ray.png", &|p| self.ray.png_bytes_for(p))?;
-        add_png("mesh.png", &|p| self.mesh.png_bytes_for(p))?;
-        let heat_maps = self.heat_maps();
-        for (_, file, img) in &heat_maps {
-            add_png(file, &|p| img.png_bytes_for(p))?;
+            files.add(&path, frame.png_bytes_for(&path)?);
         }
-        if let Some(frame) = &self.by_error {
-            add_png("mesh_error.png", &|p| frame.png_bytes_for(p))?;
+        let heat_maps = self.heat_maps();
+        for (_, name, img) in &heat_maps {
+            let path = dir.join(name);
+            files.add(&path, img.png_bytes_for(&path)?);
         }
         let panel = self.panel(heat_maps.into_iter().map(|(title, _, img)| (title, img)).collect());
-        add_png("panel.png", &|p| panel.png_bytes_for(p))?;
+        let path = dir.join("panel.png");
+        files.add(&path, panel.png_bytes_for(&path)?);
         for (name, frame) in [("ray.exr", &self.ray), ("mesh.exr", &self.mesh)] {
             let path = dir.join(name);
             files.add(&path, frame.exr_bytes(&path)?);

@@ -30,7 +30,7 @@ pub enum PipelineError {
     Unsuitable(String),
     /// A mesh lattice whose mesh would not fit in memory.
     #[error(
-        "res {res} would need about {need_gib:.1} GiB for the mesh, more than the {available_gib:.1} GiB available"
+        "a mesh lattice of resolution {res} would need about {need_gib:.1} GiB, more than 80% of the {available_gib:.1} GiB available"
     )]
     MeshTooLarge {
         /// The lattice resolution asked for.
@@ -42,7 +42,7 @@ pub enum PipelineError {
     },
     /// Edits grew the model past what its mesh lattice may span.
     #[error(
-        "the edited model spans {cells:.0} cells of the mesh lattice, more than {max}: the edits grow it too far for res"
+        "the edited model spans {cells:.0} cells of the mesh lattice, more than {max}: the edits grow it too far for the lattice's resolution"
     )]
     EditedTooLarge {
         /// Cells the model's bounds now span.
