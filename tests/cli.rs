@@ -451,9 +451,17 @@ fn diff_follows_idiff_exit_codes_and_writes_a_heat_map() {
     let (ray, mesh) = (path("ray.exr"), path("mesh.exr"));
     assert_eq!(code(&["diff", &ray, &ray]), Some(0));
     assert_eq!(code(&["diff", &ray, &mesh]), Some(2));
-    assert_eq!(code(&["diff", &ray, &mesh, "--fail", "1", "--warn", "0.01"]), Some(1));
-    assert_eq!(code(&["diff", &ray, &mesh, "--fail", "1", "--warn", "1"]), Some(0));
-    assert_eq!(code(&["diff", &ray, &mesh, "--fail", "1", "--warn", "1", "--hardfail", "0.05"]), Some(2));
+    // Every channel is compared: depth hit by one render only fails whatever the thresholds.
+    assert_eq!(code(&["diff", &ray, &mesh, "--fail", "1", "--warn", "1"]), Some(2));
+    let colour = ["--channels", "R,G,B,A"];
+    let with_colour = |args: &[&str]| code(&[&["diff", &ray, &mesh], &colour[..], args].concat());
+    // As in idiff, a warning needs failures (tolerated by --failpercent) and warnings above theirs.
+    assert_eq!(with_colour(&["--fail", "1", "--warn", "0.01"]), Some(0));
+    assert_eq!(with_colour(&["--fail", "0.01", "--failpercent", "50", "--warn", "0.01"]), Some(1));
+    assert_eq!(with_colour(&["--fail", "1", "--warn", "1"]), Some(0));
+    assert_eq!(with_colour(&["--fail", "0.01", "--failpercent", "50", "--hardfail", "0.05"]), Some(2));
+    assert_eq!(with_colour(&["--allowfailures", "100000"]), Some(0));
+    assert_eq!(code(&["diff", &ray, &mesh, "--channels", "R,Q"]), Some(4));
     assert_eq!(code(&["diff", &path("ray.png"), &path("small.png")]), Some(3));
     assert_eq!(code(&["diff", &ray, &path("missing.exr")]), Some(4));
     assert_eq!(code(&["diff", &path("ray.png"), &path("mesh.png"), "--metric", "depth"]), Some(4));

@@ -5,21 +5,24 @@
 //! sub-pixel shift of an edge changes them completely without anything being
 //! wrong; they are reported separately.
 
+use super::flip::FlipStats;
 use crate::frame::Frame;
 
 /// What is compared per pixel.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Metric {
-    /// Largest absolute difference of the linear R, G, B values.
+    /// Absolute difference per channel, as idiff compares (per pixel: the
+    /// largest over the channels).
     #[default]
     Abs,
-    /// Largest difference of R, G, B relative to the larger of the two values.
-    Rel,
     /// Angle between the normals, in degrees (both images need `N.X,N.Y,N.Z`).
     Normal,
     /// Depth of the first minus depth of the second (both need `Z`); signed.
     Depth,
+    /// The LDR-ꟻLIP perceptual error of the second image against the first
+    /// (the reference), in `[0, 1]`.
+    Flip,
 }
 
 impl Metric {
@@ -27,7 +30,7 @@ impl Metric {
     #[must_use]
     pub fn unit(self) -> &'static str {
         match self {
-            Metric::Abs | Metric::Rel => "",
+            Metric::Abs | Metric::Flip => "",
             Metric::Normal => "deg",
             Metric::Depth => "units",
         }
@@ -45,12 +48,7 @@ pub fn differences(a: &Frame, b: &Frame, metric: Metric) -> Vec<f32> {
 #[must_use]
 pub fn difference_at(a: &Frame, b: &Frame, i: usize, metric: Metric) -> f32 {
     match metric {
-        Metric::Abs => (a.color[i] - b.color[i]).abs().max_element(),
-        Metric::Rel => {
-            let d = (a.color[i] - b.color[i]).abs();
-            let m = a.color[i].abs().max(b.color[i].abs()).max(glam::Vec3::splat(1e-3));
-            (d / m).max_element()
-        }
+        Metric::Abs | Metric::Flip => (a.color[i] - b.color[i]).abs().max_element(),
         Metric::Normal | Metric::Depth => match (a.depth[i].is_finite(), b.depth[i].is_finite()) {
             (false, false) => f32::NAN,
             (true, true) if metric == Metric::Depth => a.depth[i] - b.depth[i],
@@ -90,24 +88,54 @@ pub fn edge_mask(a: &Frame, b: &Frame, k: u32) -> Vec<bool> {
     mask
 }
 
-/// Thresholds of a judgement (idiff's defaults: any difference above 1e-6 fails).
+/// Thresholds of a judgement, idiff's options and defaults (any difference
+/// above 1e-6 fails).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Thresholds {
     /// A pixel differing by more than this counts against `failpercent`.
     pub fail: f32,
+    /// ... and by more than this fraction of the mean of the two magnitudes.
+    pub failrelative: f32,
     /// Percentage of pixels allowed above `fail`.
     pub failpercent: f64,
     /// Any pixel above this fails the image.
     pub hardfail: f32,
+    /// Up to this many failed pixels pass, whatever their error.
+    pub allowfailures: usize,
     /// A pixel differing by more than this counts against `warnpercent`.
     pub warn: f32,
+    /// ... and by more than this fraction of the mean of the two magnitudes.
+    pub warnrelative: f32,
     /// Percentage of pixels allowed above `warn` before a warning.
     pub warnpercent: f64,
+    /// Any pixel above this warns.
+    pub hardwarn: f32,
 }
 
 impl Default for Thresholds {
     fn default() -> Self {
-        Self { fail: 1e-6, failpercent: 0.0, hardfail: f32::INFINITY, warn: 1e-6, warnpercent: 0.0 }
+        Self {
+            fail: 1e-6,
+            failrelative: 0.0,
+            failpercent: 0.0,
+            hardfail: f32::INFINITY,
+            allowfailures: 0,
+            warn: 1e-6,
+            warnrelative: 0.0,
+            warnpercent: 0.0,
+            hardwarn: f32::INFINITY,
+        }
+    }
+}
+
+impl Thresholds {
+    /// idiff's test for one finite difference `f`: above the absolute
+    /// threshold and above the relative one (`f` against the mean of the two
+    /// magnitudes). Non-finite values are judged before, as mismatches.
+    #[must_use]
+    pub fn exceeds(threshold: f32, relative: f32, f: f64, mean_magnitude: f32) -> bool {
+        let rel = if mean_magnitude > 0.0 { f / f64::from(mean_magnitude) } else { 0.0 };
+        f > f64::from(threshold) && rel > f64::from(relative)
     }
 }
 
@@ -123,11 +151,58 @@ pub enum Verdict {
     Fail,
 }
 
+/// Where the largest difference is, and both images' values there.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MaxAt {
+    /// Column.
+    pub x: u32,
+    /// Row.
+    pub y: u32,
+    /// The channel (for the depth and normal metrics, the metric's name).
+    pub channel: String,
+    /// The first image's values at that pixel, every channel.
+    pub a: Vec<f32>,
+    /// The second image's values there.
+    pub b: Vec<f32>,
+}
+
+/// The sums a judgement is made from, before percentiles and verdict.
+#[derive(Clone, Debug, Default)]
+pub struct Totals {
+    /// Pixels judged.
+    pub compared: usize,
+    /// Values the mean and RMS divide by: every channel of every judged
+    /// pixel (idiff's), or for depth and normals the pixels both images hit.
+    pub values: usize,
+    /// Sum of the differences and of their squares (finite ones).
+    pub sum: f64,
+    /// Sum of squares.
+    pub sum_sq: f64,
+    /// Largest finite difference and where.
+    pub max: f64,
+    /// Its location.
+    pub max_at: Option<MaxAt>,
+    /// Largest magnitude of any value compared, at least 1 (PSNR's peak).
+    pub peak: f32,
+    /// Pixels above the fail and warn tests.
+    pub over_fail_px: usize,
+    /// Pixels above the warn test.
+    pub over_warn_px: usize,
+    /// Pixels finite in one image and not in the other (a coverage mismatch).
+    pub mismatch_px: usize,
+    /// Pixels set aside near edges, and those of them above `fail`.
+    pub masked_px: usize,
+    /// Masked pixels above `fail`.
+    pub masked_over_fail_px: usize,
+}
+
 /// Statistics of a difference image and the verdict.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct DiffReport {
     /// The metric.
     pub metric: Metric,
+    /// The channels compared (the `abs` metric).
+    pub channels: Vec<String>,
     /// Pixels in each image.
     pub pixels: usize,
     /// Pixels judged (with a value, not masked).
@@ -136,80 +211,144 @@ pub struct DiffReport {
     pub masked_px: usize,
     /// Of the masked pixels, those above `fail`.
     pub masked_over_fail_px: usize,
-    /// Pixels hit in one image only (normal and depth metrics).
+    /// Pixels with a non-finite value in one image only (for depth and
+    /// normals: hit in one image only). They fail and warn, and are left out
+    /// of the sums, so the mean stays finite.
     pub mismatch_px: usize,
-    /// Mean of the finite magnitudes over judged pixels.
+    /// idiff's mean error: the sum of the finite differences over every
+    /// judged value (pixels × channels; for depth and normals, over the pixels
+    /// both images hit).
     pub mean: f64,
-    /// Median, 95th and 99th percentiles and maximum of the magnitudes (mismatches count as infinite).
+    /// Root mean square over the same values.
+    pub rms: f64,
+    /// Peak signal-to-noise ratio in dB, `20·log10(peak / rms)` with the peak
+    /// the largest magnitude seen, at least 1 (idiff's); `None` when the rms is 0.
+    pub psnr: Option<f64>,
+    /// Median of the per-pixel magnitudes (the largest over a pixel's
+    /// channels; mismatches count as infinite).
     pub median: f32,
     /// 95th percentile.
     pub p95: f32,
     /// 99th percentile.
     pub p99: f32,
-    /// Largest magnitude.
+    /// Largest finite difference.
     pub max: f32,
+    /// Where it is.
+    pub max_at: Option<MaxAt>,
     /// Judged pixels above `fail`.
     pub over_fail_px: usize,
     /// The same as a percentage of judged pixels.
     pub over_fail_percent: f64,
     /// Judged pixels above `warn`.
     pub over_warn_px: usize,
+    /// The same as a percentage.
+    pub over_warn_percent: f64,
     /// The thresholds used.
     pub thresholds: Thresholds,
     /// Pass, warn or fail.
     pub verdict: Verdict,
+    /// ꟻLIP's own pooled statistics (the `flip` metric).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flip: Option<FlipStats>,
 }
 
-/// Judges the per-pixel `values` (see [`differences`]) against `t`, leaving
-/// out pixels where `masked` is set.
+/// Judges the per-pixel `values` (see [`differences`]) of a `width`-wide
+/// image against `t`, leaving out pixels where `masked` is set.
 #[must_use]
-pub fn judge(metric: Metric, values: &[f32], masked: &[bool], t: Thresholds) -> DiffReport {
+pub fn judge(metric: Metric, values: &[f32], masked: &[bool], width: u32, t: Thresholds) -> DiffReport {
+    let mut totals = Totals { peak: 1.0, ..Totals::default() };
     let mut magnitudes = vec![];
-    let (mut masked_px, mut masked_over_fail_px, mut mismatch_px) = (0, 0, 0);
-    for (&v, &m) in values.iter().zip(masked) {
+    for (i, (&v, &m)) in values.iter().zip(masked).enumerate() {
         if v.is_nan() {
             continue;
         }
-        mismatch_px += usize::from(v.is_infinite());
+        let f = f64::from(v.abs());
         if m {
-            masked_px += 1;
-            masked_over_fail_px += usize::from(v.abs() > t.fail);
-        } else {
-            magnitudes.push(v.abs());
+            totals.masked_px += 1;
+            totals.masked_over_fail_px += usize::from(f > f64::from(t.fail));
+            continue;
         }
+        magnitudes.push(v.abs());
+        totals.compared += 1;
+        if v.is_infinite() {
+            totals.mismatch_px += 1;
+            totals.over_fail_px += 1;
+            totals.over_warn_px += 1;
+            continue;
+        }
+        totals.values += 1;
+        totals.sum += f;
+        totals.sum_sq += f * f;
+        totals.peak = totals.peak.max(v.abs());
+        if f > totals.max {
+            totals.max = f;
+            let (x, y) = (i as u32 % width, i as u32 / width);
+            totals.max_at = Some(MaxAt { x, y, channel: format!("{metric:?}").to_lowercase(), a: vec![], b: vec![] });
+        }
+        totals.over_fail_px += usize::from(f > f64::from(t.fail));
+        totals.over_warn_px += usize::from(f > f64::from(t.warn));
     }
+    report(metric, vec![], values.len(), magnitudes, totals, t)
+}
+
+/// The report from the sums and the per-pixel `magnitudes` of judged pixels.
+#[must_use]
+pub fn report(
+    metric: Metric,
+    channels: Vec<String>,
+    pixels: usize,
+    mut magnitudes: Vec<f32>,
+    totals: Totals,
+    t: Thresholds,
+) -> DiffReport {
     magnitudes.sort_by(f32::total_cmp);
     let n = magnitudes.len();
     let percentile = |p: usize| if n == 0 { 0.0 } else { magnitudes[((n - 1) * p) / 100] };
-    let finite: Vec<f32> = magnitudes.iter().copied().filter(|v| v.is_finite()).collect();
-    let over_fail_px = magnitudes.iter().filter(|&&v| v > t.fail).count();
-    let over_warn_px = magnitudes.iter().filter(|&&v| v > t.warn).count();
-    let percent = |k: usize| 100.0 * k as f64 / n.max(1) as f64;
-    let max = magnitudes.last().copied().unwrap_or(0.0);
-    let verdict = if percent(over_fail_px) > t.failpercent || max > t.hardfail {
-        Verdict::Fail
-    } else if percent(over_warn_px) > t.warnpercent {
-        Verdict::Warn
-    } else {
-        Verdict::Pass
-    };
+    let percent = |k: usize| 100.0 * k as f64 / totals.compared.max(1) as f64;
+    let values = totals.values.max(1) as f64;
+    let rms = (totals.sum_sq / values).sqrt();
     DiffReport {
         metric,
-        pixels: values.len(),
-        compared: n,
-        masked_px,
-        masked_over_fail_px,
-        mismatch_px,
-        mean: finite.iter().map(|&v| f64::from(v)).sum::<f64>() / finite.len().max(1) as f64,
+        channels,
+        pixels,
+        compared: totals.compared,
+        masked_px: totals.masked_px,
+        masked_over_fail_px: totals.masked_over_fail_px,
+        mismatch_px: totals.mismatch_px,
+        mean: totals.sum / values,
+        rms,
+        psnr: (rms > 0.0).then(|| 20.0 * (f64::from(totals.peak) / rms).log10()),
         median: percentile(50),
         p95: percentile(95),
         p99: percentile(99),
-        max,
-        over_fail_px,
-        over_fail_percent: percent(over_fail_px),
-        over_warn_px,
+        max: totals.max as f32,
+        over_fail_px: totals.over_fail_px,
+        over_fail_percent: percent(totals.over_fail_px),
+        over_warn_px: totals.over_warn_px,
+        over_warn_percent: percent(totals.over_warn_px),
+        verdict: verdict(&totals, t),
+        max_at: totals.max_at,
         thresholds: t,
-        verdict,
+        flip: None,
+    }
+}
+
+/// idiff's verdict: within `allowfailures` failed pixels (0 by default)
+/// passes outright, so, as in idiff, a warning needs failures that
+/// `failpercent` tolerates; then fail on too many failed pixels or one above
+/// `hardfail`; then warn likewise. A coverage mismatch counts as an infinite
+/// difference.
+fn verdict(totals: &Totals, t: Thresholds) -> Verdict {
+    let allowed = |percent: f64| percent / 100.0 * totals.compared as f64;
+    let max = if totals.mismatch_px > 0 { f64::INFINITY } else { totals.max };
+    if totals.over_fail_px <= t.allowfailures {
+        Verdict::Pass
+    } else if totals.over_fail_px as f64 > allowed(t.failpercent) || max > f64::from(t.hardfail) {
+        Verdict::Fail
+    } else if totals.over_warn_px as f64 > allowed(t.warnpercent) || max > f64::from(t.hardwarn) {
+        Verdict::Warn
+    } else {
+        Verdict::Pass
     }
 }
 
@@ -235,16 +374,19 @@ mod tests {
         let b = frame(&values);
         let d = differences(&a, &b, Metric::Abs);
         let none = vec![false; 100];
-        assert_eq!(judge(Metric::Abs, &d, &none, Thresholds::default()).verdict, Verdict::Fail);
+        assert_eq!(judge(Metric::Abs, &d, &none, 100, Thresholds::default()).verdict, Verdict::Fail);
         let lenient = Thresholds { fail: 0.1, failpercent: 5.0, ..Default::default() };
-        let r = judge(Metric::Abs, &d, &none, lenient);
+        let r = judge(Metric::Abs, &d, &none, 100, lenient);
         assert_eq!((r.verdict, r.over_fail_px), (Verdict::Warn, 3));
         let pass = Thresholds { warn: 0.3, ..lenient };
-        assert_eq!(judge(Metric::Abs, &d, &none, pass).verdict, Verdict::Pass);
+        assert_eq!(judge(Metric::Abs, &d, &none, 100, pass).verdict, Verdict::Pass);
         let hard = Thresholds { hardfail: 0.15, ..pass };
-        assert_eq!(judge(Metric::Abs, &d, &none, hard).verdict, Verdict::Fail);
+        assert_eq!(judge(Metric::Abs, &d, &none, 100, hard).verdict, Verdict::Fail);
+        let allowed = Thresholds { allowfailures: 3, ..hard };
+        assert_eq!(judge(Metric::Abs, &d, &none, 100, allowed).verdict, Verdict::Pass);
+        assert_eq!(judge(Metric::Abs, &d, &none, 100, Thresholds { allowfailures: 2, ..hard }).verdict, Verdict::Fail);
         assert_eq!(
-            judge(Metric::Abs, &differences(&a, &a, Metric::Abs), &none, Thresholds::default()).verdict,
+            judge(Metric::Abs, &differences(&a, &a, Metric::Abs), &none, 100, Thresholds::default()).verdict,
             Verdict::Pass
         );
     }
@@ -267,7 +409,12 @@ mod tests {
         assert!(d[6].is_nan());
         let mask = edge_mask(&a, &b, 1);
         assert_eq!(mask, vec![false, false, true, true, true, true, true, false]);
-        let r = judge(Metric::Depth, &d, &mask, Thresholds { fail: 1.0, warn: 1.0, ..Default::default() });
-        assert_eq!((r.mismatch_px, r.masked_over_fail_px, r.verdict), (1, 1, Verdict::Pass));
+        let t = Thresholds { fail: 1.0, warn: 1.0, ..Default::default() };
+        // The one-sided hit sits near the edge: set aside, it is reported but does not fail.
+        let r = judge(Metric::Depth, &d, &mask, 8, t);
+        assert_eq!((r.mismatch_px, r.masked_over_fail_px, r.verdict), (0, 1, Verdict::Pass));
+        let r = judge(Metric::Depth, &d, &[false; 8], 8, t);
+        assert_eq!((r.mismatch_px, r.over_fail_px, r.verdict), (1, 1, Verdict::Fail));
+        assert_eq!((r.max, r.mean, r.max_at.map(|m| m.x)), (0.5, 0.5, Some(0)));
     }
 }

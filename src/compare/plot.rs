@@ -13,7 +13,7 @@ const LOG_AXIS_SPREAD: f64 = 30.0;
 
 /// How values map to heights.
 #[derive(Clone, Copy, Debug)]
-enum Axis {
+pub(super) enum Axis {
     /// From 0 to the maximum.
     Linear { max: f64 },
     /// From one power of ten to another (`log10` of each end).
@@ -23,7 +23,7 @@ enum Axis {
 impl Axis {
     /// The axis for `values`: logarithmic when they spread over more than
     /// [`LOG_AXIS_SPREAD`].
-    fn fitting(values: impl Iterator<Item = f64> + Clone) -> Self {
+    pub(super) fn fitting(values: impl Iterator<Item = f64> + Clone) -> Self {
         let finite = values.filter(|v| v.is_finite());
         let max = finite.clone().fold(0.0f64, f64::max);
         let min_positive = finite.filter(|&v| v > 0.0).fold(f64::INFINITY, f64::min);
@@ -36,7 +36,7 @@ impl Axis {
 
     /// Where `v` lies from the bottom (0) to the top (1); values below a
     /// logarithmic axis sit on its bottom.
-    fn fraction(self, v: f64) -> f64 {
+    pub(super) fn fraction(self, v: f64) -> f64 {
         match self {
             Axis::Linear { max } => v / max,
             Axis::Log { lo, hi } => ((v.max(10f64.powf(lo)).log10() - lo) / (hi - lo)).clamp(0.0, 1.0),
@@ -44,7 +44,7 @@ impl Axis {
     }
 
     /// The ticks: each with its fraction of the height and its label.
-    fn ticks(self) -> Vec<(f64, String)> {
+    pub(super) fn ticks(self) -> Vec<(f64, String)> {
         match self {
             Axis::Linear { max } => {
                 (0..=4).map(|k| (f64::from(k) / 4.0, format!("{:.3}", max * f64::from(k) / 4.0))).collect()

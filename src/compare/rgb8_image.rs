@@ -72,17 +72,8 @@ impl Rgb8Image {
     }
 
     /// PNG bytes.
-    pub fn png_bytes(&self) -> Result<Vec<u8>, image::ImageError> {
-        let mut out = Vec::new();
-        let encoder = image::codecs::png::PngEncoder::new(&mut out);
-        image::ImageEncoder::write_image(
-            encoder,
-            &self.pixels,
-            self.width,
-            self.height,
-            image::ExtendedColorType::Rgb8,
-        )?;
-        Ok(out)
+    pub fn png_bytes(&self) -> Result<Vec<u8>, png::EncodingError> {
+        crate::frame::srgb_png_bytes(&self.pixels, self.width, self.height)
     }
 
     /// PNG bytes, with an error naming `path`.

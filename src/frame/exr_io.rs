@@ -7,12 +7,16 @@ use exr::prelude::*;
 
 use super::Frame;
 
-/// Encodes all channels of a frame as 32-bit float EXR bytes.
+/// Encodes all channels of a frame as 32-bit float EXR bytes. Colour is
+/// premultiplied by coverage, as EXR expects (a miss is RGBA 0, 0, 0, 0; the
+/// background colour appears in the PNG only), so a compositor lays the
+/// render over anything.
 pub fn exr_bytes(frame: &Frame) -> std::result::Result<Vec<u8>, String> {
+    let premultiplied = |k: usize| frame.color.iter().zip(&frame.alpha).map(|(c, a)| c[k] * a).collect();
     let mut channels: Vec<(String, Vec<f32>)> = vec![
-        ("R".into(), frame.color.iter().map(|c| c.x).collect()),
-        ("G".into(), frame.color.iter().map(|c| c.y).collect()),
-        ("B".into(), frame.color.iter().map(|c| c.z).collect()),
+        ("R".into(), premultiplied(0)),
+        ("G".into(), premultiplied(1)),
+        ("B".into(), premultiplied(2)),
         ("A".into(), frame.alpha.clone()),
         ("Z".into(), frame.depth.clone()),
         ("N.X".into(), frame.normal.iter().map(|n| n.x).collect()),

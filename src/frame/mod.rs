@@ -111,6 +111,23 @@ impl Frame {
             && fbits(&self.alpha) == fbits(&o.alpha)
     }
 
+    /// Adds `depth.Z`, the planar depth: the distance from the eye along the
+    /// camera's view axis (`Z` × the cosine between ray and axis), as
+    /// compositors expect a depth pass; `+inf` on a miss. `Z` itself stays the
+    /// distance along the ray.
+    pub fn add_planar_depth(&mut self, camera: &crate::camera::Camera) {
+        let forward = camera.forward();
+        let (w, h) = (self.width, self.height);
+        let planar = (0..self.len())
+            .map(|i| {
+                let ray = camera.ray(i as u32 % w, i as u32 / w, w, h);
+                self.depth[i] * ray.dir.dot(forward)
+            })
+            .collect();
+        self.extra.retain(|(n, _)| n != PLANAR_DEPTH);
+        self.extra.push((PLANAR_DEPTH.into(), planar));
+    }
+
     /// An extra AOV by channel name.
     #[must_use]
     pub fn aov(&self, name: &str) -> Option<&[f32]> {
@@ -123,18 +140,9 @@ impl Frame {
         self.color.iter().flat_map(|c| c.to_array().map(linear_to_srgb8)).collect()
     }
 
-    /// PNG bytes (8-bit sRGB).
-    pub fn png_bytes(&self) -> Result<Vec<u8>, image::ImageError> {
-        let mut out = Vec::new();
-        let encoder = image::codecs::png::PngEncoder::new(&mut out);
-        image::ImageEncoder::write_image(
-            encoder,
-            &self.to_srgb8(),
-            self.width,
-            self.height,
-            image::ExtendedColorType::Rgb8,
-        )?;
-        Ok(out)
+    /// PNG bytes (8-bit sRGB, tagged as such).
+    pub fn png_bytes(&self) -> Result<Vec<u8>, png::EncodingError> {
+        srgb_png_bytes(&self.to_srgb8(), self.width, self.height)
     }
 
     /// Writes the colour as an 8-bit sRGB PNG, atomically.
@@ -160,6 +168,23 @@ impl Frame {
         crate::output::write_atomic(path, &bytes).map_err(|e| FrameIoError::Write(path.display().to_string(), e))
     }
 }
+
+/// Encodes row-major 8-bit RGB as a PNG carrying an sRGB chunk, so viewers
+/// and tools read its codes as sRGB rather than guessing.
+pub fn srgb_png_bytes(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, png::EncodingError> {
+    let mut out = Vec::new();
+    let mut encoder = png::Encoder::new(&mut out, width, height);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let mut writer = encoder.write_header()?;
+    writer.write_image_data(rgb)?;
+    writer.finish()?;
+    Ok(out)
+}
+
+/// The EXR channel of the planar depth (see [`Frame::add_planar_depth`]).
+pub const PLANAR_DEPTH: &str = "depth.Z";
 
 /// Why a frame could not be written.
 #[derive(Debug, thiserror::Error)]

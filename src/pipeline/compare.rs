@@ -260,9 +260,9 @@ fn measure(
         normal_deg: given.normal_deg.unwrap_or_else(|| Scale::from_data(&errors.normal_deg, false, 10.0).max()),
         color: given.color.unwrap_or_else(|| Scale::from_data(&errors.color, false, 0.1).max()),
     };
-    let depth_error_cells = error_stats(&errors.depth_cells, tolerances.depth_cells);
-    let normal_error_deg = error_stats(&errors.normal_deg, tolerances.normal_deg);
-    let color_error = error_stats(&errors.color, tolerances.color);
+    let depth_error_cells = error_stats(&errors.depth_cells, ray.width, tolerances.depth_cells);
+    let normal_error_deg = error_stats(&errors.normal_deg, ray.width, tolerances.normal_deg);
+    let color_error = error_stats(&errors.color, ray.width, tolerances.color);
     let stage_seconds = StageSeconds {
         field_render: ray_report.seconds,
         polygonize: mesh_report.mesh.seconds,
@@ -292,12 +292,12 @@ fn finite_mean(values: &[f32]) -> f64 {
 }
 
 /// The statistics of one error image over the pixels both renders hit.
-fn error_stats(values: &[f32], tolerance: f32) -> ErrorStats {
+fn error_stats(values: &[f32], width: u32, tolerance: f32) -> ErrorStats {
     // Pixels hit by one render only are the silhouette map's business.
     let both: Vec<f32> = values.iter().map(|&v| if v.is_infinite() { f32::NAN } else { v }).collect();
     let t =
         Thresholds { fail: tolerance, failpercent: 100.0, warn: tolerance, warnpercent: 100.0, ..Default::default() };
-    ErrorStats::from(&judge(Metric::Abs, &both, &vec![false; both.len()], t))
+    ErrorStats::from(&judge(Metric::Abs, &both, &vec![false; both.len()], width, t))
 }
 
 /// Every file [`Comparison::save`] writes into its directory.

@@ -1,14 +1,18 @@
 //! Comparing two image files the way idiff does: load both (PNG or EXR),
 //! check they match in size and hold the channels the metric needs, judge
-//! the per-pixel differences against thresholds, and draw a heat map.
+//! the differences against thresholds, and draw a heat map. The `abs` metric
+//! compares every channel as idiff does; `depth` and `normal` compare the
+//! surfaces two renders found, pixel by pixel.
 
 use std::path::{Path, PathBuf};
 
 use super::error::PipelineError;
 use crate::compare::{
-    DiffReport, Metric, Scale, SpecialLabels, Thresholds, Verdict, differences, edge_mask, heat_map_labelled, judge,
-    load_image,
+    ChannelImage, Decoding, DiffReport, Metric, Scale, SpecialLabels, Thresholds, Verdict, compare_channels,
+    default_pixels_per_degree, differences, edge_mask, flip_errors, flip_stats, heat_map_labelled, histogram_plot,
+    judge, load_channels, load_image,
 };
+use crate::output::FileSet;
 
 /// How to compare two images.
 #[derive(Clone, Debug)]
@@ -17,10 +21,16 @@ pub struct ImageDiffSettings {
     pub metric: Metric,
     /// When a difference warns or fails.
     pub thresholds: Thresholds,
+    /// The channels the `abs` metric compares, by name (default: every channel).
+    pub channels: Option<Vec<String>>,
+    /// How PNG codes become values (default: as stored, as idiff reads them).
+    pub decoding: Decoding,
     /// Set aside pixels within this many pixels of a silhouette edge.
     pub mask_edges: Option<u32>,
     /// Write a heat map of the differences here.
     pub heat_map: Option<PathBuf>,
+    /// Write a histogram plot of the ꟻLIP errors here (the `flip` metric).
+    pub histogram: Option<PathBuf>,
     /// The heat map's full-scale value (default: chosen from the data, the p99 rounded up).
     pub scale: Option<f32>,
 }
@@ -52,6 +62,9 @@ impl ImageDiffSettings {
         non_negative("warn", f64::from(t.warn))?;
         non_negative("failpercent", t.failpercent)?;
         non_negative("warnpercent", t.warnpercent)?;
+        non_negative("hardwarn", f64::from(t.hardwarn))?;
+        non_negative("failrelative", f64::from(t.failrelative))?;
+        non_negative("warnrelative", f64::from(t.warnrelative))?;
         match self.scale {
             Some(s) if !(s.is_finite() && s > 0.0) => {
                 Err(PipelineError::setting("scale", format!("must be a positive number, got {s}")))
@@ -66,6 +79,8 @@ impl ImageDiffSettings {
         match self.scale {
             Some(max) if signed => Scale::Signed { max },
             Some(max) => Scale::Magnitude { max },
+            // ꟻLIP errors lie in [0, 1]: its map is always drawn on the whole range.
+            None if self.metric == Metric::Flip => Scale::Magnitude { max: 1.0 },
             None => Scale::from_data(values, signed, if self.metric == Metric::Normal { 10.0 } else { 0.1 }),
         }
     }
@@ -75,34 +90,102 @@ impl ImageDiffSettings {
 /// one masked, or missed by both for depth and normals) fails.
 pub fn diff_images(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<DiffReport, ImageDiffError> {
     settings.check().map_err(ImageDiffError::Setting)?;
-    let (first, second) = (load_image(a).map_err(ImageDiffError::File)?, load_image(b).map_err(ImageDiffError::File)?);
-    let (fa, fb) = (&first.frame, &second.frame);
-    if (fa.width, fa.height) != (fb.width, fb.height) {
-        let (da, db) = (a.display(), b.display());
-        let message = format!("{da} is {}x{} but {db} is {}x{}", fa.width, fa.height, fb.width, fb.height);
-        return Err(ImageDiffError::SizeMismatch(message));
+    let (mut report, values, (width, height)) = match settings.metric {
+        Metric::Abs => diff_channels(a, b, settings)?,
+        Metric::Depth | Metric::Normal => diff_surfaces(a, b, settings)?,
+        Metric::Flip => diff_flip(a, b, settings)?,
+    };
+    // Nothing compared proves nothing: such a diff fails rather than passes.
+    if report.compared == 0 {
+        report.verdict = Verdict::Fail;
     }
+    let mut files = FileSet::new();
+    if let Some(out) = &settings.heat_map {
+        let what = if settings.metric == Metric::Flip { "error".to_string() } else { "difference".to_string() };
+        let title = format!("{:?} {what}: {} vs {}", settings.metric, file_name(a), file_name(b)).to_lowercase();
+        let labels = match settings.metric {
+            Metric::Depth | Metric::Normal | Metric::Flip => SpecialLabels::default(),
+            Metric::Abs => SpecialLabels { no_value: "not a number", infinite: "finite in one image only" },
+        };
+        let text = (title.as_str(), settings.metric.unit());
+        let img = heat_map_labelled(&values, (width, height), settings.heat_scale(&values), text, &labels);
+        files.add(out, img.png_bytes_for(out).map_err(|e| ImageDiffError::File(e.to_string()))?);
+    }
+    if let (Some(out), Some(flip)) = (&settings.histogram, &report.flip) {
+        let title = format!("FLIP histogram: {} vs {}", file_name(a), file_name(b));
+        let marks = [("mean", f64::from(flip.mean)), ("weighted median", f64::from(flip.weighted_median))];
+        let img = histogram_plot(&title, "FLIP error", &flip.histogram, &marks, 640, 360);
+        files.add(out, img.png_bytes_for(out).map_err(|e| ImageDiffError::File(e.to_string()))?);
+    }
+    files.commit().map_err(|e| ImageDiffError::File(e.to_string()))?;
+    Ok(report)
+}
+
+/// LDR-ꟻLIP of the second image against the first, the reference. Both are
+/// read as 8-bit sRGB colour, alpha dropped as NVIDIA's tool drops it; an
+/// EXR's (premultiplied, linear) colour is encoded to 8-bit sRGB first.
+fn diff_flip(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<Judged, ImageDiffError> {
+    let (first, second) = (load_frame(a)?.frame, load_frame(b)?.frame);
+    same_size(a, b, (first.width, first.height), (second.width, second.height))?;
+    let (w, h) = (first.width, first.height);
+    let ppd = default_pixels_per_degree();
+    let errors = flip_errors(&first.to_srgb8(), &second.to_srgb8(), w, h, ppd);
+    let masked = settings.mask_edges.map_or_else(|| vec![false; errors.len()], |k| edge_mask(&first, &second, k));
+    let mut report = judge(Metric::Flip, &errors, &masked, w, settings.thresholds);
+    report.flip = Some(flip_stats(&errors, w, h, ppd));
+    Ok((report, errors, (w, h)))
+}
+
+type Judged = (DiffReport, Vec<f32>, (u32, u32));
+
+/// idiff's comparison over every channel (or the ones named).
+fn diff_channels(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<Judged, ImageDiffError> {
+    let load = |p: &Path| load_channels(p, settings.decoding).map_err(ImageDiffError::File);
+    let (first, second) = (load(a)?, load(b)?);
+    same_size(a, b, (first.width, first.height), (second.width, second.height))?;
+    let (first, second) = match &settings.channels {
+        Some(names) => (select(a, &first, names)?, select(b, &second, names)?),
+        None => (first, second),
+    };
+    let masked = match settings.mask_edges {
+        Some(k) => edge_mask(&load_frame(a)?.frame, &load_frame(b)?.frame, k),
+        None => vec![false; first.planes.first().map_or(0, Vec::len)],
+    };
+    let (report, values) = compare_channels(&first, &second, &masked, settings.thresholds);
+    Ok((report, values, (first.width, first.height)))
+}
+
+/// The depth or normal metric over the surfaces two renders found.
+fn diff_surfaces(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<Judged, ImageDiffError> {
+    let (first, second) = (load_frame(a)?, load_frame(b)?);
+    let (fa, fb) = (&first.frame, &second.frame);
+    same_size(a, b, (fa.width, fa.height), (fb.width, fb.height))?;
     for (path, img) in [(a, &first), (b, &second)] {
         needs_channels(path, settings.metric, img.has_depth, img.has_normal).map_err(ImageDiffError::File)?;
     }
     let values = differences(fa, fb, settings.metric);
     let masked = settings.mask_edges.map_or_else(|| vec![false; values.len()], |k| edge_mask(fa, fb, k));
-    let mut report = judge(settings.metric, &values, &masked, settings.thresholds);
-    // Nothing compared proves nothing: such a diff fails rather than passes.
-    if report.compared == 0 {
-        report.verdict = Verdict::Fail;
+    let report = judge(settings.metric, &values, &masked, fa.width, settings.thresholds);
+    Ok((report, values, (fa.width, fa.height)))
+}
+
+fn load_frame(path: &Path) -> Result<crate::compare::LoadedImage, ImageDiffError> {
+    load_image(path).map_err(ImageDiffError::File)
+}
+
+fn same_size(a: &Path, b: &Path, sa: (u32, u32), sb: (u32, u32)) -> Result<(), ImageDiffError> {
+    if sa == sb {
+        return Ok(());
     }
-    if let Some(out) = &settings.heat_map {
-        let title = format!("{:?} difference: {} vs {}", settings.metric, file_name(a), file_name(b)).to_lowercase();
-        let labels = match settings.metric {
-            Metric::Depth | Metric::Normal => SpecialLabels::default(),
-            Metric::Abs | Metric::Rel => SpecialLabels { no_value: "not a number", infinite: "infinite" },
-        };
-        let (size, text) = ((fa.width, fa.height), (title.as_str(), settings.metric.unit()));
-        let img = heat_map_labelled(&values, size, settings.heat_scale(&values), text, &labels);
-        img.save_png(out).map_err(|e| ImageDiffError::File(format!("{e:#}")))?;
-    }
-    Ok(report)
+    let (da, db) = (a.display(), b.display());
+    Err(ImageDiffError::SizeMismatch(format!("{da} is {}x{} but {db} is {}x{}", sa.0, sa.1, sb.0, sb.1)))
+}
+
+fn select(path: &Path, img: &ChannelImage, names: &[String]) -> Result<ChannelImage, ImageDiffError> {
+    img.select(names).map_err(|missing| {
+        let has = img.names.join(", ");
+        ImageDiffError::File(format!("{}: no channel {missing} (it has {has})", path.display()))
+    })
 }
 
 fn needs_channels(path: &Path, metric: Metric, has_depth: bool, has_normal: bool) -> Result<(), String> {

@@ -261,8 +261,9 @@ fn check_entry(
         hardfail: entry.hardfail,
         warn: entry.fail,
         warnpercent: entry.failpercent,
+        ..Thresholds::default()
     };
-    let diff = judge(Metric::Abs, &values, &vec![false; values.len()], thresholds);
+    let diff = judge(Metric::Abs, &values, &vec![false; values.len()], frame.width, thresholds);
     if diff.verdict == Verdict::Fail {
         save_failure(&name, reference, actual, &quantized, &values, report)?;
     }

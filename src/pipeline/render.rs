@@ -75,8 +75,9 @@ pub struct MeshRenderReport {
 pub fn render_field(scene: &Scene, size: Size, mode: EvalMode, progress: &dyn Progress) -> (Frame, RenderReport) {
     let settings = scene.render_settings(size);
     let start = Instant::now();
-    let (frame, stats, empty) = render_model(&scene.model, mode, &settings, &rows(progress, "tracing", size.1));
+    let (mut frame, stats, empty) = render_model(&scene.model, mode, &settings, &rows(progress, "tracing", size.1));
     let seconds = start.elapsed().as_secs_f64();
+    frame.add_planar_depth(&settings.camera);
     let report = RenderReport {
         seconds,
         empty_fraction: empty.empty_fraction(),
@@ -103,9 +104,10 @@ pub fn render_mesh(
     let settings = scene.render_settings(size);
     let bvh = MeshBvh::build(mesh);
     let start = Instant::now();
-    let (frame, stats) =
+    let (mut frame, stats) =
         cast_mesh(&StaticMesh { mesh, bvh: &bvh }, &settings, &rows(progress, "ray casting the mesh", size.1));
     let seconds = start.elapsed().as_secs_f64();
+    frame.add_planar_depth(&settings.camera);
     let report = MeshRenderReport {
         seconds,
         width: size.0,
