@@ -696,14 +696,8 @@ fn an_empty_render_warns_and_a_diff_of_no_pixels_fails() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
-#[test]
-fn regression_passes_on_the_bundled_references_and_fails_on_a_perturbed_model() {
-    let dir = scratch("regress");
-    let report = dir.join("report");
-    let out = blobtrace(&["regress", "--report", report.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(std::fs::read_to_string(report.join("index.html")).unwrap().contains("Pass"));
-    // The same scenes with one blob's radius grown by 1%.
+/// A copy of the bundled scenes in `dir` with one blob of the pair's radius grown by 1%.
+fn scenes_with_a_grown_radius(dir: &Path) -> PathBuf {
     let scenes = dir.join("scenes");
     std::fs::create_dir_all(&scenes).unwrap();
     for entry in std::fs::read_dir("scenes").unwrap() {
@@ -714,6 +708,17 @@ fn regression_passes_on_the_bundled_references_and_fails_on_a_perturbed_model() 
     }
     let pair = std::fs::read_to_string("scenes/pair.ron").unwrap();
     std::fs::write(scenes.join("pair.ron"), pair.replacen("radius: 1.6", "radius: 1.616", 1)).unwrap();
+    scenes
+}
+
+#[test]
+fn regression_passes_on_the_bundled_references_and_fails_on_a_perturbed_model() {
+    let dir = scratch("regress");
+    let report = dir.join("report");
+    let out = blobtrace(&["regress", "--report", report.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read_to_string(report.join("index.html")).unwrap().contains("Pass"));
+    let scenes = scenes_with_a_grown_radius(&dir);
     let bad_report = dir.join("bad");
     let out = blobtrace(&["regress", "--scenes", scenes.to_str().unwrap(), "--report", bad_report.to_str().unwrap()]);
     assert!(!out.status.success());
@@ -1155,5 +1160,60 @@ fn view_runs_headless_on_keys_and_explains_a_missing_display() {
         .unwrap();
     let err = String::from_utf8_lossy(&no_display.stderr);
     assert!(!no_display.status.success() && err.contains("--headless") && !err.contains("panicked"), "{err}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn regress_tolerates_four_wide_sums_against_eight_wide_references_and_back_but_not_a_one_percent_radius() {
+    let dir = scratch("sums");
+    let with_sums = |lanes: &str, args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_blobtrace"))
+            .args(args)
+            .env("BLOBTRACE_SUMS", lanes)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .expect("the binary runs")
+    };
+    // The switch takes effect: the two paths sum in different orders.
+    let (z8, z4) = (dir.join("8.exr"), dir.join("4.exr"));
+    let render = ["render", "scenes/medusa.ron", "--size", "96x72", "--mode", "exact", "--json", "--exr"];
+    assert_eq!(json(&with_sums("8", &[&render[..], &[z8.to_str().unwrap()]].concat()))["point_sum_lanes"], 8);
+    assert_eq!(json(&with_sums("4", &[&render[..], &[z4.to_str().unwrap()]].concat()))["point_sum_lanes"], 4);
+    let out = blobtrace(&[
+        "diff",
+        z8.to_str().unwrap(),
+        z4.to_str().unwrap(),
+        "--channels",
+        "R,G,B,N.X,N.Y,N.Z",
+        "--fail",
+        "0",
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "shading differs in its last bits: {}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    // References blessed with eight-wide sums pass with four-wide ones ...
+    let four = with_sums("4", &["regress", "--report", dir.join("four").to_str().unwrap()]);
+    assert!(four.status.success(), "{}", String::from_utf8_lossy(&four.stderr));
+    // ... and references blessed with four-wide sums pass with eight-wide ones.
+    let refs = dir.join("refs");
+    std::fs::create_dir_all(&refs).unwrap();
+    std::fs::copy("images/ref/manifest.ron", refs.join("manifest.ron")).unwrap();
+    let refs = refs.to_str().unwrap();
+    assert!(with_sums("4", &["regress", "--refs", refs, "--bless"]).status.success());
+    let eight = with_sums("8", &["regress", "--refs", refs, "--report", dir.join("eight").to_str().unwrap()]);
+    assert!(eight.status.success(), "{}", String::from_utf8_lossy(&eight.stderr));
+    // Either way, one blob's radius grown by 1% fails.
+    let scenes = scenes_with_a_grown_radius(&dir);
+    let only_pair = ["--scenes", scenes.to_str().unwrap(), "--filter", "pair"];
+    for (lanes, refs) in [("4", "images/ref"), ("8", refs)] {
+        let report = dir.join(format!("bad-{lanes}"));
+        let args = [&["regress", "--refs", refs, "--report", report.to_str().unwrap()], &only_pair[..]].concat();
+        let out = with_sums(lanes, &args);
+        assert!(!out.status.success(), "{lanes}-wide sums against {refs}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("failed"), "{}", String::from_utf8_lossy(&out.stderr));
+    }
     std::fs::remove_dir_all(dir).unwrap();
 }

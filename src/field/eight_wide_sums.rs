@@ -1,5 +1,9 @@
 //! Point sums eight at a time, on x86-64 processors with AVX2 and FMA (found
-//! at run time; elsewhere the index's four-wide sums serve).
+//! at run time; elsewhere the index's four-wide sums serve). Setting the
+//! environment variable `BLOBTRACE_SUMS=4` forces the four-wide sums on any
+//! processor, so that a regression suite blessed on one kind of machine can
+//! be checked as the other kind computes it: the two sum in different orders
+//! and differ in the last bits.
 //!
 //! A dense model's exact evaluation is almost all one loop: the points listed
 //! in the index cell around the query, each `w·(1 − d²/R²)³` (about 275 of them
@@ -16,9 +20,19 @@
 
 use glam::{Vec3A, Vec4};
 
-/// True when this processor runs the eight-wide sums.
+/// The environment variable that, set to `4`, forces the four-wide sums.
+pub const SUMS_ENV: &str = "BLOBTRACE_SUMS";
+
+/// True when the eight-wide sums run: the processor has them and
+/// [`SUMS_ENV`] does not ask for four-wide ones (read once per process).
 #[inline]
 pub fn available() -> bool {
+    static RUNS: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *RUNS.get_or_init(|| detected() && std::env::var(SUMS_ENV).map_or(true, |v| v.trim() != "4"))
+}
+
+/// True when this processor has AVX2 and FMA.
+fn detected() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")

@@ -25,6 +25,7 @@ use glam::{Vec3, Vec3A};
 
 pub use crate::geom::Region;
 pub use edit::{Edit, Operator};
+pub use eight_wide_sums::SUMS_ENV;
 pub use empty::EmptySpace;
 pub use index::{BlendIndex, IndexedLeaf, Leaf};
 pub use kernel::Kernel;
@@ -32,6 +33,13 @@ pub use model::{Change, Model, ModelBuilder, ModelCounts, ModelError};
 pub use node::{Node, NodeKind, Placement};
 pub use node_id::NodeId;
 pub use primitive::{Primitive, Skeleton};
+
+/// How many points the exact sums add at a time: 8 where the processor runs
+/// the eight-wide sums (and [`SUMS_ENV`] does not force four), else 4.
+#[must_use]
+pub fn point_sum_lanes() -> u32 {
+    if eight_wide_sums::available() { 8 } else { 4 }
+}
 
 /// Largest magnitude of any number in a model or an edit: beyond it, squared
 /// distances and sums of supports leave single precision's useful range (a

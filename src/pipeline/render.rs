@@ -46,6 +46,8 @@ pub struct RenderReport {
     pub eval: String,
     /// Threads used.
     pub threads: usize,
+    /// Points the exact sums add at a time (8 or 4; see [`crate::field::SUMS_ENV`]).
+    pub point_sum_lanes: u32,
     /// What the caches hold and did, when rendering cached.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub caches: Option<CacheReport>,
@@ -88,6 +90,7 @@ pub fn render_field(scene: &Scene, size: Size, mode: EvalMode, progress: &dyn Pr
         evals_per_ray: stats.field_evals as f64 / stats.rays.max(1) as f64,
         eval: format!("{mode:?}").to_lowercase(),
         threads: rayon::current_num_threads(),
+        point_sum_lanes: crate::field::point_sum_lanes(),
         caches: (mode == EvalMode::Cached).then(|| CacheReport::of(&scene.model)),
     };
     (frame, report)
