@@ -11,7 +11,8 @@ use super::error::{PipelineError, Result};
 use super::polygonize::{PolygonizeSettings, color_by_cache_error, polygonize_checked};
 use super::render::{MeshRenderReport, RenderReport, render_field, render_mesh};
 use crate::compare::{
-    DiffReport, Metric, Rgb8Image, Scale, Thresholds, differences, frame_image, heat_map, judge, panel, silhouette_map,
+    DiffReport, FlipStats, Metric, Rgb8Image, Scale, Thresholds, default_pixels_per_degree, differences, flip_errors,
+    flip_stats, frame_image, heat_map, judge, panel, silhouette_map,
 };
 use crate::field::EvalMode;
 use crate::frame::{Frame, Size};
@@ -156,6 +157,8 @@ pub struct CompareReport {
     pub normal_error_deg: ErrorStats,
     /// Colour difference.
     pub color_error: ErrorStats,
+    /// ꟻLIP's pooled statistics of the mesh render against the field render.
+    pub flip: FlipStats,
     /// The tolerances used.
     pub tolerances: Tolerances,
     /// The heat maps' full scales, as given or chosen from the data.
@@ -186,6 +189,9 @@ pub struct ErrorImages {
     pub normal_deg: Vec<f32>,
     /// Largest linear RGB difference.
     pub color: Vec<f32>,
+    /// LDR-ꟻLIP error of the mesh render against the field render (the
+    /// reference), as their PNGs show them.
+    pub flip: Vec<f32>,
 }
 
 impl ErrorImages {
@@ -196,6 +202,7 @@ impl ErrorImages {
             depth_cells: differences(mesh, ray, Metric::Depth).into_iter().map(|d| d / cell).collect(),
             normal_deg: differences(mesh, ray, Metric::Normal),
             color: differences(mesh, ray, Metric::Abs),
+            flip: flip_errors(&ray.to_srgb8(), &mesh.to_srgb8(), ray.width, ray.height, default_pixels_per_degree()),
         }
     }
 }
@@ -277,6 +284,7 @@ fn measure(
         depth_bias_cells: finite_mean(&errors.depth_cells),
         normal_error_deg,
         color_error,
+        flip: flip_stats(&errors.flip, ray.width, ray.height, default_pixels_per_degree()),
         tolerances,
         scales,
         ray: ray_report,
@@ -301,7 +309,7 @@ fn error_stats(values: &[f32], width: u32, tolerance: f32) -> ErrorStats {
 }
 
 /// Every file [`Comparison::save`] writes into its directory.
-pub const COMPARE_OUTPUTS: [&str; 11] = [
+pub const COMPARE_OUTPUTS: [&str; 12] = [
     "ray.png",
     "mesh.png",
     "ray.exr",
@@ -310,6 +318,7 @@ pub const COMPARE_OUTPUTS: [&str; 11] = [
     "depth_error.png",
     "normal_error.png",
     "color_error.png",
+    "flip_error.png",
     "panel.png",
     "mesh_error.png",
     "stats.json",
@@ -345,11 +354,11 @@ impl Comparison {
     }
 
     /// The heat maps: panel title (with the headline statistics), file name, image.
-    fn heat_maps(&self) -> [(String, &'static str, Rgb8Image); 4] {
+    fn heat_maps(&self) -> [(String, &'static str, Rgb8Image); 5] {
         let (ray, mesh, errors, r) = (&self.ray, &self.mesh, &self.errors, &self.report);
         let (w, h) = (ray.width, ray.height);
         let heat = |values: &[f32], scale, title, unit| heat_map(values, w, h, scale, title, unit);
-        let (d, n, c, s) = (&r.depth_error_cells, &r.normal_error_deg, &r.color_error, r.scales);
+        let (d, n, c, f, s) = (&r.depth_error_cells, &r.normal_error_deg, &r.color_error, &r.flip, r.scales);
         [
             (
                 format!("silhouette: {} px hit by one only", r.mismatch_px),
@@ -370,6 +379,11 @@ impl Comparison {
                 format!("colour difference: mean {:.4}, p99 {:.3}, max {:.2}", c.mean, c.p99, c.max),
                 "color_error.png",
                 heat(&errors.color, Scale::Magnitude { max: s.color }, "colour difference, max |dRGB|", "linear"),
+            ),
+            (
+                format!("FLIP: mean {:.4}, weighted median {:.3}, max {:.2}", f.mean, f.weighted_median, f.max),
+                "flip_error.png",
+                heat(&errors.flip, Scale::Magnitude { max: 1.0 }, "FLIP error, mesh vs field", ""),
             ),
         ]
     }
