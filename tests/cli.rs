@@ -1217,3 +1217,54 @@ fn regress_tolerates_four_wide_sums_against_eight_wide_references_and_back_but_n
     }
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// Runs blobtrace with files limited to `kib` KiB, as on a disk that fills up
+/// mid-job: writes past the limit fail with "File too large".
+fn blobtrace_on_a_small_disk(kib: u32, args: &[&str]) -> Output {
+    Command::new("bash")
+        .args(["-c", &format!("trap '' XFSZ; ulimit -f {kib}; exec \"$@\""), "_", env!("CARGO_BIN_EXE_blobtrace")])
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("bash runs")
+}
+
+#[test]
+fn a_full_disk_leaves_every_old_output_as_it_was_and_no_temporaries() {
+    let dir = scratch("full-disk");
+    let listing = |d: &Path| {
+        let mut names: Vec<String> =
+            std::fs::read_dir(d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        names.sort();
+        names
+    };
+    // render: the small PNG fits, the EXR (about 100 KiB) does not.
+    let (png, exr) = (dir.join("out.png"), dir.join("out.exr"));
+    for f in [&png, &exr] {
+        std::fs::write(f, "old").unwrap();
+    }
+    let args =
+        ["render", "scenes/pair.ron", "--size", "96x72", "-o", png.to_str().unwrap(), "--exr", exr.to_str().unwrap()];
+    let out = blobtrace_on_a_small_disk(40, &args);
+    assert_eq!(out.status.code(), Some(1), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("out.exr"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!((std::fs::read(&png).unwrap(), std::fs::read(&exr).unwrap()), (b"old".to_vec(), b"old".to_vec()));
+    assert_eq!(listing(&dir), ["out.exr", "out.png"]);
+    // compare: an old set of outputs stays whole.
+    let outputs = dir.join("compare");
+    std::fs::create_dir_all(&outputs).unwrap();
+    for name in ["panel.png", "ray.png", "stats.json"] {
+        std::fs::write(outputs.join(name), "old").unwrap();
+    }
+    let args = ["compare", "scenes/pair.ron", "--size", "96x72", "--res", "16", "--out-dir", outputs.to_str().unwrap()];
+    let out = blobtrace_on_a_small_disk(40, &args);
+    assert!(!out.status.success());
+    assert_eq!(listing(&outputs), ["panel.png", "ray.png", "stats.json"]);
+    for name in ["panel.png", "ray.png", "stats.json"] {
+        assert_eq!(std::fs::read(outputs.join(name)).unwrap(), b"old", "{name}");
+    }
+    // With room, the same command writes them all.
+    assert!(blobtrace(&args).status.success());
+    assert!(std::fs::read(outputs.join("ray.png")).unwrap().starts_with(b"\x89PNG"));
+    std::fs::remove_dir_all(dir).unwrap();
+}
