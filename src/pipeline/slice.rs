@@ -11,7 +11,7 @@ use crate::compare::{Rgb8Image, Scale, SpecialLabels, heat_map, heat_map_labelle
 use crate::field::{EvalMode, Field, ModelField};
 use crate::progress::Progress;
 use crate::scene::{Scene, parse_desc};
-use crate::slice::{SlicePlane, iso_contour, sample, sharp_image};
+use crate::slice::{SlicePlane, iso_contour, sample, sharp_image, with_sharp_legend};
 
 /// What a slice shows.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -154,7 +154,7 @@ fn sharp_view(
         let cached = ModelField::new(&variant.model, EvalMode::Cached);
         items.push((filter_name(filter, res), sharp_image(&sample(plane, |p| cached.value(p)), w, h, t)));
     }
-    Ok(panel(&items, items.len()))
+    Ok(with_sharp_legend(&panel(&items, items.len()), t))
 }
 
 fn error_view(

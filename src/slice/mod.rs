@@ -39,6 +39,28 @@ pub fn sharp_image(values: &[f32], width: u32, height: u32, threshold: f32) -> R
     img
 }
 
+/// `view` with a legend strip below it saying what the sharp view's colours
+/// mean: the red band around the iso-value and the grey ramp of `sin(11π f)`.
+#[must_use]
+pub fn with_sharp_legend(view: &Rgb8Image, threshold: f32) -> Rgb8Image {
+    use crate::compare::LINE_HEIGHT;
+    let strip = 2 * LINE_HEIGHT + 12;
+    let mut img = Rgb8Image::filled(view.width, view.height + strip, [255, 255, 255]);
+    img.pixels[..view.pixels.len()].copy_from_slice(&view.pixels);
+    let top = i64::from(view.height) + 4;
+    let black = [0, 0, 0];
+    img.legend_entry(8, top, [220, 30, 30], &format!("f within {ISO_BAND} of the iso-value {threshold}"));
+    let ramp_y = top + i64::from(LINE_HEIGHT) + 2;
+    img.text(8, ramp_y, "sin(11 pi f): -1", black);
+    let ramp_x = 8 + i64::from(Rgb8Image::text_width("sin(11 pi f): -1 ")) as i64;
+    for dx in 0..128 {
+        let g = (2 * dx) as u8;
+        img.fill_rect(ramp_x + dx, ramp_y, 1, i64::from(LINE_HEIGHT) - 2, [g, g, g]);
+    }
+    img.text(ramp_x + 132, ramp_y, "+1", black);
+    img
+}
+
 /// Pixels where the field crosses `threshold` between a pixel and its right or lower neighbour.
 #[must_use]
 pub fn iso_contour(values: &[f32], width: u32, height: u32, threshold: f32) -> Vec<bool> {
@@ -64,5 +86,15 @@ mod tests {
         assert_eq!(&img.pixels[0..3], &[127, 127, 127]);
         let c = iso_contour(&[0.0, 1.0, 0.0, 1.0], 2, 2, 0.5);
         assert_eq!(c, vec![true, false, true, false]);
+    }
+
+    #[test]
+    fn the_sharp_legend_sits_below_the_view_and_shows_the_band_colour() {
+        let view = Rgb8Image::filled(300, 20, [90, 90, 90]);
+        let img = with_sharp_legend(&view, 0.5);
+        assert_eq!((img.width, &img.pixels[..view.pixels.len()]), (300, &view.pixels[..]));
+        let below = &img.pixels[view.pixels.len()..];
+        assert!(below.chunks(3).any(|p| p == [220, 30, 30]), "the red band's swatch");
+        assert!(below.chunks(3).any(|p| p == [128, 128, 128]), "the grey ramp");
     }
 }
