@@ -52,7 +52,7 @@ pub fn with_sharp_legend(view: &Rgb8Image, threshold: f32) -> Rgb8Image {
     img.legend_entry(8, top, [220, 30, 30], &format!("f within {ISO_BAND} of the iso-value {threshold}"));
     let ramp_y = top + i64::from(LINE_HEIGHT) + 2;
     img.text(8, ramp_y, "sin(11 pi f): -1", black);
-    let ramp_x = 8 + i64::from(Rgb8Image::text_width("sin(11 pi f): -1 ")) as i64;
+    let ramp_x = 8 + i64::from(Rgb8Image::text_width("sin(11 pi f): -1 "));
     for dx in 0..128 {
         let g = (2 * dx) as u8;
         img.fill_rect(ramp_x + dx, ramp_y, 1, i64::from(LINE_HEIGHT) - 2, [g, g, g]);
