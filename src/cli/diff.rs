@@ -55,7 +55,7 @@ pub struct DiffArgs {
     /// A pixel with a channel differing by more than this counts as failed.
     #[arg(long, default_value_t = 1e-6, allow_negative_numbers = true)]
     pub fail: f32,
-    /// ... and by more than this fraction of the mean of the two values.
+    /// A failed value must also differ by more than this fraction of the mean of the two magnitudes.
     #[arg(long, default_value_t = 0.0)]
     pub failrelative: f32,
     /// Fail when more than this percentage of pixels fail.
@@ -64,13 +64,14 @@ pub struct DiffArgs {
     /// Fail when any value differs by more than this.
     #[arg(long, default_value_t = f32::INFINITY)]
     pub hardfail: f32,
-    /// Pass whatever the errors when at most N pixels fail.
+    /// Pass whatever the errors when at most N pixels fail (as in idiff, at the default 0 an image with no
+    /// failed pixel passes without warning: warnings need failures that --failpercent tolerates).
     #[arg(long, default_value_t = 0, value_name = "N")]
     pub allowfailures: usize,
     /// A pixel with a channel differing by more than this counts as a warning.
     #[arg(long, default_value_t = 1e-6)]
     pub warn: f32,
-    /// ... and by more than this fraction of the mean of the two values.
+    /// A warned value must also differ by more than this fraction of the mean of the two magnitudes.
     #[arg(long, default_value_t = 0.0)]
     pub warnrelative: f32,
     /// Warn when more than this percentage of pixels warn.

@@ -38,7 +38,10 @@ impl Metric {
 }
 
 /// Per-pixel values of `metric` between `a` and `b` (same size): `NaN` where
-/// neither image has a surface (for normal and depth), `+inf` where only one has.
+/// neither image has a surface (for normal and depth), `+inf` where only one
+/// has. `Abs` and `Flip` give the largest linear colour difference here;
+/// idiff's per-channel comparison is [`super::compare_channels`], and ꟻLIP,
+/// which filters whole images, is [`super::flip_errors`].
 #[must_use]
 pub fn differences(a: &Frame, b: &Frame, metric: Metric) -> Vec<f32> {
     (0..a.len()).map(|i| difference_at(a, b, i, metric)).collect()
@@ -174,23 +177,23 @@ pub struct Totals {
     /// Values the mean and RMS divide by: every channel of every judged
     /// pixel (idiff's), or for depth and normals the pixels both images hit.
     pub values: usize,
-    /// Sum of the differences and of their squares (finite ones).
+    /// Sum of the finite differences.
     pub sum: f64,
-    /// Sum of squares.
+    /// Sum of their squares.
     pub sum_sq: f64,
-    /// Largest finite difference and where.
+    /// Largest finite difference.
     pub max: f64,
     /// Its location.
     pub max_at: Option<MaxAt>,
     /// Largest magnitude of any value compared, at least 1 (PSNR's peak).
     pub peak: f32,
-    /// Pixels above the fail and warn tests.
+    /// Pixels above the fail test.
     pub over_fail_px: usize,
     /// Pixels above the warn test.
     pub over_warn_px: usize,
     /// Pixels finite in one image and not in the other (a coverage mismatch).
     pub mismatch_px: usize,
-    /// Pixels set aside near edges, and those of them above `fail`.
+    /// Pixels set aside near edges.
     pub masked_px: usize,
     /// Masked pixels above `fail`.
     pub masked_over_fail_px: usize,
