@@ -69,6 +69,7 @@ impl Model {
                 s.powf(1.0 / n)
             }
             NodeKind::Transform { placement, child } => self.node_value(*child, placement.local(p), mode),
+            NodeKind::Warp { warp, child } => self.node_value(*child, warp.inverse(p), mode),
             NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
                 self.cache(*grid).value(p, self.pool(), &self.sampled(*child, mode))
             }
@@ -133,6 +134,10 @@ impl Model {
             NodeKind::Transform { placement, child } => {
                 let (v, g) = self.node_value_and_gradient(*child, placement.local(p), mode);
                 return (v, placement.gradient_map * g);
+            }
+            NodeKind::Warp { warp, child } => {
+                let (v, g) = self.node_value_and_gradient(*child, warp.inverse(p), mode);
+                return (v, warp.gradient(p, g));
             }
             NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
                 return self.cache(*grid).value_and_gradient(p, self.pool(), &self.sampled(*child, mode));
@@ -233,6 +238,7 @@ impl Model {
             NodeKind::Transform { placement, child } => {
                 placement.gradient_map * self.node_gradient(*child, placement.local(p), mode)
             }
+            NodeKind::Warp { warp, child } => warp.gradient(p, self.node_gradient(*child, warp.inverse(p), mode)),
             NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
                 self.cache(*grid).gradient(p, self.pool(), &self.sampled(*child, mode))
             }
@@ -286,6 +292,7 @@ impl Model {
                 }
             }
             NodeKind::Transform { placement, child } => self.node_color(*child, placement.local(p), mode),
+            NodeKind::Warp { warp, child } => self.node_color(*child, warp.inverse(p), mode),
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_color(*child, p, mode),
         }
     }
@@ -305,6 +312,10 @@ impl Model {
                 NodeKind::Transform { placement, child } => {
                     let (g, color) = self.node_gradient_and_color(*child, placement.local(p), mode);
                     return (placement.gradient_map * g, color);
+                }
+                NodeKind::Warp { warp, child } => {
+                    let (g, color) = self.node_gradient_and_color(*child, warp.inverse(p), mode);
+                    return (warp.gradient(p, g), color);
                 }
                 NodeKind::Cache { .. } if mode == EvalMode::Cached => {}
                 NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => {

@@ -20,6 +20,8 @@ mod primitive;
 mod region_bounds;
 mod root_parts;
 pub mod spline;
+mod warp;
+mod warp_bounds;
 
 use glam::{Vec3, Vec3A};
 
@@ -33,6 +35,7 @@ pub use model::{Change, Model, ModelBuilder, ModelCounts, ModelError};
 pub use node::{Node, NodeKind, Placement};
 pub use node_id::NodeId;
 pub use primitive::{Primitive, Skeleton};
+pub use warp::{Axis, Warp};
 
 /// How many points the exact sums add at a time: 8 where the processor runs
 /// the eight-wide sums (and [`SUMS_ENV`] does not force four), else 4.

@@ -5,6 +5,7 @@ use glam::{Affine3A, Mat3A, Vec3, Vec3A};
 use super::index::BlendIndex;
 use super::node_id::NodeId;
 use super::primitive::Primitive;
+use super::warp::Warp;
 use crate::cache::CacheSpec;
 use crate::geom::Aabb;
 
@@ -56,6 +57,13 @@ pub enum NodeKind {
         /// The map and its derived forms.
         placement: Placement,
         /// The transformed subtree.
+        child: NodeId,
+    },
+    /// The child seen through a warp: `f(p) = f_child(W⁻¹(p))`.
+    Warp {
+        /// The warp and its parameters.
+        warp: Warp,
+        /// The warped subtree.
         child: NodeId,
     },
     /// A name for edits; the field is the child's.
@@ -139,9 +147,10 @@ impl NodeKind {
             | NodeKind::Intersection(children)
             | NodeKind::Ricci { children, .. } => children.clone(),
             NodeKind::Difference(a, b) => vec![*a, *b],
-            NodeKind::Transform { child, .. } | NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => {
-                vec![*child]
-            }
+            NodeKind::Transform { child, .. }
+            | NodeKind::Warp { child, .. }
+            | NodeKind::Named { child, .. }
+            | NodeKind::Cache { child, .. } => vec![*child],
         }
     }
 
@@ -160,6 +169,11 @@ impl NodeKind {
             NodeKind::Difference(..) => "Difference",
             NodeKind::Ricci { .. } => "Ricci",
             NodeKind::Transform { .. } => "Transform",
+            NodeKind::Warp { warp, .. } => match warp {
+                Warp::Twist { .. } => "Twist",
+                Warp::Taper { .. } => "Taper",
+                Warp::Bend { .. } => "Bend",
+            },
             NodeKind::Named { .. } => "Named",
             NodeKind::Cache { .. } => "Cache",
         }

@@ -105,6 +105,7 @@ impl Model {
             NodeKind::Transform { placement, child } => {
                 self.node_interval(*child, &b.transformed(&placement.to_local), mode)
             }
+            NodeKind::Warp { warp, child } => self.node_interval(*child, &warp.inverse_box(b), mode),
             NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
                 self.cache(*grid).interval(b, self.pool(), &|r| self.node_interval(*child, r, mode))
             }
@@ -131,6 +132,7 @@ impl Model {
             NodeKind::Transform { placement, child } => {
                 Some(self.node_is_zero_over(*child, &b.transformed(&placement.to_local), mode))
             }
+            NodeKind::Warp { warp, child } => Some(self.node_is_zero_over(*child, &warp.inverse_box(b), mode)),
             _ => None,
         };
         miss.unwrap_or_else(|| self.node_interval(id, b, mode) == Interval::ZERO)
@@ -178,6 +180,15 @@ impl Model {
             NodeKind::Difference(a, b) => max(&[*a, *b]),
             NodeKind::Transform { placement, child } => {
                 placement.stretch * self.node_lipschitz(*child, &region.transformed(&placement.to_local), mode)
+            }
+            NodeKind::Warp { warp, child } => {
+                // |∇f(p)| ≤ ‖∂q/∂p‖ · |∇f_child(q)|, with q in a box holding the warped region.
+                let bounds = region.bounds();
+                let child_bound = self.node_lipschitz(*child, &Region::Box(warp.inverse_box(&bounds)), mode);
+                if child_bound == 0.0 {
+                    return 0.0;
+                }
+                warp.stretch_over(&bounds, &self.node(*child).bounds) * child_bound
             }
             NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => self.cache(*grid).lipschitz(
                 region,
@@ -267,9 +278,13 @@ impl Model {
             }
             NodeKind::Cache { .. } if mode == EvalMode::Cached => f32::INFINITY,
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_curvature(*child, region, mode),
-            NodeKind::Union(_) | NodeKind::Intersection(_) | NodeKind::Difference(..) | NodeKind::Ricci { .. } => {
-                f32::INFINITY
-            }
+            // A warp bends straight lines: the second derivative along one picks
+            // up the child's slope times the path's curvature, left unbounded.
+            NodeKind::Union(_)
+            | NodeKind::Intersection(_)
+            | NodeKind::Difference(..)
+            | NodeKind::Ricci { .. }
+            | NodeKind::Warp { .. } => f32::INFINITY,
         }
     }
 

@@ -82,6 +82,16 @@ fn collect(model: &Model, id: NodeId, placed: Placed, out: &mut Vec<Seed>) {
             }
         }
         NodeKind::Transform { placement, child } => collect(model, *child, placed.then(placement.to_world), out),
+        NodeKind::Warp { warp, child } => {
+            // The child's seeds in its own frame, carried by the warp, then by the frames above.
+            let mut inner = vec![];
+            collect(model, *child, Placed::at(Affine3A::IDENTITY), &mut inner);
+            let stretch = warp.forward_stretch_over(&model.node(*child).bounds);
+            out.extend(inner.into_iter().map(|s| Seed {
+                point: placed.to_world.transform_point3a(warp.forward(s.point)),
+                reach: s.reach * stretch * placed.stretch,
+            }));
+        }
         kind => kind.children().into_iter().for_each(|c| collect(model, c, placed, out)),
     }
 }

@@ -4,13 +4,21 @@ use glam::Vec3A;
 
 use super::desc::NodeDesc;
 use crate::cache::CacheSpec;
-use crate::field::{Model, ModelBuilder, ModelError, NodeId, NodeKind, Placement, Primitive, Skeleton, spline};
+use crate::field::{Model, ModelBuilder, ModelError, NodeId, NodeKind, Placement, Primitive, Skeleton, Warp, spline};
 
 /// Builds the model for the tree `root` with iso-value `threshold`.
 pub fn model(root: &NodeDesc, threshold: f32) -> Result<Model, ModelError> {
     let mut b = ModelBuilder::new();
     let id = add(&mut b, root)?;
     b.finish(id, threshold)
+}
+
+/// A warp node over `child`; its parameters and domain are checked once
+/// the model is built ([`crate::field::Model::check_warps`]), where each is
+/// reported at its place in the scene file.
+fn warped(b: &mut ModelBuilder, warp: Warp, child: &NodeDesc) -> Result<NodeId, ModelError> {
+    let child = add(b, child)?;
+    b.add(NodeKind::Warp { warp, child }, None)
 }
 
 fn add(b: &mut ModelBuilder, desc: &NodeDesc) -> Result<NodeId, ModelError> {
@@ -70,6 +78,18 @@ fn add(b: &mut ModelBuilder, desc: &NodeDesc) -> Result<NodeId, ModelError> {
             let child = add(b, child)?;
             b.add(NodeKind::Transform { placement, child }, color(c))
         }
+        NodeDesc::Twist { axis, rate, child } => warped(b, Warp::Twist { axis: (*axis).into(), rate: rate.0 }, child),
+        NodeDesc::Taper { axis, from, to, scale_from, scale_to, child } => {
+            let warp = Warp::Taper {
+                axis: (*axis).into(),
+                from: from.0,
+                to: to.0,
+                scale_from: scale_from.0,
+                scale_to: scale_to.0,
+            };
+            warped(b, warp, child)
+        }
+        NodeDesc::Bend { rate, child } => warped(b, Warp::Bend { rate: rate.0 }, child),
         NodeDesc::Named(name, child) => {
             let child = add(b, child)?;
             b.add(NodeKind::Named { name: name.0.clone(), child }, None)

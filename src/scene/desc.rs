@@ -62,6 +62,33 @@ fn one() -> Finite {
     Finite(1.0)
 }
 
+fn one_positive() -> Positive {
+    Positive(1.0)
+}
+
+/// A warp's axis as scene files name it.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(deny_unknown_fields)]
+pub enum AxisDesc {
+    /// X.
+    X,
+    /// Y.
+    #[default]
+    Y,
+    /// Z.
+    Z,
+}
+
+impl From<AxisDesc> for crate::field::Axis {
+    fn from(a: AxisDesc) -> Self {
+        match a {
+            AxisDesc::X => Self::X,
+            AxisDesc::Y => Self::Y,
+            AxisDesc::Z => Self::Z,
+        }
+    }
+}
+
 fn zero3() -> V3 {
     V3(glam::Vec3::ZERO)
 }
@@ -220,6 +247,40 @@ pub enum NodeDesc {
         #[serde(default)]
         color: Option<Color>,
     },
+    /// The child twisted about an axis: turned by `rate · h` radians at height `h`.
+    Twist {
+        /// The axis (default `Y`).
+        #[serde(default)]
+        axis: AxisDesc,
+        /// Radians per scene unit.
+        rate: Finite,
+        /// The twisted subtree.
+        child: Box<NodeDesc>,
+    },
+    /// The child's cross-sections scaled from `scale_from` at `from` to `scale_to` at `to` along an axis.
+    Taper {
+        /// The axis (default `Y`).
+        #[serde(default)]
+        axis: AxisDesc,
+        /// Where the ramp starts.
+        from: Finite,
+        /// Where it ends, above `from`.
+        to: Finite,
+        /// Scale at and below `from` (default 1).
+        #[serde(default = "one_positive")]
+        scale_from: Positive,
+        /// Scale at and above `to`.
+        scale_to: Positive,
+        /// The tapered subtree.
+        child: Box<NodeDesc>,
+    },
+    /// The child's X axis bent onto a circle of radius `1/rate` in the XY plane.
+    Bend {
+        /// Curvature (toward +Y when positive); 0 is the identity.
+        rate: Finite,
+        /// The bent subtree.
+        child: Box<NodeDesc>,
+    },
     /// A named subtree, for edits.
     Named(Name, Box<NodeDesc>),
     /// A cache of the child's field.
@@ -249,7 +310,12 @@ impl NodeDesc {
             | NodeDesc::Intersection(c)
             | NodeDesc::Ricci { children: c, .. } => c.0.iter().collect(),
             NodeDesc::Difference(a, b) => vec![a, b],
-            NodeDesc::Transform { child, .. } | NodeDesc::Named(_, child) | NodeDesc::Cache { child, .. } => {
+            NodeDesc::Transform { child, .. }
+            | NodeDesc::Twist { child, .. }
+            | NodeDesc::Taper { child, .. }
+            | NodeDesc::Bend { child, .. }
+            | NodeDesc::Named(_, child)
+            | NodeDesc::Cache { child, .. } => {
                 vec![child]
             }
             _ => vec![],
@@ -294,7 +360,11 @@ impl NodeDesc {
                 a.for_each_cache(f);
                 b.for_each_cache(f);
             }
-            NodeDesc::Transform { child, .. } | NodeDesc::Named(_, child) => child.for_each_cache(f),
+            NodeDesc::Transform { child, .. }
+            | NodeDesc::Twist { child, .. }
+            | NodeDesc::Taper { child, .. }
+            | NodeDesc::Bend { child, .. }
+            | NodeDesc::Named(_, child) => child.for_each_cache(f),
             _ => {}
         }
     }

@@ -10,6 +10,7 @@ pub fn locate(text: &str, cause: &ModelError) -> Option<(usize, usize)> {
     let offset = match cause {
         ModelError::DuplicateName(name) => named_occurrences(text, name).nth(1)?,
         ModelError::TooFar { .. } => field_offset(text, "model")?,
+        ModelError::BadWarp { kind, occurrence, .. } => node_occurrences(text, kind).nth(*occurrence)?,
         _ => return None,
     };
     Some(line_column(text, offset))
@@ -21,6 +22,15 @@ fn named_occurrences<'a>(text: &'a str, name: &'a str) -> impl Iterator<Item = u
     text.match_indices("Named").filter_map(move |(at, _)| {
         let rest = text[at + "Named".len()..].trim_start().strip_prefix('(')?.trim_start();
         rest.starts_with(&quoted).then_some(at)
+    })
+}
+
+/// Byte offsets of each `Kind(` in `text` (a whole word), at the kind's first letter.
+fn node_occurrences<'a>(text: &'a str, kind: &'a str) -> impl Iterator<Item = usize> + 'a {
+    text.match_indices(kind).map(|(at, _)| at).filter(move |&at| {
+        let before = text[..at].chars().next_back();
+        let boundary = before.is_none_or(|c| !(c.is_alphanumeric() || c == '_'));
+        boundary && text[at + kind.len()..].trim_start().starts_with('(')
     })
 }
 
@@ -51,5 +61,8 @@ mod tests {
         assert_eq!(locate(text, &ModelError::DuplicateName("a".into())), Some((2, 32)));
         assert_eq!(locate(text, &ModelError::TooFar { far: 1e9, size: 1.0 }), Some((2, 3)));
         assert_eq!(locate(text, &ModelError::Empty), None);
+        let warps = "Blend([Bend(rate: 0.1, child: P),\n  Bend(rate: 9.0, child: Q)])";
+        let bad = ModelError::BadWarp { kind: "Bend", occurrence: 1, message: String::new() };
+        assert_eq!(locate(warps, &bad), Some((2, 3)));
     }
 }

@@ -92,6 +92,7 @@ impl Model {
         while let Some(parent) = self.node(at).parent {
             match &self.node(parent).kind {
                 NodeKind::Transform { placement, .. } => region = region.transformed(&placement.to_world),
+                NodeKind::Warp { warp, .. } => region = warp.forward_box(&region),
                 NodeKind::Cache { grid, .. } => {
                     let grid = *grid;
                     cleared += self.invalidate_cache(grid, &mut region);

@@ -29,6 +29,17 @@ pub enum ModelError {
     /// The model has no nodes.
     #[error("the model is empty")]
     Empty,
+    /// A warp's parameters are unusable, or its child leaves its domain:
+    /// the `occurrence`-th node of that kind (0-based, in scene order).
+    #[error("{kind}: {message}")]
+    BadWarp {
+        /// `Twist`, `Taper` or `Bend`.
+        kind: &'static str,
+        /// Which of that kind, in the order a scene file writes them.
+        occurrence: usize,
+        /// What is wrong.
+        message: String,
+    },
     /// A transform scales an axis by zero: it has no inverse.
     #[error("a Transform scale factor is zero")]
     ZeroScale,
@@ -188,6 +199,7 @@ impl ModelBuilder {
         };
         model.link()?;
         model.refresh();
+        model.check_warps()?;
         Ok(model)
     }
 }
@@ -252,8 +264,33 @@ impl Model {
         match &self.node(id).kind {
             NodeKind::Primitive(p) => p.bounds(),
             NodeKind::Transform { placement, child } => self.extent_of(*child).transformed(&placement.to_world),
+            NodeKind::Warp { warp, child } => warp.forward_box(&self.extent_of(*child)),
             kind => kind.children().iter().fold(Aabb::EMPTY, |a, &c| a.union(&self.extent_of(c))),
         }
+    }
+
+    /// Checks every warp's parameters and that each bend's child lies in
+    /// its domain (see [`crate::field::Warp::check_domain`]).
+    pub fn check_warps(&self) -> Result<(), ModelError> {
+        let mut seen: Vec<&'static str> = vec![];
+        let mut stack = vec![self.root];
+        while let Some(id) = stack.pop() {
+            let node = self.node(id);
+            if let NodeKind::Warp { warp, child } = &node.kind {
+                let kind = node.kind.type_name();
+                let occurrence = seen.iter().filter(|&&k| k == kind).count();
+                seen.push(kind);
+                let bounds = self.sizing_bounds_of(*child);
+                warp.check().and_then(|()| warp.check_domain(&bounds)).map_err(|message| ModelError::BadWarp {
+                    kind,
+                    occurrence,
+                    message,
+                })?;
+            }
+            // Children pushed last-first, so they are visited in scene order.
+            stack.extend(node.kind.children().into_iter().rev());
+        }
+        Ok(())
     }
 
     /// Checks that the model lies near enough the origin for its size (see
@@ -349,6 +386,7 @@ impl Model {
             }
             NodeKind::Difference(..) => children[0].0,
             NodeKind::Transform { placement, .. } => children[0].0.transformed(&placement.to_world),
+            NodeKind::Warp { warp, .. } => warp.forward_box(&children[0].0),
             NodeKind::Cache { spec, grid, .. } => {
                 let (spec, grid) = (*spec, *grid);
                 let old = self.nodes[id as usize].bounds;
