@@ -332,3 +332,69 @@ fn an_edit_refused_mid_frame_leaves_the_session_following_the_edits_before_it() 
     let check = session.verify().mismatch;
     assert!(check.is_none(), "the images and mesh follow the first edit: {check:?}");
 }
+
+#[test]
+fn warp_edits_rerender_and_repolygonize_like_work_from_scratch() {
+    let warp = |node: &str, rate: Option<f32>, to: Option<f32>, scale_to: Option<f32>| Edit::Warp {
+        node: node.into(),
+        rate,
+        from: None,
+        to,
+        scale_from: None,
+        scale_to,
+    };
+    let edits = [
+        warp("tail", Some(0.3), None, None),
+        warp("horn", None, Some(3.0), Some(0.35)),
+        // The spring is cached: its samples, of the twisted field, are cleared and refilled.
+        warp("spring", Some(2.4), None, None),
+        Edit::Translate { node: "braid".into(), by: Vec3::new(0.2, 0.1, 0.0) },
+        warp("braid", Some(1.5), None, None),
+    ];
+    for mode in [EvalMode::Indexed, EvalMode::Cached] {
+        let polygonize = PolygonizeSettings { res: 48, ..Default::default() };
+        let mut session = EditSession::new(bundled("warps.ron"), mode, Size(80, 60), &polygonize).unwrap();
+        for edit in &edits {
+            let before = session.field_frame().clone();
+            let rects = session.apply(std::slice::from_ref(edit)).unwrap().dirty;
+            let check = session.verify();
+            assert_eq!(check.mismatch, None, "{mode:?} {edit:?}");
+            let full = render(&ModelField::new(&session.scene().model, mode), session.settings(), &|_| {}).0;
+            let changed = changed_pixels(&before, &full);
+            assert!(!changed.is_empty(), "{mode:?} {edit:?} changes the image");
+            for (x, y) in changed {
+                assert!(rects.iter().any(|r| r.contains(x, y)), "{mode:?} {edit:?}: pixel {x},{y} changed outside");
+            }
+        }
+    }
+}
+
+#[test]
+fn bad_warp_edits_are_refused_and_change_nothing() {
+    let mut scene = bundled("warps.ron");
+    let before = scene.model.clone();
+    let warp = |node: &str, rate: Option<f32>, from: Option<f32>, scale_to: Option<f32>| Edit::Warp {
+        node: node.into(),
+        rate,
+        from,
+        to: None,
+        scale_from: None,
+        scale_to,
+    };
+    let bad = [
+        (warp("tail", Some(2.0), None, None), "needs its child within"),
+        (warp("tail", Some(f32::NAN), None, None), "finite"),
+        (warp("horn", None, Some(5.0), None), "from < to"),
+        (warp("horn", None, None, Some(-1.0)), "positive"),
+        (warp("horn", Some(1.0), None, None), "a taper has no rate"),
+        (warp("braid", None, Some(0.0), None), "a taper's"),
+    ];
+    for (edit, words) in bad {
+        let err = scene.model.apply(&edit).expect_err("refused").to_string();
+        assert!(err.contains(words), "{edit:?}: {err}");
+    }
+    let settings = scene.render_settings(Size(48, 36));
+    let now = render(&ModelField::new(&scene.model, EvalMode::Indexed), &settings, &|_| {}).0;
+    let then = render(&ModelField::new(&before, EvalMode::Indexed), &settings, &|_| {}).0;
+    assert!(now.same_image(&then));
+}

@@ -119,6 +119,9 @@ fn gradients_match_central_differences_for_every_node_type() {
         "Difference",
         "Ricci",
         "Transform",
+        "Twist",
+        "Taper",
+        "Bend",
         "Named",
         "Cache",
     ] {

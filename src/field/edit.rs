@@ -8,6 +8,7 @@ use super::MAX_MAGNITUDE;
 use super::model::{Change, Model, ModelError};
 use super::node::{NodeKind, Placement};
 use super::node_id::NodeId;
+use super::warp::Warp;
 use crate::geom::{Aabb, Support};
 
 /// An edit of a named node. [`Model::apply`] checks its numbers before
@@ -68,6 +69,22 @@ pub enum Edit {
         /// The `Named` node to remove.
         node: String,
     },
+    /// Set parameters of the warp under the named node (through its
+    /// transforms and caches); those left `None` keep their values.
+    Warp {
+        /// The `Named` node above a Twist, Taper or Bend.
+        node: String,
+        /// A twist's or bend's rate.
+        rate: Option<f32>,
+        /// A taper's ramp start.
+        from: Option<f32>,
+        /// A taper's ramp end.
+        to: Option<f32>,
+        /// A taper's scale at its start.
+        scale_from: Option<f32>,
+        /// A taper's scale at its end.
+        scale_to: Option<f32>,
+    },
     /// Change the operator under the named node, keeping its children.
     Operator {
         /// The `Named` node above a Blend, Union, Intersection or Ricci.
@@ -75,6 +92,27 @@ pub enum Edit {
         /// The new operator.
         op: Operator,
     },
+}
+
+/// `warp` with the parameters given (rate, from, to, scale_from, scale_to)
+/// replaced; a parameter the warp does not have is refused.
+fn with_parameters(warp: Warp, [rate, from, to, scale_from, scale_to]: [Option<f32>; 5]) -> Result<Warp, String> {
+    let taper_only = from.is_some() || to.is_some() || scale_from.is_some() || scale_to.is_some();
+    match warp {
+        Warp::Twist { .. } | Warp::Bend { .. } if taper_only => {
+            Err("from, to, scale_from and scale_to are a taper's; a twist or bend has a rate".into())
+        }
+        Warp::Twist { axis, rate: r } => Ok(Warp::Twist { axis, rate: rate.unwrap_or(r) }),
+        Warp::Bend { rate: r } => Ok(Warp::Bend { rate: rate.unwrap_or(r) }),
+        Warp::Taper { .. } if rate.is_some() => Err("a taper has no rate".into()),
+        Warp::Taper { axis, from: f, to: t, scale_from: s0, scale_to: s1 } => Ok(Warp::Taper {
+            axis,
+            from: from.unwrap_or(f),
+            to: to.unwrap_or(t),
+            scale_from: scale_from.unwrap_or(s0),
+            scale_to: scale_to.unwrap_or(s1),
+        }),
+    }
 }
 
 /// The n-ary operators an edit can switch between.
@@ -101,6 +139,7 @@ impl Edit {
             | Edit::Radius { node, .. }
             | Edit::Weight { node, .. }
             | Edit::Remove { node }
+            | Edit::Warp { node, .. }
             | Edit::Operator { node, .. } => node,
             Edit::AddPoint { to, .. } => to,
         }
@@ -132,6 +171,11 @@ impl Edit {
                 bad(format!(
                     "adding {name:?}: needs a name, a finite centre and weight, and a positive radius (each at most {MAX_MAGNITUDE:e})"
                 ))
+            }
+            Edit::Warp { rate, from, to, scale_from, scale_to, .. }
+                if ![rate, from, to, scale_from, scale_to].iter().all(|v| v.is_none_or(fine)) =>
+            {
+                bad(format!("{}: warp parameters must be finite and at most {MAX_MAGNITUDE:e}", self.node()))
             }
             Edit::Operator { op: Operator::Ricci(n), .. } if !(n.is_finite() && *n >= 1.0) => {
                 bad(format!("{}: Ricci exponent {n} must be at least 1", self.node()))
@@ -208,6 +252,20 @@ impl Model {
                 self.move_subtree(named, |c| about(c, Affine3A::from_quat(q)))
             }
             Edit::Scale { by, .. } => self.move_subtree(named, |c| about(c, Affine3A::from_scale(*by))),
+            Edit::Warp { rate, from, to, scale_from, scale_to, .. } => {
+                let id = self.under_frames(child);
+                let NodeKind::Warp { warp, child: warped } = self.node(id).kind else {
+                    return Err(ModelError::WrongKind {
+                        node: format!("the node under {:?} (through its transforms and caches)", edit.node()),
+                        expected: "Twist, Taper or Bend",
+                        found: self.node(id).kind.type_name(),
+                    });
+                };
+                let changed = with_parameters(warp, [*rate, *from, *to, *scale_from, *scale_to])
+                    .and_then(|w| w.check().and_then(|()| w.check_domain(&self.sizing_bounds_of(warped))).map(|()| w))
+                    .map_err(|why| ModelError::BadEdit(format!("{}: {why}", edit.node())))?;
+                self.set_warp(id, changed)
+            }
         }
     }
 
@@ -276,6 +334,8 @@ impl Model {
                 out[first..].iter_mut().for_each(|s| *s = s.padded(reach));
             }
             NodeKind::Difference(a, _) => self.supports(*a, out),
+            // A warp bends its child's supports out of shape: its own bounds hold them.
+            NodeKind::Warp { .. } => out.push(Support::Box(self.node(id).bounds)),
             kind => kind.children().into_iter().for_each(|c| self.supports(c, out)),
         }
     }
@@ -337,6 +397,9 @@ impl Model {
             match &self.node(parent).kind {
                 NodeKind::Transform { placement, .. } => {
                     regions.iter_mut().for_each(|s| *s = s.transformed(&placement.to_world))
+                }
+                NodeKind::Warp { warp, .. } => {
+                    regions.iter_mut().for_each(|s| *s = Support::Box(warp.forward_box(&s.bounds())))
                 }
                 NodeKind::Cache { grid, .. } if cached => {
                     let reach = self.cache(*grid).sample_reach_distance();

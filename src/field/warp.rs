@@ -124,7 +124,7 @@ impl Warp {
                 let s = self.taper_scale(p[h]);
                 with(p, [(u, p[u] / s), (v, p[v] / s)])
             }
-            Warp::Bend { rate: k } if k == 0.0 => p,
+            Warp::Bend { rate: 0.0 } => p,
             Warp::Bend { rate: k } => {
                 let (a, b) = (k * p.x, 1.0 - k * p.y);
                 Vec3A::new(a.atan2(b) / k, (1.0 - a.hypot(b)) / k, p.z)
@@ -142,7 +142,7 @@ impl Warp {
                 let s = self.taper_scale(q[h]);
                 with(q, [(u, q[u] * s), (v, q[v] * s)])
             }
-            Warp::Bend { rate: k } if k == 0.0 => q,
+            Warp::Bend { rate: 0.0 } => q,
             Warp::Bend { rate: k } => {
                 let (r, angle) = (1.0 - k * q.y, k * q.x);
                 Vec3A::new(r * angle.sin() / k, (1.0 - r * angle.cos()) / k, q.z)
@@ -168,7 +168,7 @@ impl Warp {
                 rows[u] = with(Vec3A::ZERO, [(u, 1.0 / s), (h, -p[u] * slope / (s * s))]);
                 rows[v] = with(Vec3A::ZERO, [(v, 1.0 / s), (h, -p[v] * slope / (s * s))]);
             }
-            Warp::Bend { rate: k } if k == 0.0 => {}
+            Warp::Bend { rate: 0.0 } => {}
             Warp::Bend { rate: k } => {
                 let (a, b) = (k * p.x, 1.0 - k * p.y);
                 let rho2 = a * a + b * b;

@@ -17,7 +17,7 @@ impl Warp {
         match *self {
             Warp::Twist { axis, rate } => turned_box(b, axis, (-rate * b.max[index(axis)], -rate * b.min[index(axis)])),
             Warp::Taper { axis, .. } => self.scaled_box(b, axis, false),
-            Warp::Bend { rate } if rate == 0.0 => *b,
+            Warp::Bend { rate: 0.0 } => *b,
             Warp::Bend { rate } => unbent_box(b, rate),
         }
     }
@@ -31,7 +31,7 @@ impl Warp {
         match *self {
             Warp::Twist { axis, rate } => turned_box(b, axis, (rate * b.min[index(axis)], rate * b.max[index(axis)])),
             Warp::Taper { axis, .. } => self.scaled_box(b, axis, true),
-            Warp::Bend { rate } if rate == 0.0 => *b,
+            Warp::Bend { rate: 0.0 } => *b,
             Warp::Bend { rate } => bent_box(b, rate),
         }
     }
@@ -59,7 +59,7 @@ impl Warp {
             // scaled distance from the bend's centre: ‖J‖ = max(1, 1/ρ). The
             // child is zero where ρ is below its own smallest ρ, so only
             // points at least that far count.
-            Warp::Bend { rate: k } if k == 0.0 => 1.0,
+            Warp::Bend { rate: 0.0 } => 1.0,
             Warp::Bend { rate: k } => {
                 let rho_child = 1.0 - (k * child.min.y).max(k * child.max.y);
                 let rho_box = k.abs() * distance_to_box(Vec3A::new(0.0, 1.0 / k, 0.0), b, true);

@@ -36,6 +36,26 @@ pub enum EditDesc {
         #[serde(deserialize_with = "values::scale_factors")]
         by: Vec3,
     },
+    /// Set parameters of the named warp (Twist, Taper or Bend); the rest keep their values.
+    Warp {
+        /// The `Named` node above the warp.
+        node: String,
+        /// A twist's or bend's rate.
+        #[serde(default)]
+        rate: Option<values::Finite>,
+        /// A taper's ramp start.
+        #[serde(default)]
+        from: Option<values::Finite>,
+        /// A taper's ramp end.
+        #[serde(default)]
+        to: Option<values::Finite>,
+        /// A taper's scale at its start.
+        #[serde(default)]
+        scale_from: Option<values::Positive>,
+        /// A taper's scale at its end.
+        #[serde(default)]
+        scale_to: Option<values::Positive>,
+    },
     /// Set the support radius of the named primitive.
     Radius {
         /// The `Named` node holding a primitive.
@@ -123,6 +143,14 @@ impl From<EditDesc> for Edit {
             }
             EditDesc::Remove { node } => Edit::Remove { node },
             EditDesc::Operator { node, op } => Edit::Operator { node, op: op.into() },
+            EditDesc::Warp { node, rate, from, to, scale_from, scale_to } => Edit::Warp {
+                node,
+                rate: rate.map(|v| v.0),
+                from: from.map(|v| v.0),
+                to: to.map(|v| v.0),
+                scale_from: scale_from.map(|v| v.0),
+                scale_to: scale_to.map(|v| v.0),
+            },
         }
     }
 }

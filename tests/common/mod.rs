@@ -26,6 +26,11 @@ pub const EVERY_NODE: &str = r#"Scene(
         Named("arm", Transform(translate: (0.5, 0.3, -1.0), rotate: (20.0, -35.0, 50.0), scale: (1.5, 0.7, 1.1),
             child: Segment(a: (0.0, 0.0, 0.0), b: (1.0, 0.0, 0.0), radius: 0.5))),
         Cache(res: 32, child: Point(center: (0.0, 0.0, 1.5), radius: 0.7)),
+        Named("twisted", Twist(axis: Y, rate: 1.4, child: Segment(a: (0.3, 3.0, 0.0), b: (0.3, 4.2, 0.0), radius: 0.5))),
+        Transform(translate: (2.6, 2.4, 0.0), child: Twist(axis: Z, rate: 0.9, child: Taper(axis: X, from: -0.5, to: 0.8,
+            scale_to: 0.5, child: Bend(rate: 0.5, child: Segment(a: (-0.5, 0.0, 0.0), b: (1.0, 0.0, 0.0), radius: 0.6))))),
+        Cache(res: 24, child: Taper(axis: Y, from: -3.6, to: -2.4, scale_from: 1.2, scale_to: 0.6,
+            child: Point(center: (0.0, -3.0, 0.0), radius: 0.8))),
     ]),
 )"#;
 

@@ -34,6 +34,18 @@ impl Model {
         Ok(self.edited(id, old))
     }
 
+    /// Sets warp node `id`'s parameters; caches above it clear the samples
+    /// inside the old and new bounds (those below keep theirs: the child's
+    /// field is unchanged).
+    pub fn set_warp(&mut self, id: NodeId, warp: crate::field::Warp) -> Result<Change, ModelError> {
+        let old = self.node(id).bounds;
+        match &mut self.nodes[id as usize].kind {
+            NodeKind::Warp { warp: w, .. } => *w = warp,
+            other => return Err(wrong_kind(id, "Twist, Taper or Bend", other)),
+        }
+        Ok(self.edited(id, old))
+    }
+
     /// The Transform right under `Named` node `named`, inserting an identity
     /// one the first time: edits move it, so caches below move with their frame.
     pub(in crate::field) fn transform_under(&mut self, named: NodeId) -> NodeId {
