@@ -278,13 +278,23 @@ impl Model {
             }
             NodeKind::Cache { .. } if mode == EvalMode::Cached => f32::INFINITY,
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_curvature(*child, region, mode),
-            // A warp bends straight lines: the second derivative along one picks
-            // up the child's slope times the path's curvature, left unbounded.
-            NodeKind::Union(_)
-            | NodeKind::Intersection(_)
-            | NodeKind::Difference(..)
-            | NodeKind::Ricci { .. }
-            | NodeKind::Warp { .. } => f32::INFINITY,
+            NodeKind::Warp { warp, child } => {
+                // A warp bends straight lines: the second derivative along one is
+                // the child's along the bent path, stretched, plus its slope times
+                // the path's turning (see `Warp::acceleration_over`).
+                let bounds = region.bounds();
+                let accel = warp.acceleration_over(&bounds);
+                if !accel.is_finite() {
+                    return f32::INFINITY;
+                }
+                let inner = Region::Box(warp.inverse_box(&bounds));
+                let stretch = warp.stretch_over(&bounds, &self.node(*child).bounds);
+                let curvature = self.node_curvature(*child, &inner, mode).max(0.0);
+                stretch * stretch * curvature + self.node_lipschitz(*child, &inner, mode) * accel
+            }
+            NodeKind::Union(_) | NodeKind::Intersection(_) | NodeKind::Difference(..) | NodeKind::Ricci { .. } => {
+                f32::INFINITY
+            }
         }
     }
 

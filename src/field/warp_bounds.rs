@@ -85,6 +85,37 @@ impl Warp {
         }
     }
 
+    /// An upper bound on `|q''(t)|` along any unit-speed line `p(t)` through
+    /// `b`: how fast the warped path turns. With it, along such a line
+    /// `d²f/dt² = q′ᵀ H q′ + ∇f_child · q″ ≤ stretch² · max(c, 0) + L · accel`
+    /// for `c` and `L` the child's curvature and slope bounds.
+    #[must_use]
+    pub fn acceleration_over(&self, b: &Aabb) -> f32 {
+        match *self {
+            // q = R(θ) p with θ = −K·h(t) linear in t: q″ = θ′² R″ p + 2θ′ R′ d,
+            // |R″ p| = ρ and |R′ d| ≤ 1, |θ′| ≤ |K|.
+            Warp::Twist { axis, rate } => rate * rate * radial_reach(b, axis) + 2.0 * rate.abs(),
+            // s(h(t)) is linear on the ramp and constant beyond it, so q_u = u/s
+            // has q_u″ = −2u′s′/s² + 2u s′²/s³ there and 0 beyond; across a
+            // ramp end s′ jumps and q′ with it: no bound.
+            Warp::Taper { axis, from, to, scale_from, scale_to } => {
+                let (h, _, _) = indices(axis);
+                let (lo, hi) = (b.min[h], b.max[h]);
+                if hi <= from || lo >= to {
+                    return 0.0;
+                }
+                if lo < from || hi > to {
+                    return f32::INFINITY;
+                }
+                let (s, sigma) = (scale_from.min(scale_to), ((scale_to - scale_from) / (to - from)).abs());
+                2.0 * (2.0 * sigma / (s * s) + 2.0 * radial_reach(b, axis) * sigma * sigma / (s * s * s))
+            }
+            // The bend's path turns without a bound near its centre; not derived.
+            Warp::Bend { rate: 0.0 } => 0.0,
+            Warp::Bend { .. } => f32::INFINITY,
+        }
+    }
+
     /// A taper's box through `s(h)` (`forward`: multiplied by it, else divided).
     fn scaled_box(&self, b: &Aabb, axis: Axis, forward: bool) -> Aabb {
         let (h, u, v) = indices(axis);
@@ -310,6 +341,26 @@ mod tests {
                         .fold(0.0, f32::max);
                         assert!(norm <= bound * 1.0001, "{w:?} at {p}: {norm} > {bound}");
                     }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn acceleration_bounds_the_second_difference_of_warped_lines() {
+        for w in warps() {
+            for b in boxes() {
+                let bound = w.acceleration_over(&b);
+                if !bound.is_finite() {
+                    continue;
+                }
+                for k in 0..12 {
+                    let t = k as f32;
+                    let d = Vec3A::new((t * 1.7).sin(), (t * 0.9).cos(), (t * 2.3).sin()).normalize();
+                    let p = b.center();
+                    let h = 1e-2f32.min(0.5 * (b.max - b.min).min_element());
+                    let second = (w.inverse(p + d * h) - 2.0 * w.inverse(p) + w.inverse(p - d * h)) / (h * h);
+                    assert!(second.length() <= bound * 1.05 + 1e-2, "{w:?} along {d}: {} > {bound}", second.length());
                 }
             }
         }
