@@ -49,9 +49,9 @@ impl Warp {
                 (1.0 + 0.25 * t * t).sqrt() + 0.5 * t
             }
             // J = diag(1/s, 1/s, 1) + the h-column (−u·s′/s², −v·s′/s², 0):
-            // ‖J‖ ≤ max(1/s, 1) + ρ·|s′|/s², with s at its smallest.
+            // ‖J‖ ≤ max(1/s, 1) + ρ·|s′|/s², with s at its smallest over the box.
             Warp::Taper { axis, from, to, scale_from, scale_to } => {
-                let s_min = scale_from.min(scale_to);
+                let s_min = self.taper_scale_range(b, axis).0;
                 let slope = ((scale_to - scale_from) / (to - from)).abs();
                 (1.0 / s_min).max(1.0) + radial_reach(b, axis) * slope / (s_min * s_min)
             }
@@ -78,7 +78,7 @@ impl Warp {
             // diag(s, s, 1) + the h-column (u·s′, v·s′, 0).
             Warp::Taper { axis, from, to, scale_from, scale_to } => {
                 let slope = ((scale_to - scale_from) / (to - from)).abs();
-                scale_from.max(scale_to).max(1.0) + radial_reach(b, axis) * slope
+                self.taper_scale_range(b, axis).1.max(1.0) + radial_reach(b, axis) * slope
             }
             // A rotation times diag(r, 1, 1), r = 1 − K·q_y.
             Warp::Bend { rate: k } => (1.0 - (k * b.min.y).min(k * b.max.y)).max(1.0),
@@ -107,7 +107,7 @@ impl Warp {
                 if lo < from || hi > to {
                     return f32::INFINITY;
                 }
-                let (s, sigma) = (scale_from.min(scale_to), ((scale_to - scale_from) / (to - from)).abs());
+                let (s, sigma) = (self.taper_scale_range(b, axis).0, ((scale_to - scale_from) / (to - from)).abs());
                 2.0 * (2.0 * sigma / (s * s) + 2.0 * radial_reach(b, axis) * sigma * sigma / (s * s * s))
             }
             // The bend's path turns without a bound near its centre; not derived.
@@ -118,10 +118,8 @@ impl Warp {
 
     /// A taper's box through `s(h)` (`forward`: multiplied by it, else divided).
     fn scaled_box(&self, b: &Aabb, axis: Axis, forward: bool) -> Aabb {
-        let (h, u, v) = indices(axis);
-        // s is monotone in h, so its range over [h0, h1] is its ends'.
-        let ends = [self.taper_scale_at(b.min[h]), self.taper_scale_at(b.max[h])];
-        let (s_lo, s_hi) = (ends[0].min(ends[1]), ends[0].max(ends[1]));
+        let (_, u, v) = indices(axis);
+        let (s_lo, s_hi) = self.taper_scale_range(b, axis);
         let mut out = *b;
         for i in [u, v] {
             let (lo, hi) = (b.min[i], b.max[i]);
@@ -134,6 +132,14 @@ impl Warp {
             out.max[i] = candidates.iter().copied().fold(f32::NEG_INFINITY, f32::max);
         }
         widen(out)
+    }
+
+    /// The smallest and largest taper scale over `b`: `s` is monotone in
+    /// `h`, so they are its values at the ends of `b`'s range along the axis.
+    fn taper_scale_range(&self, b: &Aabb, axis: Axis) -> (f32, f32) {
+        let h = index(axis);
+        let ends = [self.taper_scale_at(b.min[h]), self.taper_scale_at(b.max[h])];
+        (ends[0].min(ends[1]), ends[0].max(ends[1]))
     }
 
     fn taper_scale_at(&self, h: f32) -> f32 {
