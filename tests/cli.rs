@@ -1268,3 +1268,38 @@ fn a_full_disk_leaves_every_old_output_as_it_was_and_no_temporaries() {
     assert!(std::fs::read(outputs.join("ray.png")).unwrap().starts_with(b"\x89PNG"));
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn warp_edit_scripts_verify_and_bad_warp_edits_name_their_line() {
+    let out = blobtrace(&[
+        "edit",
+        "scenes/warps.ron",
+        "--script",
+        "scenes/scripts/warps.ron",
+        "--size",
+        "64x48",
+        "--res",
+        "32",
+        "--verify",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let dir = scratch("warp-scripts");
+    let cases = [
+        (
+            "(edits: [Warp(node: \"tail\", rate: 0.5)]),\n  (edits: [Warp(node: \"tail\", rate: 5.0)]),",
+            "bad.ron:3:3",
+            "needs its child within",
+        ),
+        ("(edits: [Warp(node: \"horn\", scale_to: -0.5)]),", "bad.ron:2:", "positive"),
+        ("(edits: [Warp(node: \"braid\", from: 0.0)]),", "bad.ron:2:", "a taper's"),
+    ];
+    for (frames, place, words) in cases {
+        let script = dir.join("bad.ron");
+        std::fs::write(&script, format!("EditScript(frames: [\n  {frames}\n])\n")).unwrap();
+        let out = blobtrace(&["edit", "scenes/warps.ron", "--script", script.to_str().unwrap(), "--size", "32x24"]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(err.contains(place) && err.contains(words), "{frames}: {err}");
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
