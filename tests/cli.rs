@@ -266,8 +266,20 @@ fn cached_render_reports_cache_statistics_and_exact_mode_omits_them() {
         args.extend_from_slice(extra);
         json(&blobtrace(&args))
     };
-    let cached = run(&[]);
-    assert_eq!(cached["eval"], "cached", "caches are the default where the scene has them");
+    // The default, auto, finds that none of Medusa's caches pays: exact evaluation, with the decisions reported.
+    let auto = run(&[]);
+    assert_eq!(auto["eval"], "indexed");
+    let decisions = auto["cache_decisions"].as_array().expect("decisions are reported");
+    assert_eq!(decisions.len(), 7);
+    for d in decisions {
+        assert!(
+            d["exact_cost"].as_f64() > Some(0.0) && d["uses_lattice"] == false && d["reason"] == "estimated",
+            "{d}"
+        );
+    }
+    assert!(auto.get("caches").is_none());
+    let cached = run(&["--mode", "cached"]);
+    assert_eq!(cached["eval"], "cached");
     let caches = &cached["caches"];
     for key in ["samples_evaluated", "blocks", "bytes", "touched_fraction", "lookups", "per_cache"] {
         assert!(caches.get(key).is_some(), "missing cache key {key} in {caches}");
@@ -275,10 +287,10 @@ fn cached_render_reports_cache_statistics_and_exact_mode_omits_them() {
     assert_eq!(caches["per_cache"].as_array().map(Vec::len), Some(7));
     assert!(caches["samples_evaluated"].as_u64() > Some(0));
     // Every lookup is counted, on however many threads.
-    let one_thread = run(&["--threads", "1"]);
+    let one_thread = run(&["--mode", "cached", "--threads", "1"]);
     assert!(caches["lookups"].as_u64() > Some(0));
     assert_eq!(one_thread["caches"]["lookups"], caches["lookups"]);
-    let budgeted = run(&["--cache-budget", "0.5"]);
+    let budgeted = run(&["--mode", "cached", "--cache-budget", "0.5"]);
     assert!(budgeted["caches"]["bytes"].as_u64() <= Some(512 * 1024), "{}", budgeted["caches"]);
     assert_eq!(budgeted["hits"], cached["hits"]);
     let exact = run(&["--mode", "exact"]);
@@ -1301,5 +1313,44 @@ fn warp_edit_scripts_verify_and_bad_warp_edits_name_their_line() {
         assert_eq!(out.status.code(), Some(1), "{err}");
         assert!(err.contains(place) && err.contains(words), "{frames}: {err}");
     }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn auto_mode_follows_pins_and_renders_the_same_bits_on_any_thread_count() {
+    let dir = scratch("auto");
+    let scene = |usage: &str| {
+        let path = dir.join(format!("{usage}.ron"));
+        let text = format!(
+            "Scene(\n  camera: Camera(eye: (0.0, 0.5, 5.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),\n  size: (64, 48),\n  model: Blend([\n    Cache(res: 24, use: {usage}, child: Blend([Point(center: (-0.4, 0.0, 0.0), radius: 1.2), Point(center: (0.4, 0.1, 0.0), radius: 1.1)])),\n    Point(center: (0.0, -0.9, 0.3), radius: 0.8),\n  ]),\n)\n"
+        );
+        std::fs::write(&path, text).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let render = |scene: &str, extra: &[&str], name: &str| {
+        let (png, exr) = (dir.join(format!("{name}.png")), dir.join(format!("{name}.exr")));
+        let args =
+            [&["render", scene, "-o", png.to_str().unwrap(), "--exr", exr.to_str().unwrap(), "--json"], extra].concat();
+        let report = json(&blobtrace(&args));
+        (report, [std::fs::read(png).unwrap(), std::fs::read(exr).unwrap()])
+    };
+    let (always, never) = (scene("Always"), scene("Never"));
+    let (report, pinned_on) = render(&always, &[], "always-auto");
+    assert_eq!(
+        (report["eval"].as_str(), report["cache_decisions"][0]["reason"].as_str()),
+        (Some("cached"), Some("pinned"))
+    );
+    assert_eq!(pinned_on, render(&always, &["--mode", "cached"], "always-cached").1, "Always answers from the lattice");
+    // The same bits on one thread and two, run after run, cold or warm.
+    assert_eq!(pinned_on, render(&always, &["--threads", "1"], "always-1").1);
+    assert_eq!(pinned_on, render(&always, &["--threads", "2"], "always-2").1);
+    let (report, pinned_off) = render(&never, &[], "never-auto");
+    assert_eq!(report["eval"], "indexed");
+    assert_eq!(pinned_off, render(&never, &["--mode", "exact"], "never-exact").1, "Never is exact evaluation");
+    let bad = dir.join("bad.ron");
+    std::fs::write(&bad, std::fs::read_to_string(&always).unwrap().replace("use: Always", "use: Sometimes")).unwrap();
+    let out = blobtrace(&["info", bad.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.code() == Some(1) && err.contains("bad.ron:5:"), "{err}");
     std::fs::remove_dir_all(dir).unwrap();
 }

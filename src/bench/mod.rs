@@ -13,4 +13,5 @@ pub use edit::{EditBenchReport, EditBenchSettings, ModeTotals, bench_edit};
 pub use mesh::{MeshBenchReport, MeshBenchSettings, PlacementCost, RayRate, TableRow, TriangleRate, bench_mesh};
 pub use render::{
     CacheBenchReport, CacheBenchRuns, EvalBenchReport, LookupCost, RenderBenchSettings, bench_cache, bench_eval,
+    lookup_costs,
 };

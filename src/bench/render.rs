@@ -154,6 +154,8 @@ pub struct LookupCost {
     pub cached_ns: f64,
     /// Nanoseconds per exact (indexed) value of the subtree at the same points.
     pub exact_ns: f64,
+    /// The cost model's estimate of that exact work, in point terms.
+    pub exact_cost: f32,
     /// Bytes of samples the warm render's cache holds.
     pub bytes: u64,
     /// Bytes a dense grid of four-byte samples would take.
@@ -223,7 +225,11 @@ pub fn bench_cache(settings: &RenderBenchSettings, progress: &dyn Progress) -> R
 /// polygonizer or tracer asks (empty space is cheap for both).
 const LOOKUP_POINTS: usize = 20_000;
 
-fn lookup_costs(model: &Model) -> Vec<LookupCost> {
+/// Times a warm lookup of every cache of `model` and an exact evaluation of
+/// its subtree at the same points, on the calling thread, beside the cost
+/// model's estimate of the exact work.
+pub fn lookup_costs(model: &Model) -> Vec<LookupCost> {
+    let estimates = model.cache_decisions();
     model
         .cache_stats()
         .into_iter()
@@ -242,6 +248,7 @@ fn lookup_costs(model: &Model) -> Vec<LookupCost> {
                 primitives: model.primitives_under(id),
                 cached_ns: time(EvalMode::Cached, id),
                 exact_ns: time(EvalMode::Indexed, child),
+                exact_cost: estimates.iter().find(|d| d.node == id).map_or(0.0, |d| d.exact_cost),
                 // Filled in from the warm render by the caller.
                 bytes: 0,
                 dense_bytes: stats.grid_points * 4,

@@ -116,12 +116,33 @@ pub struct CacheSpec {
     pub gradient: Filter,
     /// How samples are stored.
     pub storage: Storage,
+    /// Whether auto mode answers from the lattice: decided by the cost
+    /// model, or pinned by the scene.
+    pub usage: CacheUse,
+}
+
+/// A scene's say in whether a cache answers from its lattice in auto mode.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+pub enum CacheUse {
+    /// As the cost model decides (`field::cache_cost`).
+    #[default]
+    Auto,
+    /// Always from the lattice.
+    Always,
+    /// Never: the cache passes through to its subtree (except in `--mode cached`).
+    Never,
 }
 
 impl CacheSpec {
     /// The paper's choice at resolution `res`: tri-linear values, tri-quadratic gradients, four-byte samples.
     #[must_use]
     pub fn new(res: u32) -> Self {
-        Self { res, value: Filter::Trilinear, gradient: Filter::Triquadratic, storage: Storage::F32 }
+        Self {
+            res,
+            value: Filter::Trilinear,
+            gradient: Filter::Triquadratic,
+            storage: Storage::F32,
+            usage: CacheUse::Auto,
+        }
     }
 }

@@ -28,6 +28,8 @@ pub enum EvalArg {
 /// Which field to show: the true one, or the one the scene's caches reconstruct.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ModeArg {
+    /// Each cache answers from its lattice where the cost model says it pays (`info` shows the decisions).
+    Auto,
     /// Exact evaluation of every node (caches pass through).
     Exact,
     /// Cache nodes answer from their lattices (lazily filled with exact samples).
@@ -37,7 +39,7 @@ pub enum ModeArg {
 /// How a command evaluates the field: shared by every command that traces or samples it.
 #[derive(Clone, Copy, Debug, Args)]
 pub struct EvalOptions {
-    /// exact or cached (default: cached when the scene has Cache nodes and --eval is not naive).
+    /// auto, exact or cached (default: auto, or exact with --eval naive).
     #[arg(long, value_enum)]
     pub mode: Option<ModeArg>,
     /// How exact evaluation finds nearby primitives (naive only with --mode exact).
@@ -55,6 +57,7 @@ impl EvalOptions {
     pub fn settings(&self) -> EvalSettings {
         EvalSettings {
             field: self.mode.map(|m| match m {
+                ModeArg::Auto => FieldChoice::Auto,
                 ModeArg::Exact => FieldChoice::Exact,
                 ModeArg::Cached => FieldChoice::Cached,
             }),

@@ -231,16 +231,17 @@ fn print_cache_report(a: &EvalBenchArgs, size: String, r: &CacheBenchReport, ray
 /// Each cache's lookup cost against an exact evaluation of its subtree.
 fn print_lookup_costs(lookups: &[LookupCost]) {
     println!(
-        "  {:12} {:>10} {:>12} {:>12} {:>10} {:>12}",
-        "cache", "primitives", "cached ns", "exact ns", "MB held", "MB dense"
+        "  {:12} {:>10} {:>12} {:>12} {:>12} {:>10} {:>12}",
+        "cache", "primitives", "cached ns", "exact ns", "exact work", "MB held", "MB dense"
     );
     for l in lookups {
         println!(
-            "  {:12} {:>10} {:>12.1} {:>12.1} {:>10.2} {:>12.2}",
+            "  {:12} {:>10} {:>12.1} {:>12.1} {:>12.1} {:>10.2} {:>12.2}",
             l.name,
             l.primitives,
             l.cached_ns,
             l.exact_ns,
+            l.exact_cost,
             l.bytes as f64 / 1048576.0,
             l.dense_bytes as f64 / 1048576.0
         );

@@ -6,7 +6,7 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 
-use crate::field::ModelCounts;
+use crate::field::{CacheDecision, ModelCounts};
 use crate::scene::Scene;
 
 /// Options of `blobtrace info`.
@@ -33,6 +33,8 @@ pub struct InfoReport {
     pub bounds: [[f32; 3]; 2],
     /// Default image size.
     pub size: [u32; 2],
+    /// What auto mode decides for each cache, and the estimate behind it.
+    pub cache_decisions: Vec<CacheDecision>,
 }
 
 /// Runs `blobtrace info`.
@@ -46,6 +48,7 @@ pub fn run(a: &InfoArgs) -> anyhow::Result<()> {
         threshold: m.threshold(),
         bounds: [b.min.to_array(), b.max.to_array()],
         size: [scene.size.0, scene.size.1],
+        cache_decisions: m.cache_decisions(),
     };
     if a.json {
         println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
@@ -63,5 +66,23 @@ pub fn run(a: &InfoArgs) -> anyhow::Result<()> {
     if !report.names.is_empty() {
         println!("  names       {}", report.names.join(", "));
     }
+    print_decisions(&report.cache_decisions);
     Ok(())
+}
+
+/// The caches' auto-mode decisions as a table: work in point terms (one
+/// point's term of a sum), exact against a lattice answer.
+fn print_decisions(decisions: &[CacheDecision]) {
+    if decisions.is_empty() {
+        return;
+    }
+    println!("  caches in --mode auto (work per evaluation, in point terms):");
+    println!("    {:<16} {:>5} {:>10} {:>10}  decision", "cache", "res", "exact", "lattice");
+    for d in decisions {
+        let verdict = if d.uses_lattice { "lattice" } else { "exact" };
+        println!(
+            "    {:<16} {:>5} {:>10.1} {:>10.1}  {verdict} ({})",
+            d.name, d.res, d.exact_cost, d.lattice_cost, d.reason
+        );
+    }
 }

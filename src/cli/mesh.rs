@@ -69,7 +69,7 @@ pub fn run(a: &MeshArgs) -> anyhow::Result<()> {
     let (mesh, report) = with_threads(a.threads, || -> anyhow::Result<_> {
         let (mut mesh, mut report) = polygonize(&scene.model, mode, &a.polygonize.settings(), &bars)?;
         if let Some(scale) = a.error.scale() {
-            color_by_cache_error(&scene.model, &mut mesh, scale, &mut report)?;
+            color_by_cache_error(&mut scene.model, &mut mesh, scale, &mut report)?;
         }
         Ok((mesh, report))
     })??;

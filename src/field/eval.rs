@@ -70,7 +70,7 @@ impl Model {
             }
             NodeKind::Transform { placement, child } => self.node_value(*child, placement.local(p), mode),
             NodeKind::Warp { warp, child } => self.node_value(*child, warp.inverse(p), mode),
-            NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
+            NodeKind::Cache { child, grid, .. } if self.answers_from_lattice(*grid, mode) => {
                 self.cache(*grid).value(p, self.pool(), &self.sampled(*child, mode))
             }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_value(*child, p, mode),
@@ -87,7 +87,7 @@ impl Model {
         loop {
             match &self.node(id).kind {
                 NodeKind::Named { child, .. } => id = *child,
-                NodeKind::Cache { child, .. } if mode != EvalMode::Cached => id = *child,
+                NodeKind::Cache { child, grid, .. } if !self.answers_from_lattice(*grid, mode) => id = *child,
                 NodeKind::Transform { placement, child } if placement.is_identity() => id = *child,
                 _ => return id,
             }
@@ -139,7 +139,7 @@ impl Model {
                 let (v, g) = self.node_value_and_gradient(*child, warp.inverse(p), mode);
                 return (v, warp.gradient(p, g));
             }
-            NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
+            NodeKind::Cache { child, grid, .. } if self.answers_from_lattice(*grid, mode) => {
                 return self.cache(*grid).value_and_gradient(p, self.pool(), &self.sampled(*child, mode));
             }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => {
@@ -239,7 +239,7 @@ impl Model {
                 placement.gradient_map * self.node_gradient(*child, placement.local(p), mode)
             }
             NodeKind::Warp { warp, child } => warp.gradient(p, self.node_gradient(*child, warp.inverse(p), mode)),
-            NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
+            NodeKind::Cache { child, grid, .. } if self.answers_from_lattice(*grid, mode) => {
                 self.cache(*grid).gradient(p, self.pool(), &self.sampled(*child, mode))
             }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_gradient(*child, p, mode),
@@ -317,7 +317,7 @@ impl Model {
                     let (g, color) = self.node_gradient_and_color(*child, warp.inverse(p), mode);
                     return (warp.gradient(p, g), color);
                 }
-                NodeKind::Cache { .. } if mode == EvalMode::Cached => {}
+                NodeKind::Cache { grid, .. } if self.answers_from_lattice(*grid, mode) => {}
                 NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => {
                     return self.node_gradient_and_color(*child, p, mode);
                 }

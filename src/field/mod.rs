@@ -7,6 +7,7 @@
 //! tracer, the polygonizer and the slicers ask those questions only through
 //! [`Field`], so exact, indexed and cached evaluation stay interchangeable.
 
+mod cache_cost;
 mod edit;
 mod eight_wide_sums;
 mod empty;
@@ -26,6 +27,7 @@ mod warp_bounds;
 use glam::{Vec3, Vec3A};
 
 pub use crate::geom::Region;
+pub use cache_cost::{CacheDecision, LOOKUP_COST, RENDER_OVERHEAD};
 pub use edit::{Edit, Operator};
 pub use eight_wide_sums::SUMS_ENV;
 pub use empty::EmptySpace;

@@ -106,7 +106,7 @@ impl Model {
                 self.node_interval(*child, &b.transformed(&placement.to_local), mode)
             }
             NodeKind::Warp { warp, child } => self.node_interval(*child, &warp.inverse_box(b), mode),
-            NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
+            NodeKind::Cache { child, grid, .. } if self.answers_from_lattice(*grid, mode) => {
                 self.cache(*grid).interval(b, self.pool(), &|r| self.node_interval(*child, r, mode))
             }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_interval(*child, b, mode),
@@ -190,12 +190,14 @@ impl Model {
                 }
                 warp.stretch_over(&bounds, &self.node(*child).bounds) * child_bound
             }
-            NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => self.cache(*grid).lipschitz(
-                region,
-                &|b| self.node_lipschitz(*child, &Region::Box(*b), mode),
-                &|b| self.node_interval(*child, b, mode),
-                (self.pool(), &self.sampled(*child, mode)),
-            ),
+            NodeKind::Cache { child, grid, .. } if self.answers_from_lattice(*grid, mode) => {
+                self.cache(*grid).lipschitz(
+                    region,
+                    &|b| self.node_lipschitz(*child, &Region::Box(*b), mode),
+                    &|b| self.node_interval(*child, b, mode),
+                    (self.pool(), &self.sampled(*child, mode)),
+                )
+            }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_lipschitz(*child, region, mode),
         }
     }
@@ -238,7 +240,7 @@ impl Model {
                     mode,
                 )
             }
-            NodeKind::Cache { child, grid, .. } if mode == EvalMode::Cached => {
+            NodeKind::Cache { child, grid, .. } if self.answers_from_lattice(*grid, mode) => {
                 Some(self.cache(*grid).slope_floor((a, b), u, self.pool(), &self.sampled(*child, mode)))
             }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => {
@@ -276,7 +278,7 @@ impl Model {
                 let child = self.node_curvature(*child, &region.transformed(&placement.to_local), mode);
                 stretch * stretch * child.max(0.0)
             }
-            NodeKind::Cache { .. } if mode == EvalMode::Cached => f32::INFINITY,
+            NodeKind::Cache { grid, .. } if self.answers_from_lattice(*grid, mode) => f32::INFINITY,
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_curvature(*child, region, mode),
             NodeKind::Warp { warp, child } => {
                 // A warp bends straight lines: the second derivative along one is

@@ -76,6 +76,12 @@ impl Aabb {
         (self.min + self.max) * 0.5
     }
 
+    /// The volume; 0 for an empty box.
+    #[must_use]
+    pub fn volume(&self) -> f32 {
+        if self.is_empty() { 0.0 } else { (self.max - self.min).element_product() }
+    }
+
     /// Side lengths.
     #[must_use]
     pub fn size(&self) -> Vec3A {

@@ -240,7 +240,8 @@ pub fn compare(
     let by_error = match settings.error_scale {
         Some(scale) => {
             let mut by_error = mesh_model.clone();
-            color_by_cache_error(&scene.model, &mut by_error, scale, &mut mesh_report)?;
+            // A cold copy of the model: error_C asks every cache, whatever auto mode decided.
+            color_by_cache_error(&mut scene.model.clone(), &mut by_error, scale, &mut mesh_report)?;
             Some(render_mesh(scene, &by_error, mesh_report.clone(), settings.size, progress).0)
         }
         None => None,

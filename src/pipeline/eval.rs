@@ -10,6 +10,9 @@ use crate::field::{EvalMode, Model};
 /// Which field to show: the true one, or the one the scene's caches reconstruct.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FieldChoice {
+    /// Each cache answers from its lattice where the cost model says it
+    /// pays, and passes through elsewhere (see [`crate::field::CacheDecision`]).
+    Auto,
     /// Exact evaluation of every node (caches pass through).
     Exact,
     /// Cache nodes answer from their lattices (lazily filled with exact samples).
@@ -29,7 +32,7 @@ pub enum ExactLookup {
 /// How to evaluate a scene's field.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct EvalSettings {
-    /// Exact or cached; `None`: cached when the scene has Cache nodes and the lookup is not naive.
+    /// Auto, exact or cached; `None`: auto, or exact when the lookup is naive.
     pub field: Option<FieldChoice>,
     /// How exact evaluation finds nearby primitives (naive only with exact evaluation).
     pub lookup: ExactLookup,
@@ -45,8 +48,7 @@ impl EvalSettings {
     /// The evaluation mode for `model`; applies the cache budget to it.
     pub fn apply(&self, model: &mut Model) -> Result<EvalMode> {
         // Asking for the naive baseline asks for exact evaluation.
-        let cached_by_default = model.counts().caches > 0 && self.lookup != ExactLookup::Naive;
-        let default = if cached_by_default { FieldChoice::Cached } else { FieldChoice::Exact };
+        let default = if self.lookup == ExactLookup::Naive { FieldChoice::Exact } else { FieldChoice::Auto };
         if let Some(mb) = self.cache_budget_mb {
             let min_mb = (MIN_BUDGET_SLOTS * SLOT_BYTES) as f64 / MB;
             if !(mb.is_finite() && mb >= min_mb) {
@@ -55,9 +57,19 @@ impl EvalSettings {
             model.set_cache_budget(Some((mb * MB) as usize));
         }
         match (self.field.unwrap_or(default), self.lookup) {
+            // With no cache in use, auto is exact evaluation, to the bit.
+            (FieldChoice::Auto, ExactLookup::Indexed) => {
+                Ok(if model.use_lattices(true) > 0 { EvalMode::Cached } else { EvalMode::Indexed })
+            }
+            (FieldChoice::Auto, ExactLookup::Naive) => {
+                Err(PipelineError::setting("eval", "naive applies to exact evaluation; add --mode exact"))
+            }
             (FieldChoice::Exact, ExactLookup::Indexed) => Ok(EvalMode::Indexed),
             (FieldChoice::Exact, ExactLookup::Naive) => Ok(EvalMode::Naive),
-            (FieldChoice::Cached, ExactLookup::Indexed) => Ok(EvalMode::Cached),
+            (FieldChoice::Cached, ExactLookup::Indexed) => {
+                model.use_lattices(false);
+                Ok(EvalMode::Cached)
+            }
             (FieldChoice::Cached, ExactLookup::Naive) => {
                 Err(PipelineError::setting("eval", "naive applies to exact evaluation; add --mode exact"))
             }

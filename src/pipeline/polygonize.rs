@@ -295,14 +295,15 @@ pub fn polygonizer_on(model: &Model, mode: EvalMode, lattice: Lattice, options: 
 
 /// Colours `mesh` by error_C = |f_C(p) − f(p)| at its vertices, brightest at
 /// `scale`, stores the errors in it and their statistics in `report`.
-pub fn color_by_cache_error(model: &Model, mesh: &mut Mesh, scale: f32, report: &mut MeshReport) -> Result<()> {
+pub fn color_by_cache_error(model: &mut Model, mesh: &mut Mesh, scale: f32, report: &mut MeshReport) -> Result<()> {
     if model.counts().caches == 0 {
         return Err(PipelineError::Unsuitable("error_C measures the caches, and the scene has no Cache nodes".into()));
     }
     if !(scale.is_finite() && scale > 0.0) {
         return Err(PipelineError::setting("error_scale", format!("must be positive, got {scale}")));
     }
-    let errors = cache_error_at(model, &mesh.positions);
+    // error_C is the caches' own error, whether or not auto mode uses them.
+    let errors = model.with_every_lattice(|m| cache_error_at(m, &mesh.positions));
     report.error_c = Some(cache_error_stats(&errors, model.threshold()));
     mesh.colors = Some(error_colors(&errors, scale));
     mesh.error = Some(errors);

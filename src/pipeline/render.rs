@@ -48,6 +48,10 @@ pub struct RenderReport {
     pub threads: usize,
     /// Points the exact sums add at a time (8 or 4; see [`crate::field::SUMS_ENV`]).
     pub point_sum_lanes: u32,
+    /// What auto mode decides for each cache and the estimate behind it
+    /// (whatever the mode: the decisions are the scene's).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub cache_decisions: Vec<crate::field::CacheDecision>,
     /// What the caches hold and did, when rendering cached.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub caches: Option<CacheReport>,
@@ -91,6 +95,7 @@ pub fn render_field(scene: &Scene, size: Size, mode: EvalMode, progress: &dyn Pr
         eval: format!("{mode:?}").to_lowercase(),
         threads: rayon::current_num_threads(),
         point_sum_lanes: crate::field::point_sum_lanes(),
+        cache_decisions: scene.model.cache_decisions(),
         caches: (mode == EvalMode::Cached).then(|| CacheReport::of(&scene.model)),
     };
     (frame, report)

@@ -94,9 +94,9 @@ fn add(b: &mut ModelBuilder, desc: &NodeDesc) -> Result<NodeId, ModelError> {
             let child = add(b, child)?;
             b.add(NodeKind::Named { name: name.0.clone(), child }, None)
         }
-        NodeDesc::Cache { res, value, gradient, storage, child } => {
+        NodeDesc::Cache { res, value, gradient, storage, usage, child } => {
             let child = add(b, child)?;
-            let spec = CacheSpec { res: res.0, value: *value, gradient: *gradient, storage: *storage };
+            let spec = CacheSpec { res: res.0, value: *value, gradient: *gradient, storage: *storage, usage: *usage };
             b.add(NodeKind::Cache { spec, child, grid: 0 }, None)
         }
     }

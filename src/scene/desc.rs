@@ -4,7 +4,7 @@ use serde::Deserialize;
 use serde::de::{self, Deserializer};
 
 use super::values::{AtLeastOne, Color, Direction, Finite, Name, Positive, Scale, V3};
-use crate::cache::{CacheGrid, Filter, Storage};
+use crate::cache::{CacheGrid, CacheUse, Filter, Storage};
 use crate::camera::LookAt;
 use crate::field::{Kernel, ModelError};
 use crate::frame::Size;
@@ -296,6 +296,10 @@ pub enum NodeDesc {
         /// Sample storage (default four-byte floats).
         #[serde(default)]
         storage: Storage,
+        /// Whether auto mode answers from the lattice: `Auto` (the cost
+        /// model decides, the default), `Always` or `Never`.
+        #[serde(default, rename = "use")]
+        usage: CacheUse,
         /// The cached subtree.
         child: Box<NodeDesc>,
     },

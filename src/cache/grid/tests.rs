@@ -22,7 +22,8 @@ fn ball(p: Vec3A) -> f32 {
 
 /// An empty cache of [`ball`] at resolution 20 with `value` for values.
 fn ball_cache(value: Filter, pool: &SamplePool) -> CacheGrid {
-    let spec = CacheSpec { res: 20, value, gradient: Filter::Triquadratic, storage: Storage::F32 };
+    let spec =
+        CacheSpec { res: 20, value, gradient: Filter::Triquadratic, storage: Storage::F32, usage: Default::default() };
     CacheGrid::new(spec, Aabb::new(Vec3A::splat(-1.0), Vec3A::splat(1.0)), pool)
 }
 

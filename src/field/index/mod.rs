@@ -191,6 +191,22 @@ impl BlendIndex {
         self.grid.bounds()
     }
 
+    /// The summed `weight` of the leaves a cell lists, averaged over the
+    /// cells with each cell counted once per leaf it lists: what an
+    /// evaluation at a point in some leaf's support sums on average (points
+    /// where supports crowd are where the field is asked about most).
+    #[must_use]
+    pub fn mean_listing(&self, weight: impl Fn(&IndexedLeaf) -> f32) -> f32 {
+        let (mut total, mut listings) = (0.0f64, 0usize);
+        for c in 0..self.offsets.len() - 1 {
+            let items = self.cell_items(c);
+            let cell: f64 = items.iter().map(|&i| f64::from(weight(&self.leaves[i as usize]))).sum();
+            total += cell * items.len() as f64;
+            listings += items.len();
+        }
+        (total / listings.max(1) as f64) as f32
+    }
+
     fn cell_items(&self, c: usize) -> &[u32] {
         &self.items[self.offsets[c] as usize..self.offsets[c + 1] as usize]
     }

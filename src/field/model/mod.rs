@@ -12,6 +12,7 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
+use super::EvalMode;
 use super::node::{Node, NodeKind};
 use super::node_id::NodeId;
 use crate::cache::{CacheGrid, Refit, SamplePool};
@@ -131,6 +132,9 @@ pub struct Model {
     rebuilt: Vec<(NodeId, Aabb)>,
     /// Indices rebuilt since the last change was reported (see [`Change::reindexed`]).
     reindexed: Vec<(NodeId, Aabb)>,
+    /// Per lattice: whether its cache answers from it in cached evaluation
+    /// (all, unless auto mode's decisions say otherwise).
+    in_use: Vec<bool>,
 }
 
 impl Clone for Model {
@@ -149,6 +153,7 @@ impl Clone for Model {
             pool,
             rebuilt: Vec::new(),
             reindexed: Vec::new(),
+            in_use: self.in_use.clone(),
         }
     }
 }
@@ -196,6 +201,7 @@ impl ModelBuilder {
             pool: SamplePool::default(),
             rebuilt: Vec::new(),
             reindexed: Vec::new(),
+            in_use: Vec::new(),
         };
         model.link()?;
         model.refresh();
@@ -305,6 +311,43 @@ impl Model {
         if near { Ok(()) } else { Err(ModelError::TooFar { far, size }) }
     }
 
+    /// How many lattices (cache nodes) the model has.
+    #[must_use]
+    pub fn grid_count(&self) -> usize {
+        self.grids.len()
+    }
+
+    /// True when cache lattice `grid` answers in `mode`: in cached
+    /// evaluation, unless auto mode's decisions took it out of use.
+    #[inline]
+    #[must_use]
+    pub fn answers_from_lattice(&self, grid: usize, mode: EvalMode) -> bool {
+        mode == EvalMode::Cached && self.in_use[grid]
+    }
+
+    /// Puts every cache's lattice in use (`--mode cached`), or only those
+    /// [`Self::cache_decisions`] says pay (`--mode auto`); returns how many are in use.
+    pub fn use_lattices(&mut self, decided: bool) -> usize {
+        self.in_use.fill(true);
+        if decided {
+            for d in self.cache_decisions() {
+                let NodeKind::Cache { grid, .. } = self.node(d.node).kind else { continue };
+                self.in_use[grid] = d.uses_lattice;
+            }
+        }
+        self.in_use.iter().filter(|&&u| u).count()
+    }
+
+    /// Runs `f` with every cache answering from its lattice in cached
+    /// evaluation (as when measuring the caches' own error), then restores
+    /// auto mode's choices.
+    pub fn with_every_lattice<R>(&mut self, f: impl FnOnce(&Model) -> R) -> R {
+        let saved = std::mem::replace(&mut self.in_use, vec![true; self.grids.len()]);
+        let result = f(self);
+        self.in_use = saved;
+        result
+    }
+
     /// Names, sorted.
     #[must_use]
     pub fn names(&self) -> Vec<&str> {
@@ -319,6 +362,7 @@ impl Model {
             if let NodeKind::Cache { grid, .. } = &mut self.nodes[id].kind {
                 *grid = self.grids.len();
                 self.grids.push(None);
+                self.in_use.push(true);
             }
             for c in self.nodes[id].kind.children() {
                 self.nodes[c as usize].parent = Some(id as NodeId);
