@@ -1,21 +1,10 @@
 //! The command line: outputs, JSON keys, and clear errors for bad input.
 
+mod common;
+
+use common::{blobtrace, scratch};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-
-fn blobtrace(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_blobtrace"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the binary runs")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("blobtrace-cli-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn json(out: &Output) -> serde_json::Value {
     assert!(out.status.success(), "failed: {}", String::from_utf8_lossy(&out.stderr));

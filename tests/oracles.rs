@@ -4,22 +4,11 @@
 //! ꟻLIP (the `flip-evaluator` package). `scripts/test` installs both and
 //! names the Python that has them in `BLOBTRACE_ORACLE_PYTHON`.
 
+mod common;
+
+use common::{blobtrace, scratch};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn blobtrace(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_blobtrace"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the binary runs")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("blobtrace-oracles-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use std::process::Command;
 
 fn oracle_python() -> PathBuf {
     let path = std::env::var_os("BLOBTRACE_ORACLE_PYTHON")

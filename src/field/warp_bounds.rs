@@ -274,23 +274,22 @@ fn widen(b: Aabb) -> Aabb {
     Aabb::new(b.min - pad, b.max + pad)
 }
 
-/// A unit check that a box from these maps holds every mapped sample point.
-#[cfg(test)]
-pub(super) fn holds_mapped_samples(b: &Aabb, mapped: &Aabb, map: impl Fn(Vec3A) -> Vec3A) -> bool {
-    (0..=6).all(|i| {
-        (0..=6).all(|j| {
-            (0..=6).all(|l| {
-                let t = Vec3A::new(i as f32, j as f32, l as f32) / 6.0;
-                let p = b.min + (b.max - b.min) * t;
-                mapped.contains(map(p))
-            })
-        })
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// True when a box from these maps holds every mapped sample point.
+    fn holds_mapped_samples(b: &Aabb, mapped: &Aabb, map: impl Fn(Vec3A) -> Vec3A) -> bool {
+        (0..=6).all(|i| {
+            (0..=6).all(|j| {
+                (0..=6).all(|l| {
+                    let t = Vec3A::new(i as f32, j as f32, l as f32) / 6.0;
+                    let p = b.min + (b.max - b.min) * t;
+                    mapped.contains(map(p))
+                })
+            })
+        })
+    }
 
     fn warps() -> Vec<Warp> {
         vec![

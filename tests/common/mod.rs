@@ -9,6 +9,24 @@ use blobtrace::pipeline::polygonizer_on;
 use blobtrace::scene::Scene;
 use blobtrace::trace::{TraceOptions, trace_ray};
 use glam::{Vec3, Vec3A};
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+/// Runs the blobtrace binary in the project folder.
+pub fn blobtrace(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_blobtrace"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the binary runs")
+}
+
+/// A fresh scratch folder for one test, unique to this process.
+pub fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("blobtrace-test-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
 
 /// A scene using every node type, with transforms that rotate and scale unevenly.
 pub const EVERY_NODE: &str = r#"Scene(
