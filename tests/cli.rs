@@ -546,6 +546,7 @@ fn compare_writes_renders_heat_maps_panel_and_stats() {
         "depth_error.png",
         "normal_error.png",
         "color_error.png",
+        "flip_error.png",
         "panel.png",
         "stats.json",
     ] {

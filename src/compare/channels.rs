@@ -67,14 +67,19 @@ pub fn load_channels(path: &Path, decoding: Decoding) -> Result<ChannelImage, St
 
 fn load_exr(path: &Path) -> Result<ChannelImage, String> {
     let exr = read_exr_channels(path)?;
-    let mut named: Vec<(String, Vec<f32>)> = exr.channels.into_iter().collect();
-    let keys = canonical_keys(named.iter().map(|(n, _)| n.as_str()));
-    let mut order: Vec<usize> = (0..named.len()).collect();
-    order.sort_by(|&i, &j| keys[i].cmp(&keys[j]));
-    let mut sorted: Vec<(String, Vec<f32>)> = order.iter().map(|&i| std::mem::take(&mut named[i])).collect();
-    let names = sorted.iter_mut().map(|(n, _)| std::mem::take(n)).collect();
-    let planes = sorted.into_iter().map(|(_, p)| p).collect();
+    let (mut names, mut planes): (Vec<String>, Vec<Vec<f32>>) = exr.channels.into_iter().unzip();
+    let order = canonical_order(&names);
+    let names = order.iter().map(|&i| std::mem::take(&mut names[i])).collect();
+    let planes = order.iter().map(|&i| std::mem::take(&mut planes[i])).collect();
     Ok(ChannelImage { width: exr.width as u32, height: exr.height as u32, names, planes })
+}
+
+/// The order OpenImageIO presents EXR channels `names` in, as indices into them.
+fn canonical_order(names: &[String]) -> Vec<usize> {
+    let keys = canonical_keys(names.iter().map(String::as_str));
+    let mut order: Vec<usize> = (0..names.len()).collect();
+    order.sort_by(|&i, &j| keys[i].cmp(&keys[j]));
+    order
 }
 
 /// OpenImageIO's sort keys for EXR channels: layer (text before the last
@@ -190,12 +195,10 @@ mod tests {
 
     #[test]
     fn exr_channels_sort_as_openimageio_sorts_them() {
-        let names = ["A", "B", "G", "N.X", "N.Y", "N.Z", "R", "Z", "depth.Z", "steps.Y"];
-        let keys = canonical_keys(names.iter().copied());
-        let mut order: Vec<usize> = (0..names.len()).collect();
-        order.sort_by(|&i, &j| keys[i].cmp(&keys[j]));
+        let names = ["A", "B", "G", "N.X", "N.Y", "N.Z", "R", "Z", "depth.Z", "steps.Y"].map(String::from);
+        let order = canonical_order(&names);
         assert_eq!(
-            order.iter().map(|&i| names[i]).collect::<Vec<_>>(),
+            order.iter().map(|&i| names[i].as_str()).collect::<Vec<_>>(),
             ["R", "G", "B", "A", "Z", "N.X", "N.Y", "N.Z", "depth.Z", "steps.Y"]
         );
     }

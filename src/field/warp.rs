@@ -31,7 +31,7 @@ pub enum Axis {
 
 impl Axis {
     /// Indices of `(h, u, v)`: the axis and the two others in cyclic order.
-    fn indices(self) -> (usize, usize, usize) {
+    pub(super) fn indices(self) -> (usize, usize, usize) {
         match self {
             Axis::X => (0, 1, 2),
             Axis::Y => (1, 2, 0),
@@ -186,8 +186,8 @@ impl Warp {
         self.inverse_jacobian(p).transpose() * g
     }
 
-    /// The taper's scale at height `h`.
-    fn taper_scale(&self, h: f32) -> f32 {
+    /// The taper's scale at height `h` (1 for other warps).
+    pub(super) fn taper_scale(&self, h: f32) -> f32 {
         let Warp::Taper { from, to, scale_from, scale_to, .. } = *self else { return 1.0 };
         scale_from + (scale_to - scale_from) * ((h - from) / (to - from)).clamp(0.0, 1.0)
     }

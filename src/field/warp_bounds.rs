@@ -15,7 +15,9 @@ impl Warp {
             return *b;
         }
         match *self {
-            Warp::Twist { axis, rate } => turned_box(b, axis, (-rate * b.max[index(axis)], -rate * b.min[index(axis)])),
+            Warp::Twist { axis, rate } => {
+                turned_box(b, axis, (-rate * b.max[axis.indices().0], -rate * b.min[axis.indices().0]))
+            }
             Warp::Taper { axis, .. } => self.scaled_box(b, axis, false),
             Warp::Bend { rate: 0.0 } => *b,
             Warp::Bend { rate } => unbent_box(b, rate),
@@ -29,7 +31,9 @@ impl Warp {
             return *b;
         }
         match *self {
-            Warp::Twist { axis, rate } => turned_box(b, axis, (rate * b.min[index(axis)], rate * b.max[index(axis)])),
+            Warp::Twist { axis, rate } => {
+                turned_box(b, axis, (rate * b.min[axis.indices().0], rate * b.max[axis.indices().0]))
+            }
             Warp::Taper { axis, .. } => self.scaled_box(b, axis, true),
             Warp::Bend { rate: 0.0 } => *b,
             Warp::Bend { rate } => bent_box(b, rate),
@@ -99,7 +103,7 @@ impl Warp {
             // has q_u″ = −2u′s′/s² + 2u s′²/s³ there and 0 beyond; across a
             // ramp end s′ jumps and q′ with it: no bound.
             Warp::Taper { axis, from, to, scale_from, scale_to } => {
-                let (h, _, _) = indices(axis);
+                let (h, _, _) = axis.indices();
                 let (lo, hi) = (b.min[h], b.max[h]);
                 if hi <= from || lo >= to {
                     return 0.0;
@@ -118,7 +122,7 @@ impl Warp {
 
     /// A taper's box through `s(h)` (`forward`: multiplied by it, else divided).
     fn scaled_box(&self, b: &Aabb, axis: Axis, forward: bool) -> Aabb {
-        let (_, u, v) = indices(axis);
+        let (_, u, v) = axis.indices();
         let (s_lo, s_hi) = self.taper_scale_range(b, axis);
         let mut out = *b;
         for i in [u, v] {
@@ -137,32 +141,15 @@ impl Warp {
     /// The smallest and largest taper scale over `b`: `s` is monotone in
     /// `h`, so they are its values at the ends of `b`'s range along the axis.
     fn taper_scale_range(&self, b: &Aabb, axis: Axis) -> (f32, f32) {
-        let h = index(axis);
-        let ends = [self.taper_scale_at(b.min[h]), self.taper_scale_at(b.max[h])];
+        let h = axis.indices().0;
+        let ends = [self.taper_scale(b.min[h]), self.taper_scale(b.max[h])];
         (ends[0].min(ends[1]), ends[0].max(ends[1]))
     }
-
-    fn taper_scale_at(&self, h: f32) -> f32 {
-        let Warp::Taper { from, to, scale_from, scale_to, .. } = *self else { return 1.0 };
-        scale_from + (scale_to - scale_from) * ((h - from) / (to - from)).clamp(0.0, 1.0)
-    }
-}
-
-fn indices(axis: Axis) -> (usize, usize, usize) {
-    match axis {
-        Axis::X => (0, 1, 2),
-        Axis::Y => (1, 2, 0),
-        Axis::Z => (2, 0, 1),
-    }
-}
-
-fn index(axis: Axis) -> usize {
-    indices(axis).0
 }
 
 /// The largest distance from `axis` of a point of `b`.
 fn radial_reach(b: &Aabb, axis: Axis) -> f32 {
-    let (_, u, v) = indices(axis);
+    let (_, u, v) = axis.indices();
     let far = |i: usize| b.min[i].abs().max(b.max[i].abs());
     far(u).hypot(far(v))
 }
@@ -181,7 +168,7 @@ fn distance_to_box(c: Vec3A, b: &Aabb, xy: bool) -> f32 {
 /// `ρ·Δ/2`, holds the set; so does the disc of radius `ρ`. The tighter of the
 /// two is taken per coordinate.
 fn turned_box(b: &Aabb, axis: Axis, (a0, a1): (f32, f32)) -> Aabb {
-    let (h, u, v) = indices(axis);
+    let (h, u, v) = axis.indices();
     let rho = radial_reach(b, axis);
     let (mid, half) = (0.5 * (a0 + a1), 0.5 * (a1 - a0).abs());
     let (s, c) = mid.sin_cos();

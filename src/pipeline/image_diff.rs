@@ -101,7 +101,7 @@ pub fn diff_images(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<D
     }
     let mut files = FileSet::new();
     if let Some(out) = &settings.heat_map {
-        let what = if settings.metric == Metric::Flip { "error".to_string() } else { "difference".to_string() };
+        let what = if settings.metric == Metric::Flip { "error" } else { "difference" };
         let title = format!("{:?} {what}: {} vs {}", settings.metric, file_name(a), file_name(b)).to_lowercase();
         let labels = match settings.metric {
             Metric::Depth | Metric::Normal | Metric::Flip => SpecialLabels::default(),
