@@ -13,7 +13,7 @@ use blobtrace::scene::Scene;
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::Vec3A;
 
-const SCENES: [&str; 5] = ["medusa.ron", "hair_point.ron", "warps.ron", "sharp.ron", "example.ron"];
+const SCENES: [&str; 6] = ["medusa.ron", "hair_point.ron", "warps.ron", "sharp.ron", "example.ron", "crown.ron"];
 
 fn load(name: &str) -> Scene {
     Scene::load(format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))).expect("the bundled scene loads")

@@ -1344,3 +1344,25 @@ fn auto_mode_follows_pins_and_renders_the_same_bits_on_any_thread_count() {
     assert!(out.status.code() == Some(1) && err.contains("bad.ron:5:"), "{err}");
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn the_crown_cache_pays_so_auto_answers_from_its_lattice_on_any_thread_count() {
+    let dir = scratch("crown");
+    let render = |extra: &[&str], name: &str| {
+        let png = dir.join(format!("{name}.png"));
+        let args = [&["render", "scenes/crown.ron", "--size", "96x72", "-o", png.to_str().unwrap(), "--json"], extra];
+        (json(&blobtrace(&args.concat())), std::fs::read(png).unwrap())
+    };
+    let (report, auto) = render(&[], "auto");
+    let decision = &report["cache_decisions"][0];
+    assert_eq!((report["eval"].as_str(), decision["uses_lattice"].as_bool()), (Some("cached"), Some(true)), "{report}");
+    // Warps, a Ricci blend and a carved torus: loose exact bounds, counted as more steps.
+    assert!(
+        decision["steps"].as_f64().unwrap() > 1.0
+            && decision["exact_cost"].as_f64() > decision["lattice_cost"].as_f64()
+    );
+    assert_eq!(auto, render(&["--mode", "cached"], "cached").1);
+    assert_eq!(auto, render(&["--threads", "1"], "one").1);
+    assert_ne!(auto, render(&["--mode", "exact"], "exact").1, "the lattice's image is not the exact one");
+    std::fs::remove_dir_all(dir).unwrap();
+}

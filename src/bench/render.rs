@@ -154,7 +154,7 @@ pub struct LookupCost {
     pub cached_ns: f64,
     /// Nanoseconds per exact (indexed) value of the subtree at the same points.
     pub exact_ns: f64,
-    /// The cost model's estimate of that exact work, in point terms.
+    /// The cost model's estimate of one exact value's work, in point terms.
     pub exact_cost: f32,
     /// Bytes of samples the warm render's cache holds.
     pub bytes: u64,
@@ -248,7 +248,7 @@ pub fn lookup_costs(model: &Model) -> Vec<LookupCost> {
                 primitives: model.primitives_under(id),
                 cached_ns: time(EvalMode::Cached, id),
                 exact_ns: time(EvalMode::Indexed, child),
-                exact_cost: estimates.iter().find(|d| d.node == id).map_or(0.0, |d| d.exact_cost),
+                exact_cost: estimates.iter().find(|d| d.node == id).map_or(0.0, |d| d.value_cost),
                 // Filled in from the warm render by the caller.
                 bytes: 0,
                 dense_bytes: stats.grid_points * 4,

@@ -76,13 +76,16 @@ fn print_decisions(decisions: &[CacheDecision]) {
     if decisions.is_empty() {
         return;
     }
-    println!("  caches in --mode auto (work per evaluation, in point terms):");
-    println!("    {:<16} {:>5} {:>10} {:>10}  decision", "cache", "res", "exact", "lattice");
+    println!("  caches in --mode auto (work per answer, in point terms; exact = value × steps):");
+    println!(
+        "    {:<16} {:>5} {:>8} {:>6} {:>10} {:>10}  decision",
+        "cache", "res", "value", "steps", "exact", "lattice"
+    );
     for d in decisions {
         let verdict = if d.uses_lattice { "lattice" } else { "exact" };
         println!(
-            "    {:<16} {:>5} {:>10.1} {:>10.1}  {verdict} ({})",
-            d.name, d.res, d.exact_cost, d.lattice_cost, d.reason
+            "    {:<16} {:>5} {:>8.1} {:>6.1} {:>10.1} {:>10.1}  {verdict} ({})",
+            d.name, d.res, d.value_cost, d.steps, d.exact_cost, d.lattice_cost, d.reason
         );
     }
 }
