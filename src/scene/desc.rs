@@ -1,7 +1,9 @@
-//! The scene file's grammar: serde types that mirror the RON text one to one.
+//! The scene file's grammar: serde types that mirror the RON text one to one,
+//! both ways (the scene writer serializes them; fields at their defaults are
+//! left out, as a person would write the file).
 
-use serde::Deserialize;
 use serde::de::{self, Deserializer};
+use serde::{Deserialize, Serialize};
 
 use super::values::{AtLeastOne, Color, Direction, Finite, Name, Positive, Scale, V3};
 use crate::cache::{CacheGrid, CacheUse, Filter, Storage};
@@ -10,7 +12,7 @@ use crate::field::{Kernel, ModelError};
 use crate::frame::Size;
 
 /// A whole scene file: `Scene(camera: …, size: …, threshold: …, model: …)`.
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(rename = "Scene", deny_unknown_fields)]
 pub struct SceneDesc {
     /// The viewpoint.
@@ -21,7 +23,7 @@ pub struct SceneDesc {
     #[serde(default = "half")]
     pub threshold: Positive,
     /// Background colour (linear RGB) of pixels whose ray misses.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none", serialize_with = "some")]
     pub background: Option<Color>,
     /// The BlobTree.
     pub model: NodeDesc,
@@ -54,6 +56,42 @@ impl SceneDesc {
     }
 }
 
+/// Writes an optional field's value bare (scene files read `color: (…)`, not `Some(…)`).
+fn some<T: Serialize, S: serde::Serializer>(value: &Option<T>, s: S) -> Result<S::Ok, S::Error> {
+    match value {
+        Some(v) => v.serialize(s),
+        None => s.serialize_unit(),
+    }
+}
+
+fn is_default<T: Default + PartialEq>(v: &T) -> bool {
+    *v == T::default()
+}
+
+fn is_one(v: &Finite) -> bool {
+    v.0 == 1.0
+}
+
+fn is_one_positive(v: &Positive) -> bool {
+    v.0 == 1.0
+}
+
+fn is_zero3(v: &V3) -> bool {
+    v.0 == glam::Vec3::ZERO
+}
+
+fn is_one3(v: &Scale) -> bool {
+    v.0 == glam::Vec3::ONE
+}
+
+fn is_y_direction(v: &Direction) -> bool {
+    v.0 == glam::Vec3::Y
+}
+
+fn is_triquadratic(f: &Filter) -> bool {
+    *f == Filter::Triquadratic
+}
+
 fn half() -> Positive {
     Positive(0.5)
 }
@@ -67,7 +105,7 @@ fn one_positive() -> Positive {
 }
 
 /// A warp's axis as scene files name it.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(deny_unknown_fields)]
 pub enum AxisDesc {
     /// X.
@@ -106,8 +144,8 @@ fn y_direction() -> Direction {
 }
 
 /// `Camera(eye: …, target: …, up: …, fov_y: …)`: a look-at pinhole camera.
-#[derive(Debug, Deserialize)]
-#[serde(try_from = "RawCamera")]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(try_from = "RawCamera", rename = "Camera")]
 pub struct CameraDesc {
     /// Eye position.
     pub eye: V3,
@@ -138,7 +176,7 @@ impl TryFrom<RawCamera> for CameraDesc {
 }
 
 /// A node of the BlobTree as written in a scene file.
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(rename = "node", deny_unknown_fields)]
 pub enum NodeDesc {
     /// A point skeleton: a blob.
@@ -148,13 +186,13 @@ pub enum NodeDesc {
         /// Support radius.
         radius: Positive,
         /// Field weight.
-        #[serde(default = "one")]
+        #[serde(default = "one", skip_serializing_if = "is_one")]
         weight: Finite,
         /// Falloff.
-        #[serde(default)]
+        #[serde(default, skip_serializing_if = "is_default")]
         kernel: Kernel,
         /// Surface colour.
-        #[serde(default)]
+        #[serde(default, skip_serializing_if = "Option::is_none", serialize_with = "some")]
         color: Option<Color>,
     },
     /// A segment skeleton: a capsule.
@@ -166,13 +204,13 @@ pub enum NodeDesc {
         /// Support radius.
         radius: Positive,
         /// Field weight.
-        #[serde(default = "one")]
+        #[serde(default = "one", skip_serializing_if = "is_one")]
         weight: Finite,
         /// Falloff.
-        #[serde(default)]
+        #[serde(default, skip_serializing_if = "is_default")]
         kernel: Kernel,
         /// Surface colour.
-        #[serde(default)]
+        #[serde(default, skip_serializing_if = "Option::is_none", serialize_with = "some")]
         color: Option<Color>,
     },
     /// A circle skeleton: a torus.
@@ -180,20 +218,20 @@ pub enum NodeDesc {
         /// Centre of the circle.
         center: V3,
         /// Normal of the circle's plane (any non-zero length).
-        #[serde(default = "y_direction")]
+        #[serde(default = "y_direction", skip_serializing_if = "is_y_direction")]
         normal: Direction,
         /// Radius of the circle itself.
         ring: Positive,
         /// Support radius around the circle.
         radius: Positive,
         /// Field weight.
-        #[serde(default = "one")]
+        #[serde(default = "one", skip_serializing_if = "is_one")]
         weight: Finite,
         /// Falloff.
-        #[serde(default)]
+        #[serde(default, skip_serializing_if = "is_default")]
         kernel: Kernel,
         /// Surface colour.
-        #[serde(default)]
+        #[serde(default, skip_serializing_if = "Option::is_none", serialize_with = "some")]
         color: Option<Color>,
     },
     /// `count` points spaced evenly along a Catmull-Rom spline through `control`,
@@ -206,13 +244,13 @@ pub enum NodeDesc {
         /// Support radius of each point (at the start of the spline).
         radius: Positive,
         /// Support radius at the end; radii taper linearly when given.
-        #[serde(default)]
+        #[serde(default, skip_serializing_if = "Option::is_none", serialize_with = "some")]
         radius_end: Option<Positive>,
         /// Field weight of each point.
-        #[serde(default = "one")]
+        #[serde(default = "one", skip_serializing_if = "is_one")]
         weight: Finite,
         /// Surface colour.
-        #[serde(default)]
+        #[serde(default, skip_serializing_if = "Option::is_none", serialize_with = "some")]
         color: Option<Color>,
     },
     /// Sum of the children.
@@ -233,18 +271,18 @@ pub enum NodeDesc {
     /// The child placed by `translate · rotate · scale`.
     Transform {
         /// Translation.
-        #[serde(default = "zero3")]
+        #[serde(default = "zero3", skip_serializing_if = "is_zero3")]
         translate: V3,
         /// Rotation in degrees about X, then Y, then Z.
-        #[serde(default = "zero3")]
+        #[serde(default = "zero3", skip_serializing_if = "is_zero3")]
         rotate: V3,
         /// Per-axis scale, non-zero.
-        #[serde(default = "one3")]
+        #[serde(default = "one3", skip_serializing_if = "is_one3")]
         scale: Scale,
         /// The placed subtree.
         child: Box<NodeDesc>,
         /// Surface colour.
-        #[serde(default)]
+        #[serde(default, skip_serializing_if = "Option::is_none", serialize_with = "some")]
         color: Option<Color>,
     },
     /// The child twisted about an axis: turned by `rate · h` radians at height `h`.
@@ -267,7 +305,7 @@ pub enum NodeDesc {
         /// Where it ends, above `from`.
         to: Finite,
         /// Scale at and below `from` (default 1).
-        #[serde(default = "one_positive")]
+        #[serde(default = "one_positive", skip_serializing_if = "is_one_positive")]
         scale_from: Positive,
         /// Scale at and above `to`.
         scale_to: Positive,
@@ -288,17 +326,17 @@ pub enum NodeDesc {
         /// Grid resolution along the longest side.
         res: Resolution,
         /// Reconstruction filter for values (default tri-linear).
-        #[serde(default)]
+        #[serde(default, skip_serializing_if = "is_default")]
         value: Filter,
         /// Reconstruction filter for gradients (default tri-quadratic).
-        #[serde(default = "triquadratic")]
+        #[serde(default = "triquadratic", skip_serializing_if = "is_triquadratic")]
         gradient: Filter,
         /// Sample storage (default four-byte floats).
-        #[serde(default)]
+        #[serde(default, skip_serializing_if = "is_default")]
         storage: Storage,
         /// Whether auto mode answers from the lattice: `Auto` (the cost
         /// model decides, the default), `Always` or `Never`.
-        #[serde(default, rename = "use")]
+        #[serde(default, rename = "use", skip_serializing_if = "is_default")]
         usage: CacheUse,
         /// The cached subtree.
         child: Box<NodeDesc>,
@@ -375,7 +413,8 @@ impl NodeDesc {
 }
 
 /// A non-empty list of child nodes.
-#[derive(Debug)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(transparent)]
 pub struct Children(pub Vec<NodeDesc>);
 
 impl<'de> serde::Deserialize<'de> for Children {
@@ -389,7 +428,8 @@ impl<'de> serde::Deserialize<'de> for Children {
 }
 
 /// A primitive count in `1..=1_000_000`.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(transparent)]
 pub struct Count(pub u32);
 
 impl<'de> serde::Deserialize<'de> for Count {
@@ -408,7 +448,8 @@ fn triquadratic() -> Filter {
 }
 
 /// A cache resolution in `2..=1024` (the block table holds up to 130 blocks per axis).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(transparent)]
 pub struct Resolution(pub u32);
 
 impl<'de> serde::Deserialize<'de> for Resolution {

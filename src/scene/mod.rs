@@ -9,13 +9,14 @@ mod edit_desc;
 mod locate;
 mod script;
 pub mod values;
+mod write;
 
 use std::path::Path;
 
 use glam::Vec3;
 
 pub use crate::frame::Size;
-pub use desc::{CameraDesc, NodeDesc, SceneDesc};
+pub use desc::{CameraDesc, Children, NodeDesc, Resolution, SceneDesc};
 pub use edit_desc::{EditDesc, OperatorDesc};
 pub use script::{Script, entry_positions, load_script, parse_script};
 pub use values::{Color, Finite, Positive, V3};

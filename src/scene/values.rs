@@ -1,5 +1,6 @@
 //! Validated scalar and vector values of scene files. Each checks itself while
-//! it is parsed, so a bad number is reported at its own line and column.
+//! it is parsed, so a bad number is reported at its own line and column, and
+//! writes itself back as it was read (the scene writer).
 
 use glam::Vec3;
 use serde::de::{self, Deserialize, Deserializer};
@@ -160,3 +161,28 @@ impl<'de> Deserialize<'de> for Scale {
         Ok(Scale(s))
     }
 }
+
+/// Writes a wrapped number as the bare number it was read from.
+macro_rules! serialize_as_number {
+    ($($t:ty),*) => {$(
+        impl serde::Serialize for $t {
+            fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                self.0.serialize(s)
+            }
+        }
+    )*};
+}
+
+/// Writes a wrapped vector as the tuple `(x, y, z)` it was read from.
+macro_rules! serialize_as_triple {
+    ($($t:ty),*) => {$(
+        impl serde::Serialize for $t {
+            fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                (self.0.x, self.0.y, self.0.z).serialize(s)
+            }
+        }
+    )*};
+}
+
+serialize_as_number!(Finite, Positive, AtLeastOne, Name);
+serialize_as_triple!(V3, Color, Direction, Scale);
