@@ -15,6 +15,7 @@ mod progress;
 mod regress;
 mod render;
 mod slice;
+mod tune;
 #[cfg(feature = "viewer")]
 mod view;
 
@@ -70,6 +71,11 @@ pub enum Command {
     #[command(after_help = DIFF_EXIT_CODES)]
     Diff(diff::DiffArgs),
     /// Print what a scene holds: node, primitive and cache counts, names, bounds.
+    /// Place and size the scene's caches from error_C sampled at mesh vertices:
+    /// remove those that do not pay, refine or split those over the tolerance,
+    /// insert them over expensive subtrees; write the tuned scene and a report.
+    #[command(after_help = EXIT_CODES)]
+    Tune(tune::TuneArgs),
     #[command(after_help = EXIT_CODES)]
     Info(info::InfoArgs),
     /// Preview a scene in a window: arrow keys move its named nodes along the
@@ -102,6 +108,7 @@ pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Exi
         Command::Regress(a) => regress::run(&a),
         Command::Edit(a) => edit::run(&a),
         Command::Mesh(a) => mesh::run(&a),
+        Command::Tune(a) => tune::run(&a),
         Command::Info(a) => info::run(&a),
         #[cfg(feature = "viewer")]
         Command::View(a) => view::run(&a),

@@ -110,6 +110,16 @@ impl Model {
         out
     }
 
+    /// What an exact answer of node `id` costs a render, in point terms, as
+    /// [`Self::cache_decisions`] weighs a cache over it: the value's work
+    /// and the steps factor (every cache below it answering exactly).
+    #[must_use]
+    pub fn exact_answer_cost(&self, id: NodeId) -> (f32, f32) {
+        let undecided = vec![None; self.grid_count()];
+        let steps = if self.has_loose_bounds(id, &undecided) { LOOSE_BOUND_STEPS } else { 1.0 };
+        (self.exact_cost(id, &undecided), steps)
+    }
+
     /// Estimated work of an exact evaluation of node `id` at a point inside
     /// its bounds, caches answering as `decided` says (undecided: exactly).
     fn exact_cost(&self, id: NodeId, decided: &[Option<bool>]) -> f32 {

@@ -52,6 +52,7 @@ mod render;
 mod replay;
 mod slice;
 mod threads;
+mod tune;
 
 pub use crate::progress::{Progress, Silent, rows, stage};
 pub use cache_report::{CacheReport, NamedCacheStats};
@@ -75,3 +76,4 @@ pub use render::{MeshRenderReport, RenderReport, render_field, render_mesh};
 pub use replay::{EditReport, ScratchFrame, check_names, replay_from_scratch};
 pub use slice::{SliceSettings, SliceView, slice, slice_warnings};
 pub use threads::{MAX_THREADS, with_threads, worker_pool};
+pub use tune::{INSERT_RES, TuneReport, TuneRow, TuneSettings, Tuned, VertexError, error_slices, tune};

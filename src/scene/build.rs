@@ -6,22 +6,34 @@ use super::desc::NodeDesc;
 use crate::cache::CacheSpec;
 use crate::field::{Model, ModelBuilder, ModelError, NodeId, NodeKind, Placement, Primitive, Skeleton, Warp, spline};
 
-/// Builds the model for the tree `root` with iso-value `threshold`.
-pub fn model(root: &NodeDesc, threshold: f32) -> Result<Model, ModelError> {
+/// Builds the model for the tree `root` with iso-value `threshold`, and the
+/// node each description node became, in the order a depth-first walk of the
+/// description meets them (parents before children).
+pub fn model_with_ids(root: &NodeDesc, threshold: f32) -> Result<(Model, Vec<NodeId>), ModelError> {
     let mut b = ModelBuilder::new();
-    let id = add(&mut b, root)?;
-    b.finish(id, threshold)
+    let mut ids = vec![];
+    let id = add(&mut b, root, &mut ids)?;
+    Ok((b.finish(id, threshold)?, ids))
 }
 
 /// A warp node over `child`; its parameters and domain are checked once
 /// the model is built ([`crate::field::Model::check_warps`]), where each is
 /// reported at its place in the scene file.
-fn warped(b: &mut ModelBuilder, warp: Warp, child: &NodeDesc) -> Result<NodeId, ModelError> {
-    let child = add(b, child)?;
+fn warped(b: &mut ModelBuilder, warp: Warp, child: &NodeDesc, ids: &mut Vec<NodeId>) -> Result<NodeId, ModelError> {
+    let child = add(b, child, ids)?;
     b.add(NodeKind::Warp { warp, child }, None)
 }
 
-fn add(b: &mut ModelBuilder, desc: &NodeDesc) -> Result<NodeId, ModelError> {
+/// Adds `desc`'s subtree, recording its node's id at its place in `ids`.
+fn add(b: &mut ModelBuilder, desc: &NodeDesc, ids: &mut Vec<NodeId>) -> Result<NodeId, ModelError> {
+    let slot = ids.len();
+    ids.push(0);
+    let id = add_node(b, desc, ids)?;
+    ids[slot] = id;
+    Ok(id)
+}
+
+fn add_node(b: &mut ModelBuilder, desc: &NodeDesc, ids: &mut Vec<NodeId>) -> Result<NodeId, ModelError> {
     let color = |c: &Option<super::Color>| c.map(|c| c.0);
     let prim = |skeleton, radius: f32, weight: f32, kernel| {
         NodeKind::Primitive(Primitive::new(skeleton, radius, weight, kernel))
@@ -54,31 +66,33 @@ fn add(b: &mut ModelBuilder, desc: &NodeDesc) -> Result<NodeId, ModelError> {
             b.add(NodeKind::Blend { children, index: None }, color(c))
         }
         NodeDesc::Blend(cs) => {
-            let children = add_all(b, &cs.0)?;
+            let children = add_all(b, &cs.0, ids)?;
             b.add(NodeKind::Blend { children, index: None }, None)
         }
         NodeDesc::Union(cs) => {
-            let children = add_all(b, &cs.0)?;
+            let children = add_all(b, &cs.0, ids)?;
             b.add(NodeKind::Union(children), None)
         }
         NodeDesc::Intersection(cs) => {
-            let children = add_all(b, &cs.0)?;
+            let children = add_all(b, &cs.0, ids)?;
             b.add(NodeKind::Intersection(children), None)
         }
         NodeDesc::Difference(x, y) => {
-            let (x, y) = (add(b, x)?, add(b, y)?);
+            let (x, y) = (add(b, x, ids)?, add(b, y, ids)?);
             b.add(NodeKind::Difference(x, y), None)
         }
         NodeDesc::Ricci { n, children } => {
-            let children = add_all(b, &children.0)?;
+            let children = add_all(b, &children.0, ids)?;
             b.add(NodeKind::Ricci { n: n.0, children }, None)
         }
         NodeDesc::Transform { translate, rotate, scale, child, color: c } => {
             let placement = Placement::new(translate.0, rotate.0, scale.0).ok_or(ModelError::ZeroScale)?;
-            let child = add(b, child)?;
+            let child = add(b, child, ids)?;
             b.add(NodeKind::Transform { placement, child }, color(c))
         }
-        NodeDesc::Twist { axis, rate, child } => warped(b, Warp::Twist { axis: (*axis).into(), rate: rate.0 }, child),
+        NodeDesc::Twist { axis, rate, child } => {
+            warped(b, Warp::Twist { axis: (*axis).into(), rate: rate.0 }, child, ids)
+        }
         NodeDesc::Taper { axis, from, to, scale_from, scale_to, child } => {
             let warp = Warp::Taper {
                 axis: (*axis).into(),
@@ -87,21 +101,21 @@ fn add(b: &mut ModelBuilder, desc: &NodeDesc) -> Result<NodeId, ModelError> {
                 scale_from: scale_from.0,
                 scale_to: scale_to.0,
             };
-            warped(b, warp, child)
+            warped(b, warp, child, ids)
         }
-        NodeDesc::Bend { rate, child } => warped(b, Warp::Bend { rate: rate.0 }, child),
+        NodeDesc::Bend { rate, child } => warped(b, Warp::Bend { rate: rate.0 }, child, ids),
         NodeDesc::Named(name, child) => {
-            let child = add(b, child)?;
+            let child = add(b, child, ids)?;
             b.add(NodeKind::Named { name: name.0.clone(), child }, None)
         }
         NodeDesc::Cache { res, value, gradient, storage, usage, child } => {
-            let child = add(b, child)?;
+            let child = add(b, child, ids)?;
             let spec = CacheSpec { res: res.0, value: *value, gradient: *gradient, storage: *storage, usage: *usage };
             b.add(NodeKind::Cache { spec, child, grid: 0 }, None)
         }
     }
 }
 
-fn add_all(b: &mut ModelBuilder, descs: &[NodeDesc]) -> Result<Vec<NodeId>, ModelError> {
-    descs.iter().map(|d| add(b, d)).collect()
+fn add_all(b: &mut ModelBuilder, descs: &[NodeDesc], ids: &mut Vec<NodeId>) -> Result<Vec<NodeId>, ModelError> {
+    descs.iter().map(|d| add(b, d, ids)).collect()
 }

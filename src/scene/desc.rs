@@ -344,8 +344,9 @@ pub enum NodeDesc {
 }
 
 impl NodeDesc {
-    /// The nodes right below this one.
-    fn children(&self) -> Vec<&NodeDesc> {
+    /// The nodes right below this one, in the order the file writes them.
+    #[must_use]
+    pub fn children(&self) -> Vec<&NodeDesc> {
         match self {
             NodeDesc::Blend(c)
             | NodeDesc::Union(c)
@@ -362,6 +363,36 @@ impl NodeDesc {
             }
             _ => vec![],
         }
+    }
+
+    /// The nodes right below this one, to change them.
+    pub fn children_mut(&mut self) -> Vec<&mut NodeDesc> {
+        match self {
+            NodeDesc::Blend(c)
+            | NodeDesc::Union(c)
+            | NodeDesc::Intersection(c)
+            | NodeDesc::Ricci { children: c, .. } => c.0.iter_mut().collect(),
+            NodeDesc::Difference(a, b) => vec![a, b],
+            NodeDesc::Transform { child, .. }
+            | NodeDesc::Twist { child, .. }
+            | NodeDesc::Taper { child, .. }
+            | NodeDesc::Bend { child, .. }
+            | NodeDesc::Named(_, child)
+            | NodeDesc::Cache { child, .. } => vec![child],
+            _ => vec![],
+        }
+    }
+
+    /// Nodes in this subtree, itself included.
+    #[must_use]
+    pub fn node_count(&self) -> usize {
+        1 + self.children().iter().map(|c| c.node_count()).sum::<usize>()
+    }
+
+    /// True when this subtree holds a `Cache` node.
+    #[must_use]
+    pub fn holds_cache(&self) -> bool {
+        matches!(self, NodeDesc::Cache { .. }) || self.children().iter().any(|c| c.holds_cache())
     }
 
     /// Primitives this subtree builds (a spline generator builds `count`).

@@ -22,7 +22,7 @@ pub use script::{Script, entry_positions, load_script, parse_script};
 pub use values::{Color, Finite, Positive, V3};
 
 use crate::camera::{Camera, LookAt};
-use crate::field::{Model, ModelError};
+use crate::field::{Model, ModelError, NodeId};
 
 /// Background colour where the scene names none (linear RGB).
 pub const DEFAULT_BACKGROUND: Vec3 = Vec3::new(0.05, 0.055, 0.065);
@@ -97,19 +97,22 @@ impl Scene {
 
     /// Builds a scene from its parsed description.
     pub fn from_desc(desc: &SceneDesc) -> Result<Scene, ModelError> {
+        Scene::from_desc_with_ids(desc).map(|(scene, _)| scene)
+    }
+
+    /// [`Scene::from_desc`], and the model node each description node
+    /// became, in depth-first order of the description (parents first), so
+    /// a tool that rewrites the description can read the model's answers
+    /// about each of its nodes.
+    pub fn from_desc_with_ids(desc: &SceneDesc) -> Result<(Scene, Vec<NodeId>), ModelError> {
         desc.check_size()?;
         let c = &desc.camera;
         let look_at = LookAt { eye: c.eye.0, target: c.target.0, up: c.up.0, fov_y: c.fov_y.0 };
         let camera = look_at.camera();
-        let model = build::model(&desc.model, desc.threshold.0)?;
+        let (model, ids) = build::model_with_ids(&desc.model, desc.threshold.0)?;
         model.check_reach()?;
-        Ok(Scene {
-            camera,
-            look_at,
-            size: desc.size,
-            model,
-            background: desc.background.map_or(DEFAULT_BACKGROUND, |c| c.0),
-        })
+        let background = desc.background.map_or(DEFAULT_BACKGROUND, |c| c.0);
+        Ok((Scene { camera, look_at, size: desc.size, model, background }, ids))
     }
 }
 

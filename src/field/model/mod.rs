@@ -2,10 +2,12 @@
 //!
 //! - `edits`: changes to the tree, each reported as a [`Change`];
 //! - `caches`: the lattices of its `Cache` nodes, and what an edit clears in them;
-//! - `indices`: the blend indices over its clusters of nested blends.
+//! - `indices`: the blend indices over its clusters of nested blends;
+//! - `frames`: where a node sits in the world.
 
 mod caches;
 mod edits;
+mod frames;
 mod indices;
 
 use std::collections::HashMap;
@@ -342,7 +344,15 @@ impl Model {
     /// evaluation (as when measuring the caches' own error), then restores
     /// auto mode's choices.
     pub fn with_every_lattice<R>(&mut self, f: impl FnOnce(&Model) -> R) -> R {
-        let saved = std::mem::replace(&mut self.in_use, vec![true; self.grids.len()]);
+        self.with_lattices(&vec![true; self.grids.len()], f)
+    }
+
+    /// Runs `f` with the caches whose lattice `in_use` marks answering from
+    /// it in cached evaluation (one cache alone, to measure its own error),
+    /// then restores auto mode's choices.
+    pub fn with_lattices<R>(&mut self, in_use: &[bool], f: impl FnOnce(&Model) -> R) -> R {
+        debug_assert_eq!(in_use.len(), self.grids.len());
+        let saved = std::mem::replace(&mut self.in_use, in_use.to_vec());
         let result = f(self);
         self.in_use = saved;
         result
