@@ -211,14 +211,14 @@ fn plan_round(
         if let Some(Change::SetRes(r)) = change
             && r > c.res
         {
-            raises.push((c.at, c.res, r, c.bytes));
+            raises.push(Raise { at: c.at, from: c.res, to: r, bytes: c.bytes, event: events.len() });
         }
         if let Some(change) = change {
             plan.insert(c.at, change);
         }
         events.push((label.clone(), what, why));
     }
-    hold_to_budget(&mut plan, &mut events, &raises, round.bytes(), s);
+    hold_to_budget(&mut plan, &mut events, raises, round.bytes(), s);
     for at in expensive_uncached(&desc.model, round) {
         plan.insert(at, Change::Insert(INSERT_RES));
     }
@@ -266,36 +266,51 @@ fn decide(c: &CacheMeasure, s: &TuneSettings) -> (Option<Change>, String, String
     (None, "kept".into(), format!("meets E: p99 {:.2e}, max {:.2e}; {why}", err.p99, err.max))
 }
 
-/// Withdraws raises, the most expensive first, until the predicted bytes fit
-/// the budget (memory grows as the square of the resolution).
+/// A planned raise of one cache's resolution.
+struct Raise {
+    /// The cache's depth-first place.
+    at: usize,
+    /// Resolution now.
+    from: u32,
+    /// Resolution planned.
+    to: u32,
+    /// Bytes of samples it touched at `from`.
+    bytes: u64,
+    /// Its line among the round's events.
+    event: usize,
+}
+
+impl Raise {
+    /// Bytes it would add at `to`: samples near the surface grow as the
+    /// square of the resolution.
+    fn growth(&self) -> u64 {
+        let grown = self.bytes as f64 * (f64::from(self.to) / f64::from(self.from)).powi(2);
+        (grown as u64).saturating_sub(self.bytes)
+    }
+}
+
+/// Withdraws raises, the largest growth first, until the predicted bytes fit
+/// the budget.
 fn hold_to_budget(
     plan: &mut Plan,
     events: &mut [(String, String, String)],
-    raises: &[(usize, u32, u32, u64)],
+    mut raises: Vec<Raise>,
     bytes: u64,
     s: &TuneSettings,
 ) {
     let Some(budget) = s.budget_bytes() else { return };
-    let grown =
-        |&(_, from, to, b): &(usize, u32, u32, u64)| (b as f64 * (f64::from(to) / f64::from(from)).powi(2)) as u64;
-    let mut predicted = bytes + raises.iter().map(|r| grown(r) - r.3).sum::<u64>();
-    let mut order: Vec<_> = raises.to_vec();
-    order.sort_by_key(|r| std::cmp::Reverse(grown(r) - r.3));
-    for r in order {
+    let mut predicted = bytes + raises.iter().map(Raise::growth).sum::<u64>();
+    raises.sort_by_key(|r| std::cmp::Reverse(r.growth()));
+    for r in raises {
         if predicted <= budget {
             break;
         }
-        plan.remove(&r.0);
-        predicted -= grown(&r) - r.3;
-        if let Some(e) = events.iter_mut().find(|e| e.1 == format!("raised {}->{}", r.1, r.2)) {
-            e.2 = format!(
-                "{}; not raised to {}: the budget of {:.1} MB would not hold it",
-                e.2,
-                r.2,
-                budget as f64 / crate::pipeline::MB
-            );
-            e.1 = "kept (budget)".into();
-        }
+        plan.remove(&r.at);
+        predicted -= r.growth();
+        let e = &mut events[r.event];
+        let mb = budget as f64 / crate::pipeline::MB;
+        e.2 = format!("{}; not raised to {}: the budget of {mb:.1} MB would not hold it", e.2, r.to);
+        e.1 = "kept (budget)".into();
     }
 }
 
