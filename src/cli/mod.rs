@@ -70,12 +70,12 @@ pub enum Command {
     /// 3 size mismatch, 4 file error; optionally write a heat map.
     #[command(after_help = DIFF_EXIT_CODES)]
     Diff(diff::DiffArgs),
-    /// Print what a scene holds: node, primitive and cache counts, names, bounds.
     /// Place and size the scene's caches from error_C sampled at mesh vertices:
     /// remove those that do not pay, refine or split those over the tolerance,
     /// insert them over expensive subtrees; write the tuned scene and a report.
     #[command(after_help = EXIT_CODES)]
     Tune(tune::TuneArgs),
+    /// Print what a scene holds: node, primitive and cache counts, names, bounds.
     #[command(after_help = EXIT_CODES)]
     Info(info::InfoArgs),
     /// Preview a scene in a window: arrow keys move its named nodes along the
