@@ -29,6 +29,9 @@ pub const LOOKUP_COST: f32 = 96.0;
 /// 0.58–0.61 s against 0.37–0.41 s exact: an answer costs a render more
 /// than 275 / 96 ≈ 2.9 lookups, and 3 is the least whole multiple that agrees.
 pub const RENDER_OVERHEAD: f32 = 3.0;
+/// What a lattice answer costs a render, in point terms: a cache pays where
+/// an exact answer of its subtree costs more.
+pub const LATTICE_COST: f32 = LOOKUP_COST * RENDER_OVERHEAD;
 /// Visiting an operator node (its box test and combination), in point terms.
 pub const NODE_COST: f32 = 1.0;
 /// An affine transform of the point, in point terms.
@@ -87,7 +90,7 @@ impl Model {
             let value_cost = self.exact_cost(child, &decided);
             let steps = if self.has_loose_bounds(child, &decided) { LOOSE_BOUND_STEPS } else { 1.0 };
             let exact_cost = value_cost * steps;
-            let lattice_cost = LOOKUP_COST * RENDER_OVERHEAD;
+            let lattice_cost = LATTICE_COST;
             let (uses_lattice, reason) = match spec.usage {
                 CacheUse::Always => (true, "pinned"),
                 CacheUse::Never => (false, "pinned"),
@@ -151,7 +154,7 @@ impl Model {
             NodeKind::Warp { child, .. } => WARP_COST + self.exact_cost(*child, decided),
             NodeKind::Named { child, .. } => self.exact_cost(*child, decided),
             NodeKind::Cache { child, grid, .. } => match decided[*grid] {
-                Some(true) => LOOKUP_COST * RENDER_OVERHEAD,
+                Some(true) => LATTICE_COST,
                 _ => self.exact_cost(*child, decided),
             },
         }

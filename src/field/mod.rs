@@ -27,7 +27,9 @@ mod warp_bounds;
 use glam::{Vec3, Vec3A};
 
 pub use crate::geom::Region;
-pub use cache_cost::{CacheDecision, LOOKUP_COST, LOOSE_BOUND_STEPS, POWER_COST, RENDER_OVERHEAD, WARP_COST};
+pub use cache_cost::{
+    CacheDecision, LATTICE_COST, LOOKUP_COST, LOOSE_BOUND_STEPS, POWER_COST, RENDER_OVERHEAD, WARP_COST,
+};
 pub use edit::{Edit, Operator};
 pub use eight_wide_sums::SUMS_ENV;
 pub use empty::EmptySpace;

@@ -92,8 +92,10 @@ pub(super) fn measure(desc: &SceneDesc, settings: &TuneSettings) -> Result<Round
         let id = ids[at];
         let NodeKind::Cache { grid, .. } = scene.model.node(id).kind else { return Err(not_a_cache(id)) };
         let Some(decision) = decisions.iter().find(|d| d.node == id).cloned() else { return Err(not_a_cache(id)) };
-        let (error, failing) = vertex_error(&mut scene.model, grid, id, &vertices, settings.tolerance);
-        let split = split_plan(&scene.model, node, at, &ids, &failing, &vertices, id);
+        let bounds = scene.model.world_bounds(id);
+        let covered: Vec<Vec3> = vertices.iter().copied().filter(|&v| bounds.contains(Vec3A::from(v))).collect();
+        let (error, failing) = vertex_error(&mut scene.model, grid, &covered, settings.tolerance);
+        let split = split_plan(&scene.model, node, at, &ids, &failing, &covered, id);
         let bytes = bytes.iter().find(|(n, _)| *n == id).map_or(0, |(_, b)| *b);
         caches.push(CacheMeasure { at, res: res.0, decision, error, bytes, split });
     }
@@ -127,18 +129,9 @@ fn touched_bytes(scene: &Scene, poly: &PolygonizeSettings) -> Result<Vec<(NodeId
     Ok(model.cache_stats().into_iter().map(|(id, _, stats)| (id, stats.bytes)).collect())
 }
 
-/// error_C and the gradient's angular error of cache `grid` (node `id`)
-/// alone, at the vertices inside its bounds; and those of its vertices
-/// whose error is over `tolerance`.
-fn vertex_error(
-    model: &mut Model,
-    grid: usize,
-    id: NodeId,
-    vertices: &[Vec3],
-    tolerance: f32,
-) -> (VertexError, Vec<Vec3>) {
-    let bounds = model.world_bounds(id);
-    let covered: Vec<Vec3> = vertices.iter().copied().filter(|&v| bounds.contains(Vec3A::from(v))).collect();
+/// error_C and the gradient's angular error of cache `grid` alone at the
+/// vertices it `covered`; and those whose error is over `tolerance`.
+fn vertex_error(model: &mut Model, grid: usize, covered: &[Vec3], tolerance: f32) -> (VertexError, Vec<Vec3>) {
     let mut alone = vec![false; model.grid_count()];
     alone[grid] = true;
     let pairs: Vec<(f32, f32)> = model.with_lattices(&alone, |m| {
@@ -203,15 +196,15 @@ pub(super) fn split_point(cache: &NodeDesc, at: usize) -> Option<(&NodeDesc, usi
 
 /// How cache `cache` (node `id`, at `at` in depth-first order) would split
 /// over its operator's children: each child's resolution at today's cell
-/// size, and which child the `failing` vertices belong to (the one whose
-/// field is largest there).
+/// size, and which child the `failing` vertices among those it `covered`
+/// belong to (the one whose field is largest there).
 fn split_plan(
     model: &Model,
     cache: &NodeDesc,
     at: usize,
     ids: &[NodeId],
     failing: &[Vec3],
-    vertices: &[Vec3],
+    covered: &[Vec3],
     id: NodeId,
 ) -> Option<SplitPlan> {
     let (op, op_at) = split_point(cache, at)?;
@@ -228,7 +221,7 @@ fn split_plan(
     let cell = model.node(id).bounds.size().max_element() / res.0 as f32;
     let child_res = child_ids
         .iter()
-        .map(|&c| ((model.node(c).bounds.size().max_element() / cell).ceil() as u32).clamp(2, 1024))
+        .map(|&c| ((model.node(c).bounds.size().max_element() / cell).ceil() as u32).clamp(2, super::MAX_CACHE_RES))
         .collect();
     let owner = |v: &Vec3| {
         let p = model.to_local(child_ids[0], Vec3A::from(*v));
@@ -238,8 +231,6 @@ fn split_plan(
     let mut failing_counts = vec![0usize; child_ids.len()];
     failing.iter().for_each(|v| failing_counts[owner(v)] += 1);
     let top_child = (0..child_ids.len()).max_by_key(|&i| (failing_counts[i], usize::MAX - i)).unwrap_or(0);
-    let bounds = model.world_bounds(id);
-    let covered: Vec<&Vec3> = vertices.iter().filter(|v| bounds.contains(Vec3A::from(**v))).collect();
     let owned = covered.iter().filter(|v| owner(v) == top_child).count();
     Some(SplitPlan {
         child_res,

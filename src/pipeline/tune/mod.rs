@@ -25,7 +25,7 @@ mod rewrite;
 
 use serde::Serialize;
 
-use crate::field::{LOOKUP_COST, RENDER_OVERHEAD};
+use crate::field::LATTICE_COST;
 use crate::pipeline::error::{PipelineError, Result};
 use crate::progress::Progress;
 use crate::scene::{NodeDesc, SceneDesc};
@@ -152,7 +152,8 @@ pub fn tune(desc: &SceneDesc, settings: &TuneSettings, progress: &dyn Progress) 
     settings.check()?;
     let mut desc = desc.clone();
     let mut labels: Vec<String> = vec![];
-    let mut events: Vec<(String, String, String)> = vec![];
+    let mut original_labels: Vec<String> = vec![];
+    let mut events: Vec<Event> = vec![];
     let mut first: Option<Round> = None;
     let mut rounds = 0;
     let last = loop {
@@ -160,17 +161,22 @@ pub fn tune(desc: &SceneDesc, settings: &TuneSettings, progress: &dyn Progress) 
         let round = measure(&desc, settings)?;
         rounds += 1;
         if first.is_none() {
-            labels = first_labels(&round);
+            original_labels = first_labels(&round);
+            labels.clone_from(&original_labels);
             first = Some(round.clone());
         }
         let (plan, round_events) = plan_round(&round, &desc, &labels, settings);
         let done = plan.is_empty();
         if done || rounds >= settings.max_rounds {
-            events.extend(round_events.into_iter().map(|(label, what, why)| {
-                if done || what.starts_with("kept") {
-                    (label, what, why)
+            events.extend(round_events.into_iter().map(|e| {
+                if done || e.what.starts_with("kept") {
+                    e
                 } else {
-                    (label, "kept (out of rounds)".into(), format!("{why}; it would be {what}"))
+                    Event {
+                        what: "kept (out of rounds)".into(),
+                        why: format!("{}; it would be {}", e.why, e.what),
+                        ..e
+                    }
                 }
             }));
             break round;
@@ -180,8 +186,18 @@ pub fn tune(desc: &SceneDesc, settings: &TuneSettings, progress: &dyn Progress) 
         (desc.model, labels) = (model, new_labels);
     };
     let Some(first) = first else { return Err(PipelineError::Unsuitable("no round was measured".into())) };
-    let report = report(&first, &last, &labels, &events, settings, rounds);
-    Ok(Tuned { desc, report, labels, original_labels: first_labels(&first) })
+    let report = report((&first, &original_labels), (&last, &labels), &events, settings, rounds);
+    Ok(Tuned { desc, report, labels, original_labels })
+}
+
+/// What a round did to one cache, in words.
+struct Event {
+    /// The cache's label.
+    label: String,
+    /// What: `removed`, `raised 96->160`, `kept`, ….
+    what: String,
+    /// Why.
+    why: String,
 }
 
 /// Labels for the caches of the original scene: their nearest name, numbered
@@ -197,12 +213,7 @@ fn first_labels(round: &Round) -> Vec<String> {
 }
 
 /// What to change after `round`, and a line per cache saying what and why.
-fn plan_round(
-    round: &Round,
-    desc: &SceneDesc,
-    labels: &[String],
-    s: &TuneSettings,
-) -> (Plan, Vec<(String, String, String)>) {
+fn plan_round(round: &Round, desc: &SceneDesc, labels: &[String], s: &TuneSettings) -> (Plan, Vec<Event>) {
     let mut plan = Plan::new();
     let mut events = vec![];
     let mut raises = vec![];
@@ -216,7 +227,7 @@ fn plan_round(
         if let Some(change) = change {
             plan.insert(c.at, change);
         }
-        events.push((label.clone(), what, why));
+        events.push(Event { label: label.clone(), what, why });
     }
     hold_to_budget(&mut plan, &mut events, raises, round.bytes(), s);
     for at in expensive_uncached(&desc.model, round) {
@@ -291,13 +302,7 @@ impl Raise {
 
 /// Withdraws raises, the largest growth first, until the predicted bytes fit
 /// the budget.
-fn hold_to_budget(
-    plan: &mut Plan,
-    events: &mut [(String, String, String)],
-    mut raises: Vec<Raise>,
-    bytes: u64,
-    s: &TuneSettings,
-) {
+fn hold_to_budget(plan: &mut Plan, events: &mut [Event], mut raises: Vec<Raise>, bytes: u64, s: &TuneSettings) {
     let Some(budget) = s.budget_bytes() else { return };
     let mut predicted = bytes + raises.iter().map(Raise::growth).sum::<u64>();
     raises.sort_by_key(|r| std::cmp::Reverse(r.growth()));
@@ -309,15 +314,14 @@ fn hold_to_budget(
         predicted -= r.growth();
         let e = &mut events[r.event];
         let mb = budget as f64 / crate::pipeline::MB;
-        e.2 = format!("{}; not raised to {}: the budget of {mb:.1} MB would not hold it", e.2, r.to);
-        e.1 = "kept (budget)".into();
+        e.why = format!("{}; not raised to {}: the budget of {mb:.1} MB would not hold it", e.why, r.to);
+        e.what = "kept (budget)".into();
     }
 }
 
 /// Places of the outermost subtrees holding no cache and under none whose
 /// exact answer costs more than a lattice answer.
 fn expensive_uncached(root: &NodeDesc, round: &Round) -> Vec<usize> {
-    let lattice = LOOKUP_COST * RENDER_OVERHEAD;
     let nodes = preorder(root);
     let mut out = vec![];
     let mut at = 0;
@@ -331,7 +335,7 @@ fn expensive_uncached(root: &NodeDesc, round: &Round) -> Vec<usize> {
             !node.holds_cache() && (!node.children().is_empty() || matches!(node, NodeDesc::SplinePoints { .. }));
         if worth {
             let (value, steps) = round.scene.model.exact_answer_cost(round.ids[at]);
-            if value * steps > lattice {
+            if value * steps > LATTICE_COST {
                 out.push(at);
                 at += node.node_count();
                 continue;
@@ -342,27 +346,26 @@ fn expensive_uncached(root: &NodeDesc, round: &Round) -> Vec<usize> {
     out
 }
 
-/// The report: a row per label of either scene.
+/// The report: a row per label of either scene, from the first round (with
+/// its labels) and the last.
 fn report(
-    first: &Round,
-    last: &Round,
-    labels: &[String],
-    events: &[(String, String, String)],
+    (first, first_labels): (&Round, &[String]),
+    (last, labels): (&Round, &[String]),
+    events: &[Event],
     s: &TuneSettings,
     rounds: u32,
 ) -> TuneReport {
-    let first_labels = first_labels(first);
-    let mut names: Vec<String> = first_labels.clone();
+    let mut names: Vec<String> = first_labels.to_vec();
     names.extend(labels.iter().filter(|l| !first_labels.contains(l)).cloned());
     let rows: Vec<TuneRow> = names
         .iter()
         .map(|name| {
             let before = first_labels.iter().position(|l| l == name).map(|i| &first.caches[i]);
             let after = labels.iter().position(|l| l == name).map(|i| &last.caches[i]);
-            let own: Vec<&(String, String, String)> = events.iter().filter(|e| &e.0 == name).collect();
-            let changes: Vec<&str> = own.iter().map(|e| e.1.as_str()).filter(|w| !w.starts_with("kept")).collect();
+            let own: Vec<&Event> = events.iter().filter(|e| &e.label == name).collect();
+            let changes: Vec<&str> = own.iter().map(|e| e.what.as_str()).filter(|w| !w.starts_with("kept")).collect();
             let decision = if changes.is_empty() {
-                own.last().map_or("new".to_string(), |e| e.1.clone())
+                own.last().map_or("new".to_string(), |e| e.what.clone())
             } else {
                 changes.join(", ")
             };
@@ -377,7 +380,7 @@ fn report(
                 bytes_after: after.map_or(0, |c| c.bytes),
                 cost_ratio: latest.map_or(0.0, |d| d.exact_cost / d.lattice_cost),
                 decision,
-                reason: own.last().map_or(String::new(), |e| e.2.clone()),
+                reason: own.last().map_or(String::new(), |e| e.why.clone()),
             }
         })
         .collect();
