@@ -12,7 +12,7 @@ use super::exit::UsageError;
 use crate::field::{EvalMode, Model};
 use crate::frame::Size;
 use crate::mesh::{CellShape, VertexPlacement};
-use crate::pipeline::{self, EvalSettings, ExactLookup, FieldChoice, PolygonizeSettings};
+use crate::pipeline::{self, EvalSettings, ExactLookup, FieldChoice, MeshRepair, PolygonizeSettings};
 use crate::scene::{Scene, ViewOverrides};
 
 /// How exact evaluation finds the primitives near a point.
@@ -134,7 +134,36 @@ impl PolygonizeArgs {
                 VertexArg::Linear => VertexPlacement::Linear,
             },
             refine: self.refine,
+            repair: MeshRepair::default(),
         }
+    }
+}
+
+/// Remedies for the polygonized mesh, each off by default.
+#[derive(Clone, Copy, Debug, Args)]
+pub struct RepairArgs {
+    /// Snap vertices within F of a cell from a lattice corner onto it, merging
+    /// those that meet and dropping the triangles that collapse: removes the
+    /// needles and slivers marching cubes makes there, and moves the surface by
+    /// at most F cells (both reported)
+    #[arg(long, value_name = "F")]
+    pub snap: Option<f32>,
+    /// Drop connected pieces of fewer than N triangles. Off by default: a thin
+    /// feature sampled coarsely falls apart into small pieces that are real
+    #[arg(long, value_name = "N")]
+    pub min_component: Option<u32>,
+    /// Re-take vertex normals that point against their faces from the exact
+    /// field's gradient (a cached lattice's gradient can flip next to features
+    /// thinner than a cell), or from the faces where that disagrees too
+    #[arg(long)]
+    pub fix_normals: bool,
+}
+
+impl RepairArgs {
+    /// The remedies asked for.
+    #[must_use]
+    pub fn repair(&self) -> MeshRepair {
+        MeshRepair { snap: self.snap, min_component: self.min_component, fix_normals: self.fix_normals }
     }
 }
 

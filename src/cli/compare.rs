@@ -8,12 +8,15 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::args::{
-    CameraArgs, EvalOptions, PolygonizeArgs, check_output_dir, create_dir, load_scene, parse_size, with_threads,
+    CameraArgs, EvalOptions, PolygonizeArgs, RepairArgs, check_output_dir, create_dir, load_scene, parse_size,
+    with_threads,
 };
 use super::mesh::CacheErrorArgs;
 use super::progress::Bars;
 use crate::frame::Size;
-use crate::pipeline::{COMPARE_OUTPUTS, CompareReport, CompareSettings, ErrorScales, Tolerances, compare};
+use crate::pipeline::{
+    COMPARE_OUTPUTS, CompareReport, CompareSettings, ErrorScales, PolygonizeSettings, Tolerances, compare,
+};
 
 /// Options of `blobtrace compare`.
 #[derive(Debug, Args)]
@@ -29,6 +32,9 @@ pub struct CompareArgs {
     /// Polygonizer options.
     #[command(flatten)]
     pub polygonize: PolygonizeArgs,
+    /// Mesh remedies, applied before the mesh is rendered.
+    #[command(flatten)]
+    pub repair: RepairArgs,
     /// Field evaluation for both the tracer and the polygonizer.
     #[command(flatten)]
     pub field: EvalOptions,
@@ -88,7 +94,7 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
     let mode = a.field.apply(&mut scene.model)?;
     let settings = CompareSettings {
         size: a.size.unwrap_or(scene.size),
-        polygonize: a.polygonize.settings(),
+        polygonize: PolygonizeSettings { repair: a.repair.repair(), ..a.polygonize.settings() },
         error_scale: a.error.scale(),
         scales: a.judging.scales(),
         tolerances: a.judging.tolerances(),
@@ -130,4 +136,5 @@ fn print_summary(dir: &std::path::Path, r: &CompareReport) {
         r.normal_error_deg.p99,
         r.mesh.mesh.triangles
     );
+    eprintln!("mesh quality: {}", r.mesh.mesh.quality.headline());
 }

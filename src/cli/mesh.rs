@@ -5,11 +5,13 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 
-use super::args::{EvalOptions, PolygonizeArgs, check_output_dir, output_or_default, print_json, with_threads};
+use super::args::{
+    EvalOptions, PolygonizeArgs, RepairArgs, check_output_dir, output_or_default, print_json, with_threads,
+};
 use super::exit::UsageError;
 use super::progress::Bars;
 use crate::mesh::{MeshFormat, write_mesh};
-use crate::pipeline::{MeshReport, color_by_cache_error, polygonize};
+use crate::pipeline::{MeshReport, PolygonizeSettings, RepairReport, color_by_cache_error, polygonize};
 use crate::scene::Scene;
 
 /// Options of `blobtrace mesh`.
@@ -24,6 +26,9 @@ pub struct MeshArgs {
     /// Polygonizer options.
     #[command(flatten)]
     pub polygonize: PolygonizeArgs,
+    /// Mesh remedies.
+    #[command(flatten)]
+    pub repair: RepairArgs,
     /// Worker threads (default: all cores). The mesh is identical for any count.
     #[arg(long)]
     pub threads: Option<usize>,
@@ -67,7 +72,8 @@ pub fn run(a: &MeshArgs) -> anyhow::Result<()> {
     check_output_dir(&output)?;
     let bars = Bars::new();
     let (mesh, report) = with_threads(a.threads, || -> anyhow::Result<_> {
-        let (mut mesh, mut report) = polygonize(&scene.model, mode, &a.polygonize.settings(), &bars)?;
+        let settings = PolygonizeSettings { repair: a.repair.repair(), ..a.polygonize.settings() };
+        let (mut mesh, mut report) = polygonize(&scene.model, mode, &settings, &bars)?;
         if let Some(scale) = a.error.scale() {
             color_by_cache_error(&mut scene.model, &mut mesh, scale, &mut report)?;
         }
@@ -92,6 +98,10 @@ fn print_summary(output: &std::path::Path, report: &MeshReport) {
         report.evals_per_triangle,
         if report.closed_manifold { ", closed" } else { ", NOT closed" }
     );
+    eprintln!("quality: {}", report.quality.headline());
+    if let Some(repairs) = &report.repairs {
+        print_repairs(repairs);
+    }
     if let Some(e) = report.error_c {
         eprintln!(
             "error_C at the vertices: mean {:.2e} ({:.2}% of T), max {:.2e} ({:.1}% of T)",
@@ -99,6 +109,32 @@ fn print_summary(output: &std::path::Path, report: &MeshReport) {
             100.0 * e.mean_relative,
             e.max,
             100.0 * e.max_relative
+        );
+    }
+}
+
+fn print_repairs(repairs: &RepairReport) {
+    if let Some(s) = repairs.snap {
+        eprintln!(
+            "snapped {} vertices within {} of a cell onto lattice points ({} merged, {} triangles dropped): \
+             min angle {:.2}° -> {:.2}°, max distance to the surface {:.3} -> {:.3} cells",
+            s.snap.snapped,
+            s.snap.fraction,
+            s.snap.merged,
+            s.snap.dropped_triangles,
+            s.min_angle_degrees[0],
+            s.min_angle_degrees[1],
+            s.max_distance_cells[0],
+            s.max_distance_cells[1]
+        );
+    }
+    if let Some(n) = repairs.dropped_components {
+        eprintln!("dropped {n} pieces smaller than --min-component");
+    }
+    if let Some(n) = repairs.normals {
+        eprintln!(
+            "{} normals pointed against their faces: {} re-taken from the exact gradient, {} from the faces",
+            n.against_faces, n.from_gradient, n.from_faces
         );
     }
 }

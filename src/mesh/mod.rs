@@ -29,6 +29,8 @@ mod edge_vertices;
 mod export;
 mod lattice;
 mod polygonizer;
+pub mod quality;
+pub mod repair;
 mod seeds;
 mod slot_bits;
 mod topology;
@@ -102,15 +104,6 @@ pub fn canonical_triangles(triangles: impl IntoIterator<Item = [Vec3; 3]>) -> Ve
     set
 }
 
-/// Shape quality of a mesh's triangles: `q = 4√3·A / Σl²`, 1 for equilateral, 0 for degenerate.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
-pub struct TriangleQuality {
-    /// Mean quality.
-    pub mean: f64,
-    /// Fraction of triangles with quality below 0.1.
-    pub below_0_1: f64,
-}
-
 impl Mesh {
     /// Adds a vertex and returns its index.
     pub fn push_vertex(&mut self, position: Vec3, normal: Vec3, color: Option<Vec3>) -> u32 {
@@ -131,14 +124,7 @@ impl Mesh {
     /// Replaces the vertex normals by the normalized, area-weighted sum of the
     /// normals of the triangles around each vertex.
     pub fn set_normals_from_faces(&mut self) {
-        let mut sums = vec![Vec3::ZERO; self.positions.len()];
-        for t in 0..self.triangles.len() {
-            let [a, b, c] = self.corners(t);
-            let n = (b - a).cross(c - a);
-            for i in self.triangles[t] {
-                sums[i as usize] += n;
-            }
-        }
+        let sums = quality::face_normal_sums(&self.positions, &self.triangles);
         self.normals = sums.into_iter().map(Vec3::normalize_or_zero).collect();
     }
 
@@ -154,20 +140,11 @@ impl Mesh {
         canonical_triangles((0..self.triangles.len()).map(|t| self.corners(t)))
     }
 
-    /// Mean shape quality and the fraction of poor triangles.
+    /// Every quality figure: pieces, watertightness, genus, triangle shape,
+    /// normals against faces, self-intersections.
     #[must_use]
-    pub fn quality(&self) -> TriangleQuality {
-        let n = self.triangles.len().max(1) as f64;
-        let (mut sum, mut poor) = (0.0f64, 0usize);
-        for t in 0..self.triangles.len() {
-            let [a, b, c] = self.corners(t);
-            let area = 0.5 * (b - a).cross(c - a).length();
-            let l2 = (b - a).length_squared() + (c - b).length_squared() + (a - c).length_squared();
-            let q = if l2 > 0.0 { f64::from(4.0 * 3f32.sqrt() * area / l2) } else { 0.0 };
-            sum += q;
-            poor += usize::from(q < 0.1);
-        }
-        TriangleQuality { mean: sum / n, below_0_1: poor as f64 / n }
+    pub fn quality(&self) -> quality::MeshQuality {
+        quality::MeshQuality::of(self)
     }
 
     /// Edge sharing and orientation of the triangles.

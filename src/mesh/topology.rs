@@ -1,7 +1,7 @@
 //! Whether a triangle mesh is watertight: every edge shared by exactly two
 //! triangles that traverse it in opposite directions.
 
-use rustc_hash::FxHashMap;
+use super::quality::{EdgeKind, Edges, kind};
 
 /// Edge statistics of a triangle mesh.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -22,31 +22,28 @@ impl Topology {
     /// The edge statistics of `triangles`.
     #[must_use]
     pub fn of(triangles: &[[u32; 3]]) -> Self {
-        // Per undirected edge: uses in the a<b direction and in the b<a direction.
-        let mut uses: FxHashMap<(u32, u32), (u32, u32)> = FxHashMap::default();
-        let mut vertices = rustc_hash::FxHashSet::default();
-        for t in triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                vertices.insert(a);
-                let entry = uses.entry((a.min(b), a.max(b))).or_default();
-                if a < b {
-                    entry.0 += 1;
-                } else {
-                    entry.1 += 1;
-                }
+        Self::from_edges(triangles, &Edges::of(triangles))
+    }
+
+    /// The edge statistics of `triangles`, whose edges are `edges`.
+    #[must_use]
+    pub fn from_edges(triangles: &[[u32; 3]], edges: &Edges) -> Self {
+        let mut topo = Topology::default();
+        for sides in edges.groups() {
+            topo.edges += 1;
+            match kind(sides) {
+                EdgeKind::Manifold => {}
+                EdgeKind::Boundary => topo.boundary_edges += 1,
+                EdgeKind::Misoriented => topo.misoriented_edges += 1,
+                EdgeKind::Nonmanifold => topo.nonmanifold_edges += 1,
             }
         }
-        let mut topo = Topology { edges: uses.len(), ..Default::default() };
-        for &(forward, backward) in uses.values() {
-            match forward + backward {
-                1 => topo.boundary_edges += 1,
-                2 if forward != 1 => topo.misoriented_edges += 1,
-                2 => {}
-                _ => topo.nonmanifold_edges += 1,
-            }
+        let mut used = vec![false; triangles.iter().flatten().max().map_or(0, |&v| v as usize + 1)];
+        for &v in triangles.iter().flatten() {
+            used[v as usize] = true;
         }
-        topo.euler_characteristic = vertices.len() as i64 - uses.len() as i64 + triangles.len() as i64;
+        let vertices = used.iter().filter(|&&u| u).count();
+        topo.euler_characteristic = vertices as i64 - topo.edges as i64 + triangles.len() as i64;
         topo
     }
 

@@ -394,7 +394,10 @@ impl Comparison {
         let mesh = &self.report.mesh.mesh;
         let mut items = vec![
             ("field (ray traced)".to_string(), frame_image(&self.ray)),
-            (format!("mesh, res {} ({} triangles)", mesh.res, mesh.triangles), frame_image(&self.mesh)),
+            (
+                format!("mesh, res {} ({} triangles): {}", mesh.res, mesh.triangles, mesh.quality.headline()),
+                frame_image(&self.mesh),
+            ),
         ];
         if let (Some(f), Some(scale)) = (&self.by_error, self.error_scale) {
             items.push((format!("mesh by error_C, magma 0..{scale}"), frame_image(f)));

@@ -46,6 +46,7 @@ mod error;
 mod eval;
 mod image_diff;
 mod junit;
+mod mesh_repair;
 mod polygonize;
 mod regress;
 mod render;
@@ -65,6 +66,7 @@ pub use error::{PipelineError, Result};
 pub use eval::{EvalSettings, ExactLookup, FieldChoice, MB};
 pub use image_diff::{ImageDiffError, ImageDiffSettings, diff_images};
 pub use junit::junit_xml;
+pub use mesh_repair::{MAX_SNAP, MeshRepair, RepairReport, SnapEffect, repair_mesh};
 pub use polygonize::{
     MAX_REFINE, MAX_RES, MeshReport, PolygonizeSettings, cells_name, color_by_cache_error, polygonize, polygonizer_on,
     vertex_name,

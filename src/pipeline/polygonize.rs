@@ -8,11 +8,12 @@ use serde::Serialize;
 
 use super::cache_report::CacheReport;
 use super::error::{PipelineError, Result};
+use super::mesh_repair::{MeshRepair, RepairReport, repair_mesh};
 use crate::compare::{CacheErrorStats, cache_error_at, cache_error_stats, error_colors};
 use crate::field::{EvalMode, Model, ModelField};
 use crate::mesh::{
-    CellShape, Lattice, Mesh, PolygonizeOptions, PolygonizeStats, Polygonizer, Topology, TriangleQuality,
-    VertexPlacement, skeleton_seeds,
+    CellShape, Lattice, Mesh, PolygonizeOptions, PolygonizeStats, Polygonizer, VertexPlacement, quality::MeshQuality,
+    skeleton_seeds,
 };
 use crate::progress::{Progress, Silent, stage};
 
@@ -28,11 +29,19 @@ pub struct PolygonizeSettings {
     /// Refine this many levels: polygonize at `res · 2^refine`, grown from the
     /// surface found at `res` instead of from the skeletons.
     pub refine: u32,
+    /// Remedies applied to the mesh once it is made (none by default).
+    pub repair: MeshRepair,
 }
 
 impl Default for PolygonizeSettings {
     fn default() -> Self {
-        Self { res: 128, cells: CellShape::Cubes, vertex: VertexPlacement::default(), refine: 0 }
+        Self {
+            res: 128,
+            cells: CellShape::Cubes,
+            vertex: VertexPlacement::default(),
+            refine: 0,
+            repair: MeshRepair::default(),
+        }
     }
 }
 
@@ -96,6 +105,7 @@ impl PolygonizeSettings {
     }
 
     fn check_ranges(&self) -> Result<()> {
+        self.repair.check()?;
         if !(1..=MAX_RES).contains(&self.res) {
             return Err(PipelineError::setting("res", format!("must be between 1 and {MAX_RES}, got {}", self.res)));
         }
@@ -152,12 +162,15 @@ pub struct MeshReport {
     pub crossed_cells: u64,
     /// Triangles per second.
     pub triangles_per_second: f64,
-    /// Triangle shape quality.
-    pub quality: TriangleQuality,
-    /// Edge sharing and orientation.
-    pub topology: Topology,
     /// True when every edge is shared by exactly two consistently oriented triangles.
     pub closed_manifold: bool,
+    /// Pieces, watertightness, genus, triangle shape, normals, self-intersections.
+    pub quality: MeshQuality,
+    /// Wall-clock seconds measuring `quality` (not in `seconds`).
+    pub quality_seconds: f64,
+    /// What the remedies asked for did (after `seconds`, before `quality`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub repairs: Option<RepairReport>,
     /// Evaluation mode: naive, indexed or cached.
     pub eval: String,
     /// Threads used.
@@ -192,10 +205,14 @@ pub(super) fn polygonize_checked(
 ) -> (Mesh, MeshReport) {
     let coarse = Lattice::for_model(model, settings.res);
     let start = Instant::now();
-    let (mesh, counts) = run_polygonizer(model, mode, coarse, settings.options(), settings.refine, progress);
+    let (mut mesh, counts) = run_polygonizer(model, mode, coarse, settings.options(), settings.refine, progress);
     let seconds = start.elapsed().as_secs_f64();
-    let cell_size = coarse.refined(settings.refine).cell;
-    let report = report(model, mode, settings, &mesh, counts, seconds, cell_size);
+    let fine = coarse.refined(settings.refine);
+    let repairs = (!settings.repair.is_none()).then(|| {
+        stage(progress, "repairing the mesh", || repair_mesh(model, fine, settings.cells, &mut mesh, &settings.repair))
+    });
+    let mut report = report(model, mode, settings, &mesh, counts, seconds, fine.cell, progress);
+    report.repairs = repairs;
     (mesh, report)
 }
 
@@ -207,8 +224,11 @@ fn report(
     counts: RunCounts,
     seconds: f64,
     cell_size: f32,
+    progress: &dyn Progress,
 ) -> MeshReport {
-    let topology = mesh.topology();
+    let start = Instant::now();
+    let quality = stage(progress, "checking the mesh", || mesh.quality());
+    let quality_seconds = start.elapsed().as_secs_f64();
     let field_evals = counts.stats.field_evals();
     MeshReport {
         seconds,
@@ -224,9 +244,10 @@ fn report(
         work: counts.stats,
         crossed_cells: counts.crossed_cells,
         triangles_per_second: mesh.triangles.len() as f64 / seconds.max(1e-9),
-        quality: mesh.quality(),
-        topology,
-        closed_manifold: topology.is_closed_manifold(),
+        closed_manifold: quality.watertight,
+        quality,
+        quality_seconds,
+        repairs: None,
         eval: format!("{mode:?}").to_lowercase(),
         threads: rayon::current_num_threads(),
         caches: (mode == EvalMode::Cached).then(|| CacheReport::of(model)),

@@ -1,0 +1,126 @@
+//! What a user would check before printing or importing a mesh: its
+//! connected pieces (and the small islands among them), whether it is
+//! watertight, its Euler characteristic and genus, the shape of its
+//! triangles, vertex normals against their faces, and self-intersections.
+//!
+//! - `edges`: every triangle side sorted by its undirected edge;
+//! - `components`: pieces joined through shared edges, with χ and genus;
+//! - `shape`: smallest angles and the quality histogram;
+//! - `normals`: vertex normals against the faces around them;
+//! - `intersections`: triangles cutting through each other, found through a BVH.
+
+mod components;
+mod edges;
+mod intersections;
+mod normals;
+mod shape;
+
+use serde::Serialize;
+
+pub use components::{Component, Components};
+pub use edges::{EdgeKind, Edges, Side, kind};
+pub use intersections::{self_intersections, triangles_cross};
+pub use normals::{NormalCheck, against_faces, face_normal_sums};
+pub use shape::{QUALITY_BINS, QUALITY_MEASURE, ShapeQuality, triangle_shape};
+
+use super::{Mesh, Topology};
+
+/// Pieces this small or smaller are counted as islands by default.
+pub const DEFAULT_ISLAND_TRIANGLES: u32 = 50;
+/// Pieces listed one by one in a report (the largest); the rest are counted.
+pub const LISTED_COMPONENTS: usize = 16;
+
+/// A mesh's quality, as `mesh --json` and `compare` report it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MeshQuality {
+    /// Edge sharing and orientation over the whole mesh.
+    pub topology: Topology,
+    /// True when every edge is shared by exactly two consistently oriented triangles.
+    pub watertight: bool,
+    /// The connected pieces.
+    pub components: ComponentSummary,
+    /// Triangle shape.
+    pub shape: ShapeQuality,
+    /// Vertex normals against their faces.
+    pub normals: NormalCheck,
+    /// Pairs of triangles sharing no vertex that cut through each other.
+    pub self_intersections: u64,
+}
+
+/// The connected pieces of a mesh in brief.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ComponentSummary {
+    /// How many pieces.
+    pub count: usize,
+    /// Pieces of at most `island_triangles` triangles.
+    pub islands: usize,
+    /// Triangles in those islands.
+    pub island_triangles_total: u64,
+    /// The size bound of an island, in triangles.
+    pub island_triangles: u32,
+    /// Closed pieces.
+    pub closed: usize,
+    /// Sum of the closed pieces' genera.
+    pub total_genus: i64,
+    /// The largest pieces (at most [`LISTED_COMPONENTS`]), largest first.
+    pub largest: Vec<Component>,
+}
+
+impl ComponentSummary {
+    /// The summary of `components`, islands being pieces of at most `island_triangles`.
+    #[must_use]
+    pub fn of(components: &Components, island_triangles: u32) -> Self {
+        let pieces = &components.pieces;
+        let islands: Vec<&Component> = pieces.iter().filter(|c| c.triangles <= island_triangles).collect();
+        Self {
+            count: pieces.len(),
+            islands: islands.len(),
+            island_triangles_total: islands.iter().map(|c| u64::from(c.triangles)).sum(),
+            island_triangles,
+            closed: pieces.iter().filter(|c| c.closed).count(),
+            total_genus: pieces.iter().filter_map(|c| c.genus).sum(),
+            largest: pieces.iter().take(LISTED_COMPONENTS).copied().collect(),
+        }
+    }
+}
+
+impl MeshQuality {
+    /// Every figure for `mesh`.
+    #[must_use]
+    pub fn of(mesh: &Mesh) -> Self {
+        let edges = Edges::of(&mesh.triangles);
+        let topology = Topology::from_edges(&mesh.triangles, &edges);
+        let components = Components::of(&mesh.triangles, &edges);
+        Self {
+            topology,
+            watertight: topology.is_closed_manifold(),
+            components: ComponentSummary::of(&components, DEFAULT_ISLAND_TRIANGLES),
+            shape: ShapeQuality::of(&mesh.positions, &mesh.triangles),
+            normals: NormalCheck::of(&mesh.positions, &mesh.normals, &mesh.triangles),
+            self_intersections: self_intersections(&mesh.positions, &mesh.triangles).len() as u64,
+        }
+    }
+
+    /// One line of the headline figures.
+    #[must_use]
+    pub fn headline(&self) -> String {
+        format!(
+            "{} piece{} ({} island{} of <= {} triangles), {}, min angle {:.3} deg, {} normal{} against faces, {} self-intersection{}",
+            self.components.count,
+            plural(self.components.count as u64),
+            self.components.islands,
+            plural(self.components.islands as u64),
+            self.components.island_triangles,
+            if self.watertight { "watertight" } else { "NOT watertight" },
+            self.shape.min_angle_degrees,
+            self.normals.against_faces,
+            plural(self.normals.against_faces),
+            self.self_intersections,
+            plural(self.self_intersections),
+        )
+    }
+}
+
+fn plural(n: u64) -> &'static str {
+    if n == 1 { "" } else { "s" }
+}
