@@ -116,11 +116,11 @@ fn print_summary(output: &std::path::Path, report: &MeshReport) {
 fn print_repairs(repairs: &RepairReport) {
     if let Some(s) = repairs.snap {
         eprintln!(
-            "snapped {} vertices within {} of a cell onto lattice points ({} merged, {} triangles dropped): \
-             min angle {:.2}° -> {:.2}°, max distance to the surface {:.3} -> {:.3} cells",
-            s.snap.snapped,
+            "snapped {} lattice corners within {} of a cell of a crossing ({} vertices moved onto them, \
+             {} triangles dropped): min angle {:.3}° -> {:.3}°, max distance to the surface {:.3} -> {:.3} cells",
+            s.snap.corners,
             s.snap.fraction,
-            s.snap.merged,
+            s.snap.moved,
             s.snap.dropped_triangles,
             s.min_angle_degrees[0],
             s.min_angle_degrees[1],

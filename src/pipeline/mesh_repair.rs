@@ -34,8 +34,11 @@ impl MeshRepair {
         *self == Self::default()
     }
 
-    /// Checks the settings.
-    pub fn check(&self) -> Result<()> {
+    /// Checks the settings for a mesh made of `cells`.
+    pub fn check(&self, cells: CellShape) -> Result<()> {
+        if self.snap.is_some() && cells != CellShape::Cubes {
+            return Err(PipelineError::setting("snap", "snaps the corners of cubes: use it with --cells cubes"));
+        }
         if let Some(f) = self.snap
             && !(f > 0.0 && f <= MAX_SNAP)
         {
@@ -77,21 +80,14 @@ pub struct SnapEffect {
     pub mean_distance_cells: [f64; 2],
 }
 
-/// Applies `repair` to `mesh`, polygonized from `model` on `lattice` with `cells`.
+/// Applies `repair` to `mesh`, polygonized from `model` on `lattice` (with cubes, when it snaps).
 #[must_use]
-pub fn repair_mesh(
-    model: &Model,
-    lattice: Lattice,
-    cells: CellShape,
-    mesh: &mut Mesh,
-    repair: &MeshRepair,
-) -> RepairReport {
+pub fn repair_mesh(model: &Model, lattice: Lattice, mesh: &mut Mesh, repair: &MeshRepair) -> RepairReport {
     let exact = ModelField::new(model, EvalMode::Indexed);
     let mut report = RepairReport::default();
     if let Some(fraction) = repair.snap {
         let before = (min_angle(mesh), distances(&exact, mesh, lattice.cell));
-        let nearest = |p: Vec3| Vec3::from(nearest_lattice_point(lattice, cells, Vec3A::from(p)));
-        let snap = snap_to_corners(mesh, lattice.cell, fraction, nearest);
+        let snap = snap_to_corners(mesh, lattice.cell, fraction);
         let after = (min_angle(mesh), distances(&exact, mesh, lattice.cell));
         report.snap = Some(SnapEffect {
             snap,
@@ -107,16 +103,6 @@ pub fn repair_mesh(
         report.normals = Some(fix_normals(mesh, |p| Vec3::from(exact.gradient(Vec3A::from(p)))));
     }
     report
-}
-
-/// The lattice point nearest `p`: a cube corner, or for tetrahedra also a cube centre.
-fn nearest_lattice_point(lattice: Lattice, cells: CellShape, p: Vec3A) -> Vec3A {
-    let corner = lattice.position(lattice.nearest_corner(p));
-    if cells == CellShape::Cubes {
-        return corner;
-    }
-    let centre = lattice.position(lattice.cube_of(p) * 2 + glam::IVec3::ONE);
-    if centre.distance_squared(p) < corner.distance_squared(p) { centre } else { corner }
 }
 
 fn min_angle(mesh: &Mesh) -> f64 {

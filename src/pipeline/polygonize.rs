@@ -105,7 +105,7 @@ impl PolygonizeSettings {
     }
 
     fn check_ranges(&self) -> Result<()> {
-        self.repair.check()?;
+        self.repair.check(self.cells)?;
         if !(1..=MAX_RES).contains(&self.res) {
             return Err(PipelineError::setting("res", format!("must be between 1 and {MAX_RES}, got {}", self.res)));
         }
@@ -204,14 +204,11 @@ pub(super) fn polygonize_checked(
     progress: &dyn Progress,
 ) -> (Mesh, MeshReport) {
     let coarse = Lattice::for_model(model, settings.res);
-    let start = Instant::now();
     let (mut mesh, counts) = run_polygonizer(model, mode, coarse, settings.options(), settings.refine, progress);
-    let seconds = start.elapsed().as_secs_f64();
     let fine = coarse.refined(settings.refine);
-    let repairs = (!settings.repair.is_none()).then(|| {
-        stage(progress, "repairing the mesh", || repair_mesh(model, fine, settings.cells, &mut mesh, &settings.repair))
-    });
-    let mut report = report(model, mode, settings, &mesh, counts, seconds, fine.cell, progress);
+    let repairs = (!settings.repair.is_none())
+        .then(|| stage(progress, "repairing the mesh", || repair_mesh(model, fine, &mut mesh, &settings.repair)));
+    let mut report = report(model, mode, settings, &mesh, counts, fine.cell, progress);
     report.repairs = repairs;
     (mesh, report)
 }
@@ -222,10 +219,10 @@ fn report(
     settings: &PolygonizeSettings,
     mesh: &Mesh,
     counts: RunCounts,
-    seconds: f64,
     cell_size: f32,
     progress: &dyn Progress,
 ) -> MeshReport {
+    let seconds = counts.seconds;
     let start = Instant::now();
     let quality = stage(progress, "checking the mesh", || mesh.quality());
     let quality_seconds = start.elapsed().as_secs_f64();
@@ -275,6 +272,8 @@ pub fn vertex_name(vertex: VertexPlacement) -> &'static str {
 
 /// What a polygonizer run counted.
 struct RunCounts {
+    /// Wall-clock seconds of the run.
+    seconds: f64,
     stats: PolygonizeStats,
     crossed_cells: u64,
 }
@@ -289,6 +288,7 @@ fn run_polygonizer(
     refine: u32,
     progress: &dyn Progress,
 ) -> (Mesh, RunCounts) {
+    let start = Instant::now();
     let field = ModelField::new(model, mode);
     let mut coarse = Polygonizer::new(lattice, options);
     coarse.polygonize_reporting(&field, &skeleton_seeds(model, model.root()), progress);
@@ -302,7 +302,8 @@ fn run_polygonizer(
         fine
     };
     let mesh = stage(progress, "assembling the mesh", || polygonizer.mesh());
-    (mesh, RunCounts { stats, crossed_cells: polygonizer.crossed_cells() as u64 })
+    let seconds = start.elapsed().as_secs_f64();
+    (mesh, RunCounts { seconds, stats, crossed_cells: polygonizer.crossed_cells() as u64 })
 }
 
 /// A polygonizer over `model` on `lattice`, grown from the skeletons: what
