@@ -89,13 +89,6 @@ impl CornerValues {
         self.bricks.get(&key).and_then(|b| b.get(slot))
     }
 
-    /// Whether the value at `q` is known.
-    #[inline]
-    #[must_use]
-    pub fn contains(&self, q: LatticePoint) -> bool {
-        self.get(q).is_some()
-    }
-
     /// The value at `q`, which must be known.
     #[inline]
     #[must_use]
@@ -136,6 +129,69 @@ impl CornerValues {
             }
             !brick.is_empty()
         });
+    }
+}
+
+/// Bricks a patch holds: two per axis (a block of cubes and its upper
+/// neighbours), for corners and for centres.
+const PATCH_BRICKS: usize = 16;
+
+/// The corner bricks one block of cubes (the cubes of one brick of visited
+/// cells) reads and writes: its own and those on its upper sides, for
+/// corners and for centres. Taken out of the store, they belong to one
+/// thread; blocks whose coordinates differ by two along some axis take
+/// disjoint patches.
+pub struct CornerPatch {
+    base: IVec3,
+    bricks: [Option<Box<Brick>>; PATCH_BRICKS],
+}
+
+impl CornerValues {
+    /// Takes out the bricks holding the vertices of the cubes of block `base`
+    /// (cube coordinates `base·8 ..= base·8 + 7`).
+    pub fn take_patch(&mut self, base: IVec3) -> CornerPatch {
+        let bricks = std::array::from_fn(|i| self.bricks.remove(&patch_key(base, i)));
+        CornerPatch { base, bricks }
+    }
+
+    /// Puts a patch's bricks back.
+    pub fn put_patch(&mut self, patch: CornerPatch) {
+        for (i, brick) in patch.bricks.into_iter().enumerate() {
+            if let Some(brick) = brick {
+                self.bricks.insert(patch_key(patch.base, i), brick);
+            }
+        }
+    }
+}
+
+/// The key of brick `i` of the patch at `base`: bit 3 the centres, bits 0–2 the offset.
+fn patch_key(base: IVec3, i: usize) -> BrickKey {
+    let offset = IVec3::new((i & 1) as i32, (i >> 1 & 1) as i32, (i >> 2 & 1) as i32);
+    (base + offset, i & 8 != 0)
+}
+
+impl CornerPatch {
+    #[inline]
+    fn locate(&self, q: LatticePoint) -> (usize, usize) {
+        let ((brick, odd), slot) = locate(q);
+        let d = brick - self.base;
+        debug_assert!(d.cmpge(IVec3::ZERO).all() && d.cmple(IVec3::ONE).all(), "{q} lies outside the patch");
+        ((d.x | d.y << 1 | d.z << 2) as usize | usize::from(odd) << 3, slot)
+    }
+
+    /// The value at `q`, if known.
+    #[inline]
+    #[must_use]
+    pub fn get(&self, q: LatticePoint) -> Option<f32> {
+        let (brick, slot) = self.locate(q);
+        self.bricks[brick].as_ref().and_then(|b| b.get(slot))
+    }
+
+    /// Sets the value at `q`.
+    #[inline]
+    pub fn set(&mut self, q: LatticePoint, value: f32) {
+        let (brick, slot) = self.locate(q);
+        self.bricks[brick].get_or_insert_with(|| Box::new(Brick::EMPTY)).set(slot, value);
     }
 }
 
@@ -185,6 +241,26 @@ mod tests {
     }
 
     #[test]
+    fn a_patch_reads_and_writes_the_bricks_it_took() {
+        let mut values = CornerValues::default();
+        let base = IVec3::new(-1, 2, 0);
+        // Corners and centres of the patch's cubes, which span bricks base and base + 1.
+        let cubes = (0..9).flat_map(|z| (0..9).flat_map(move |y| (0..9).map(move |x| IVec3::new(x, y, z))));
+        let points: Vec<IVec3> = cubes.flat_map(|c| [(base * 8 + c) * 2, (base * 8 + c) * 2 + IVec3::ONE]).collect();
+        values.insert(points[0], 7.0);
+        let mut patch = values.take_patch(base);
+        assert_eq!(values.get(points[0]), None, "taken out");
+        assert_eq!(patch.get(points[0]), Some(7.0));
+        for (i, &q) in points.iter().enumerate().skip(1) {
+            patch.set(q, i as f32);
+        }
+        values.put_patch(patch);
+        for (i, &q) in points.iter().enumerate().skip(1) {
+            assert_eq!(values.get(q), Some(i as f32), "at {q}");
+        }
+    }
+
+    #[test]
     fn forgetting_a_box_forgets_exactly_the_points_inside_it() {
         let mut values = CornerValues::default();
         let all = points();
@@ -195,7 +271,7 @@ mod tests {
         let region = Aabb::new(Vec3A::new(-1.1, -3.0, 0.3), Vec3A::new(2.0, 0.2, 9.0));
         values.forget_within(&region, position, |p| region.contains(p));
         for &q in &all {
-            assert_eq!(values.contains(q), !region.contains(position(q)), "at {q}");
+            assert_eq!(values.get(q).is_some(), !region.contains(position(q)), "at {q}");
         }
         assert_eq!(values.iter().count(), all.iter().filter(|&&q| !region.contains(position(q))).count());
     }

@@ -1,14 +1,18 @@
 //! The vertices placed on crossed edges: kept side by side in one array and
-//! found by edge through a map of their slots there.
+//! found by edge through dense bricks of their slots there.
 //!
-//! A map of whole vertices made the polygonizer's two serial passes slow at
-//! res 512: inserting each vertex moved 48-byte entries through a 20 MB
-//! table, and numbering the mesh's vertices by first use looked two million
-//! polygon edges up in a map built as it went. Slots keep the map small, and
-//! the mesh looks its edges' slots up in parallel, leaving the serial pass
-//! to walk dense slot numbers.
+//! An edge's key (the sum of its ends, in half-cell coordinates) names a
+//! cube (`key >> 2`) and, by its remainders mod 4, one of the few kinds of
+//! edge a cube owns: three axis edges from its lowest corner, and for
+//! tetrahedra also three between centres and eight from its centre to its
+//! corners. Slots live in bricks of 4³ cubes, one array per brick, so the
+//! edges of neighbouring cells are found next to each other in memory.
+//!
+//! A hash map from every edge to its slot made the mesh's assembly slow:
+//! its million lookups, spread over a table larger than the processor's
+//! caches, each missed them.
 
-use glam::Vec3;
+use glam::{IVec3, Vec3};
 use rustc_hash::FxHashMap;
 
 use super::lattice::EdgeKey;
@@ -24,19 +28,91 @@ pub struct EdgeVertex {
     pub color: Vec3,
 }
 
+/// Bricks hold 4³ cubes.
+const BRICK_SHIFT: i32 = 2;
+const BRICK_CUBES: usize = 1 << (3 * BRICK_SHIFT);
+/// A slot no vertex holds.
+const NONE: u32 = u32::MAX;
+/// A remainder pattern no edge has.
+const NO_KIND: u8 = u8::MAX;
+
+/// The remainders mod 4 of the keys of the edges a cube owns: its axis
+/// edges, then (on a body-centred lattice) the edges between centres and
+/// from its centre to its eight corners.
+const KINDS: [[i32; 3]; 14] = [
+    [2, 0, 0],
+    [0, 2, 0],
+    [0, 0, 2],
+    [0, 2, 2],
+    [2, 0, 2],
+    [2, 2, 0],
+    [1, 1, 1],
+    [3, 1, 1],
+    [1, 3, 1],
+    [3, 3, 1],
+    [1, 1, 3],
+    [3, 1, 3],
+    [1, 3, 3],
+    [3, 3, 3],
+];
+
 /// Vertices by edge.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub(super) struct EdgeVertices {
-    slots: FxHashMap<EdgeKey, u32>,
+    /// Edge kinds per cube: 3 for cubes, 14 with centres.
+    kinds: usize,
+    bricks: FxHashMap<IVec3, Box<[u32]>>,
     placed: Vec<EdgeVertex>,
     /// Slots of vertices dropped, taken again before the array grows.
     free: Vec<u32>,
+    held: usize,
+}
+
+/// The kind of an edge by its key's remainders, `x + 4y + 16z`.
+fn kind_of_pattern() -> [u8; 64] {
+    let mut table = [NO_KIND; 64];
+    for (kind, [x, y, z]) in KINDS.iter().enumerate() {
+        table[(x + 4 * y + 16 * z) as usize] = kind as u8;
+    }
+    table
 }
 
 impl EdgeVertices {
+    /// An empty store for the edges of cubes, or with `centres` of a body-centred lattice too.
+    pub fn new(centres: bool) -> Self {
+        Self {
+            kinds: if centres { 14 } else { 3 },
+            bricks: FxHashMap::default(),
+            placed: vec![],
+            free: vec![],
+            held: 0,
+        }
+    }
+
+    /// The brick of edge `key` and its index there.
+    #[inline]
+    fn locate(&self, key: EdgeKey) -> (IVec3, usize) {
+        static KIND: std::sync::OnceLock<[u8; 64]> = std::sync::OnceLock::new();
+        let rest = key & IVec3::splat(3);
+        let kind = KIND.get_or_init(kind_of_pattern)[(rest.x + 4 * rest.y + 16 * rest.z) as usize];
+        assert!(usize::from(kind) < self.kinds, "{key} is no edge key of this lattice");
+        let cube: IVec3 = key >> 2;
+        let within = cube & IVec3::splat((1 << BRICK_SHIFT) - 1);
+        let index = (within.x | within.y << BRICK_SHIFT | within.z << (2 * BRICK_SHIFT)) as usize;
+        (cube >> BRICK_SHIFT, index * self.kinds + usize::from(kind))
+    }
+
+    /// The key of the edge at `index` of brick `brick`, with `kinds` edges per cube.
+    fn key_at(kinds: usize, brick: IVec3, index: usize) -> EdgeKey {
+        let (cube, kind) = ((index / kinds) as i32, index % kinds);
+        let side = (1 << BRICK_SHIFT) - 1;
+        let within = IVec3::new(cube & side, cube >> BRICK_SHIFT & side, cube >> (2 * BRICK_SHIFT));
+        (((brick << BRICK_SHIFT) + within) << 2) + IVec3::from_array(KINDS[kind])
+    }
+
     /// Vertices held.
     pub fn len(&self) -> usize {
-        self.slots.len()
+        self.held
     }
 
     /// Slots in the array, held or free: every slot number lies below it.
@@ -46,13 +122,14 @@ impl EdgeVertices {
 
     /// Whether edge `key` has a vertex.
     pub fn contains(&self, key: EdgeKey) -> bool {
-        self.slots.contains_key(&key)
+        self.slot(key).is_some()
     }
 
     /// The slot of edge `key`'s vertex, if it has one.
     #[inline]
     pub fn slot(&self, key: EdgeKey) -> Option<u32> {
-        self.slots.get(&key).copied()
+        let (brick, index) = self.locate(key);
+        self.bricks.get(&brick).map(|b| b[index]).filter(|&s| s != NONE)
     }
 
     /// The vertex in slot `slot`.
@@ -68,26 +145,65 @@ impl EdgeVertices {
 
     /// Gives edge `key` the vertex `vertex`, in place of any it had.
     pub fn insert(&mut self, key: EdgeKey, vertex: EdgeVertex) {
-        let Self { slots, placed, free } = self;
-        let slot = *slots.entry(key).or_insert_with(|| {
-            free.pop().unwrap_or_else(|| {
+        let (brick, index) = self.locate(key);
+        let slots_per_brick = BRICK_CUBES * self.kinds;
+        let Self { bricks, placed, free, held, .. } = self;
+        let slot = &mut bricks.entry(brick).or_insert_with(|| vec![NONE; slots_per_brick].into_boxed_slice())[index];
+        if *slot == NONE {
+            *held += 1;
+            *slot = free.pop().unwrap_or_else(|| {
                 placed.push(vertex);
                 (placed.len() - 1) as u32
-            })
-        });
-        placed[slot as usize] = vertex;
+            });
+        }
+        placed[*slot as usize] = vertex;
     }
 
     /// Keeps only the vertices of the edges for which `keep` holds.
     pub fn retain(&mut self, mut keep: impl FnMut(EdgeKey) -> bool) {
-        let Self { slots, free, .. } = self;
-        slots.retain(|&key, &mut slot| {
-            let kept = keep(key);
-            if !kept {
-                free.push(slot);
+        let Self { kinds, bricks, free, held, .. } = self;
+        bricks.retain(|&brick, slots| {
+            let mut any = false;
+            for (index, slot) in slots.iter_mut().enumerate() {
+                if *slot == NONE {
+                    continue;
+                }
+                if keep(Self::key_at(*kinds, brick, index)) {
+                    any = true;
+                } else {
+                    free.push(*slot);
+                    *held -= 1;
+                    *slot = NONE;
+                }
             }
-            kept
+            any
         });
+    }
+}
+
+/// Looks slots up through the bricks used last, one per parity of the
+/// brick's coordinates: the edges of one cell lie in at most eight bricks
+/// of distinct parities, and cells taken in order meet them again.
+pub(super) struct SlotCursor<'a> {
+    store: &'a EdgeVertices,
+    recent: [(IVec3, Option<&'a [u32]>); 8],
+}
+
+impl<'a> SlotCursor<'a> {
+    /// A cursor over `store`.
+    pub fn new(store: &'a EdgeVertices) -> Self {
+        Self { store, recent: [(IVec3::splat(i32::MIN), None); 8] }
+    }
+
+    /// The slot of edge `key`'s vertex, if it has one.
+    #[inline]
+    pub fn slot(&mut self, key: EdgeKey) -> Option<u32> {
+        let (brick, index) = self.store.locate(key);
+        let way = (brick.x & 1 | (brick.y & 1) << 1 | (brick.z & 1) << 2) as usize;
+        if self.recent[way].0 != brick {
+            self.recent[way] = (brick, self.store.bricks.get(&brick).map(|b| &**b));
+        }
+        self.recent[way].1.map(|b| b[index]).filter(|&s| s != NONE)
     }
 }
 
@@ -101,24 +217,63 @@ mod tests {
         EdgeVertex { position: Vec3::splat(x), normal: Vec3::Z, color: Vec3::ONE }
     }
 
+    /// The key of the x edge of cube `(k, 0, 0)`.
+    fn key(k: i32) -> IVec3 {
+        IVec3::new(4 * k + 2, 0, 0)
+    }
+
     #[test]
     fn vertices_are_found_by_edge_and_dropped_slots_are_taken_again() {
-        let mut v = EdgeVertices::default();
+        let mut v = EdgeVertices::new(false);
         for k in 0..10 {
-            v.insert(IVec3::new(k, 0, 0), vertex(k as f32));
+            v.insert(key(k), vertex(k as f32));
         }
-        v.insert(IVec3::new(3, 0, 0), vertex(30.0));
+        v.insert(key(3), vertex(30.0));
         assert_eq!((v.len(), v.slot_count()), (10, 10));
-        assert_eq!(v.get(IVec3::new(3, 0, 0)), Some(vertex(30.0)));
-        v.retain(|key| key.x % 2 == 0);
+        assert_eq!(v.get(key(3)), Some(vertex(30.0)));
+        v.retain(|key| (key.x - 2) / 4 % 2 == 0);
         assert_eq!(v.len(), 5);
-        assert!(!v.contains(IVec3::new(3, 0, 0)) && v.contains(IVec3::new(4, 0, 0)));
+        assert!(!v.contains(key(3)) && v.contains(key(4)));
         for k in 10..15 {
-            v.insert(IVec3::new(k, 0, 0), vertex(k as f32));
+            v.insert(key(k), vertex(k as f32));
         }
         assert_eq!((v.len(), v.slot_count()), (10, 10), "the five dropped slots were taken again");
         for k in (0..10).step_by(2).chain(10..15) {
-            assert_eq!(v.get(IVec3::new(k, 0, 0)), Some(vertex(k as f32)), "edge {k}");
+            assert_eq!(v.get(key(k)), Some(vertex(k as f32)), "edge {k}");
         }
+    }
+
+    #[test]
+    fn every_edge_of_a_body_centred_lattice_has_its_own_slot_and_key() {
+        let mut v = EdgeVertices::new(true);
+        let mut keys = vec![];
+        for cube in [IVec3::new(-5, 3, 0), IVec3::new(7, -1, -9), IVec3::ZERO] {
+            let (corner, centre) = (cube * 2, cube * 2 + IVec3::ONE);
+            for axis in 0..3 {
+                let mut step = IVec3::ZERO;
+                step[axis] = 2;
+                keys.extend([corner + corner + step, centre + centre + step]);
+            }
+            for i in 0..8 {
+                let offset = IVec3::new(i & 1, i >> 1 & 1, i >> 2 & 1) * 2;
+                keys.push(corner + offset + centre);
+            }
+        }
+        for (i, &k) in keys.iter().enumerate() {
+            v.insert(k, vertex(i as f32));
+        }
+        assert_eq!(v.len(), keys.len());
+        for (i, &k) in keys.iter().enumerate() {
+            assert_eq!(v.get(k), Some(vertex(i as f32)), "{k}");
+        }
+        let mut listed = vec![];
+        v.retain(|k| {
+            listed.push(k.to_array());
+            true
+        });
+        listed.sort_unstable();
+        let mut expected: Vec<[i32; 3]> = keys.iter().map(|k| k.to_array()).collect();
+        expected.sort_unstable();
+        assert_eq!(listed, expected);
     }
 }

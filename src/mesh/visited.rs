@@ -8,6 +8,7 @@
 //! to its neighbours', so consecutive lookups land in a brick just read.
 
 use glam::IVec3;
+use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use super::lattice::Cell;
@@ -20,7 +21,7 @@ const BRICK_CUBES: usize = 1 << (3 * BRICK_SHIFT);
 
 /// One brick's cells: which are visited, and their masks.
 #[derive(Clone, Debug)]
-struct Brick {
+pub(super) struct Brick {
     visited: Box<[u64]>,
     masks: Box<[u8]>,
 }
@@ -30,13 +31,15 @@ impl Brick {
         Self { visited: vec![0; slots.div_ceil(64)].into_boxed_slice(), masks: vec![0; slots].into_boxed_slice() }
     }
 
+    /// The mask of the cell in `slot`, if visited.
     #[inline]
-    fn get(&self, slot: usize) -> Option<u8> {
+    pub fn get(&self, slot: usize) -> Option<u8> {
         slot_bits::is_held(&self.visited, slot).then(|| self.masks[slot])
     }
 
+    /// Marks the cell in `slot` visited with `mask`.
     #[inline]
-    fn set(&mut self, slot: usize, mask: u8) {
+    pub fn set(&mut self, slot: usize, mask: u8) {
         slot_bits::hold(&mut self.visited, slot);
         self.masks[slot] = mask;
     }
@@ -87,13 +90,6 @@ impl VisitedCells {
         (self.bricks.entry(brick).or_insert_with(|| Brick::new(slots)), slot)
     }
 
-    /// Marks `c` visited with `mask`, visited before or not.
-    #[inline]
-    pub fn insert(&mut self, c: Cell, mask: u8) {
-        let (b, slot) = self.brick_for(c);
-        b.set(slot, mask);
-    }
-
     /// Marks `c` visited with `mask` if it was not; true if it was not.
     #[inline]
     pub fn insert_new(&mut self, c: Cell, mask: u8) -> bool {
@@ -103,6 +99,42 @@ impl VisitedCells {
             b.set(slot, mask);
         }
         new
+    }
+
+    /// The brick holding `c` and `c`'s slot in it.
+    #[inline]
+    pub fn brick_and_slot(&self, c: Cell) -> (IVec3, usize) {
+        self.locate(c)
+    }
+
+    /// Takes out the brick `b` (an empty one where none was) for one thread to own.
+    pub fn take(&mut self, b: IVec3) -> Brick {
+        self.bricks.remove(&b).unwrap_or_else(|| Brick::new(BRICK_CUBES * self.cells_per_cube))
+    }
+
+    /// Puts a brick taken out back (nothing, if it is empty).
+    pub fn put(&mut self, b: IVec3, brick: Brick) {
+        if !brick.is_empty() {
+            self.bricks.insert(b, brick);
+        }
+    }
+
+    /// The visited cells whose masks pass `keep`, with their masks, in a
+    /// canonical order: bricks by z, y, x, and cells in a brick by z, y, x
+    /// and sub-cell. Gathered in parallel, brick by brick.
+    pub fn in_order(&self, keep: impl Fn(u8) -> bool + Sync + Send) -> Vec<(Cell, u8)> {
+        let mut bricks: Vec<(&IVec3, &Brick)> = self.bricks.iter().collect();
+        bricks.sort_unstable_by_key(|(b, _)| Cell { cube: **b, sub: 0 }.order_key());
+        let per_cube = self.cells_per_cube;
+        bricks
+            .par_iter()
+            .flat_map_iter(|&(&brick, b)| {
+                let keep = &keep;
+                (0..b.masks.len()).filter_map(move |slot| {
+                    b.get(slot).filter(|&m| keep(m)).map(|m| (cell_of(per_cube, brick, slot), m))
+                })
+            })
+            .collect()
     }
 
     /// Every visited cell with its mask, brick by brick.
@@ -158,8 +190,7 @@ mod tests {
                 })
                 .collect();
             for (k, &c) in cells.iter().enumerate() {
-                assert!(visited.insert_new(c, 0), "{c:?} was new");
-                visited.insert(c, k as u8);
+                assert!(visited.insert_new(c, k as u8), "{c:?} was new");
                 assert!(!visited.insert_new(c, 0), "{c:?} is known now");
             }
             for (k, &c) in cells.iter().enumerate() {
@@ -170,6 +201,11 @@ mod tests {
             let mut expected: Vec<(Cell, u8)> = cells.iter().enumerate().map(|(k, &c)| (c, k as u8)).collect();
             expected.sort_by_key(|&(c, _)| c.order_key());
             assert_eq!(listed, expected);
+            // In order: brick by brick, and by lattice position within one.
+            let ordered = visited.in_order(|m| m % 2 == 1);
+            let brick_then_cell = |c: &Cell| (Cell { cube: c.cube >> BRICK_SHIFT, sub: 0 }.order_key(), c.order_key());
+            assert!(ordered.windows(2).all(|w| brick_then_cell(&w[0].0) < brick_then_cell(&w[1].0)));
+            assert_eq!(ordered.len(), expected.iter().filter(|(_, m)| m % 2 == 1).count());
             // Bricks below z = -8 are not asked about; the others keep what has z < 0.
             visited.retain_near((IVec3::splat(-8), IVec3::splat(100)), |c, _| c.cube.z < 0);
             for &c in &cells {

@@ -5,7 +5,7 @@ use rayon::prelude::*;
 
 use super::{Polygonizer, crossed};
 use crate::mesh::Mesh;
-use crate::mesh::edge_vertices::EdgeVertex;
+use crate::mesh::edge_vertices::{EdgeVertex, SlotCursor};
 use crate::mesh::lattice::{Cell, EdgeKey, edge_key};
 use crate::mesh::vertex::VertexPlacement;
 
@@ -37,12 +37,12 @@ impl Polygonizer {
         out
     }
 
-    /// The mesh of the crossed cells, in a canonical order (cells by lattice
-    /// position, vertices by first use), so equal polygonizations give equal meshes.
+    /// The mesh of the crossed cells, in a canonical order (cells brick by
+    /// brick, each in lattice order; vertices by first use), so equal
+    /// polygonizations give equal meshes.
     #[must_use]
     pub fn mesh(&self) -> Mesh {
-        let mut crossed_cells = self.crossed_with_masks();
-        crossed_cells.par_sort_unstable_by_key(|(c, _)| c.order_key());
+        let crossed_cells = self.crossed_with_masks();
         let loops = self.polygon_loops(&crossed_cells);
         // Numbering by first use is the one serial pass, over dense slot numbers.
         const UNNUMBERED: u32 = u32::MAX;
@@ -79,11 +79,6 @@ impl Polygonizer {
         mesh
     }
 
-    /// The slot of edge `key`'s vertex, which every crossed edge of a crossed cell has.
-    fn vertex_slot(&self, key: EdgeKey) -> u32 {
-        self.vertices.slot(key).unwrap_or_else(|| panic!("no vertex on the edge with key {key}"))
-    }
-
     /// Edge `key`'s vertex, which every crossed edge of a crossed cell has.
     fn vertex(&self, key: EdgeKey) -> EdgeVertex {
         self.vertices.get(key).unwrap_or_else(|| panic!("no vertex on the edge with key {key}"))
@@ -97,9 +92,13 @@ impl Polygonizer {
             .par_chunks(CELLS_PER_TASK)
             .map(|chunk| {
                 let mut part = PolygonLoops::default();
+                let mut cursor = SlotCursor::new(&self.vertices);
                 for &(cell, mask) in chunk {
                     shape.polygons(cell, mask, &mut |polygon| {
-                        part.slots.extend(polygon.iter().map(|&[a, b]| self.vertex_slot(edge_key(a, b))));
+                        part.slots.extend(polygon.iter().map(|&[a, b]| {
+                            let key = edge_key(a, b);
+                            cursor.slot(key).unwrap_or_else(|| panic!("no vertex on the edge with key {key}"))
+                        }));
                         part.lengths.push(polygon.len() as u8);
                     });
                 }

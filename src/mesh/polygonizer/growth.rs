@@ -1,13 +1,29 @@
-//! Continuation: the cells of a frontier examined in parallel, their corners
-//! evaluated first, and the unvisited neighbours across their crossed faces
-//! taken as the next frontier, until none are left.
+//! Continuation, block by block. The lattice's cubes fall into blocks of
+//! 8³ (the bricks the visited cells are stored in). Each block with cells to
+//! examine is grown on one thread, depth first and wholly inside the block:
+//! its cells' corners are read and evaluated in a patch of corner bricks the
+//! thread owns, and neighbours across crossed faces that lie in other blocks
+//! are handed to those. Blocks run in eight alternating classes (by the
+//! parity of their coordinates), so two blocks growing at once never share a
+//! corner brick.
+//!
+//! The cells visited are those reachable from the frontier across crossed
+//! faces, whatever the order, and each corner is evaluated once, by the one
+//! thread owning it: the result and the evaluation count are the same for
+//! any number of threads.
 
 use glam::IVec3;
 use rayon::prelude::*;
+use rustc_hash::FxHashMap;
 
-use super::{MIN_PARALLEL_ITEMS, PENDING, Polygonizer, crossed};
+use super::{CellShape, PENDING, Polygonizer, crossed};
 use crate::field::Field;
-use crate::mesh::lattice::{Cell, LatticePoint, sort_key};
+use crate::mesh::corners::CornerPatch;
+use crate::mesh::lattice::{Cell, Lattice};
+use crate::mesh::visited;
+
+/// Block coordinates are cube coordinates shifted by this (blocks of 8³ cubes).
+const BLOCK_SHIFT: i32 = 3;
 
 impl Polygonizer {
     /// Marks the cells not visited yet as visited and returns them, in order.
@@ -15,96 +31,169 @@ impl Polygonizer {
         cells.into_iter().filter(|&c| self.cells.insert_new(c, PENDING)).collect()
     }
 
-    /// Continuation: examine the frontier, keep its crossed cells, and move on to
-    /// their unvisited neighbours across crossed faces, until none are left.
-    /// Returns the crossed cells found.
-    pub(super) fn grow<F: Field + ?Sized>(&mut self, field: &F, mut frontier: Vec<Cell>) -> Vec<Cell> {
-        let shape = self.options.cells;
+    /// Continuation: examines the frontier (cells claimed, not examined yet)
+    /// and every cell reachable from it across crossed faces. Returns the
+    /// crossed cells found (in an order fixed by the frontier).
+    pub(super) fn grow<F: Field + ?Sized>(&mut self, field: &F, frontier: Vec<Cell>) -> Vec<Cell> {
+        let mut pending: FxHashMap<IVec3, Vec<Cell>> = FxHashMap::default();
+        for cell in frontier {
+            pending.entry(block_of(cell)).or_default().push(cell);
+        }
         let mut found = vec![];
-        while !frontier.is_empty() {
-            self.evaluate_corners(field, &frontier);
-            // Masks and neighbour lists in parallel; marking cells visited in order.
-            let examined: Vec<(u8, Neighbours)> = frontier
-                .par_iter()
-                .with_min_len(MIN_PARALLEL_ITEMS)
-                .map_init(Vec::new, |scratch, &cell| {
-                    let mask = self.mask(cell);
-                    scratch.clear();
-                    if crossed(mask, shape) {
-                        shape.neighbours(cell, mask, scratch);
-                    }
-                    (mask, Neighbours::from(scratch.as_slice()))
-                })
-                .collect();
-            let mut next = vec![];
-            for (&cell, (mask, neighbours)) in frontier.iter().zip(examined) {
-                self.cells.insert(cell, mask);
-                self.stats.cells_visited += 1;
-                if crossed(mask, shape) {
-                    found.push(cell);
+        let mut class = 0;
+        while !pending.is_empty() {
+            let mut batch: Vec<(IVec3, Vec<Cell>)> = vec![];
+            pending.retain(|&block, cells| {
+                let taken = parity_class(block) == class;
+                if taken {
+                    batch.push((block, std::mem::take(cells)));
                 }
-                for &n in neighbours.as_slice() {
-                    if self.cells.insert_new(n, PENDING) {
-                        next.push(n);
-                    }
-                }
+                !taken
+            });
+            class = (class + 1) % 8;
+            // In a fixed order, so that the stores are filled the same way every run.
+            batch.sort_unstable_by_key(|(block, _)| Cell { cube: *block, sub: 0 }.order_key());
+            if !batch.is_empty() {
+                self.grow_blocks(field, batch, &mut found, &mut pending);
             }
-            frontier = next;
         }
         found
     }
 
-    /// Evaluates, in parallel, the corners of `cells` not known yet.
-    fn evaluate_corners<F: Field + ?Sized>(&mut self, field: &F, cells: &[Cell]) {
-        let shape = self.options.cells;
-        let corners = &self.corners;
-        let mut missing: Vec<LatticePoint> = cells
-            .par_iter()
-            .with_min_len(MIN_PARALLEL_ITEMS)
-            .flat_map_iter(|&cell| {
-                let (v, n) = shape.vertices(cell);
-                (0..n).map(move |i| v[i]).filter(|&q| !corners.contains(q))
+    /// Grows the blocks of one class in parallel, then files the cells they
+    /// reached in other blocks as those blocks' work.
+    fn grow_blocks<F: Field + ?Sized>(
+        &mut self,
+        field: &F,
+        batch: Vec<(IVec3, Vec<Cell>)>,
+        found: &mut Vec<Cell>,
+        pending: &mut FxHashMap<IVec3, Vec<Cell>>,
+    ) {
+        let blocks: Vec<Block> = batch
+            .into_iter()
+            .map(|(base, seeds)| Block {
+                base,
+                corners: self.corners.take_patch(base),
+                cells: self.cells.take(base),
+                seeds,
             })
             .collect();
-        missing.par_sort_unstable_by_key(|&q| sort_key(q));
-        missing.dedup();
-        let lattice = self.lattice;
-        let values: Vec<f32> =
-            missing.par_iter().with_min_len(MIN_PARALLEL_ITEMS).map(|&q| field.value(lattice.position(q))).collect();
-        self.stats.corner_evals += missing.len() as u64;
-        self.corners.extend(missing.into_iter().zip(values));
+        let context = BlockContext { lattice: self.lattice, shape: self.options.cells, threshold: self.threshold };
+        let grown: Vec<Grown> = blocks.into_par_iter().map(|block| block.grow(field, &context, &self.cells)).collect();
+        for g in grown {
+            self.corners.put_patch(g.corners);
+            self.cells.put(g.base, g.cells);
+            self.stats.corner_evals += g.evaluated;
+            self.stats.cells_visited += g.examined;
+            found.extend(g.crossed);
+            for cell in g.leaving {
+                if self.cells.insert_new(cell, PENDING) {
+                    pending.entry(block_of(cell)).or_default().push(cell);
+                }
+            }
+        }
     }
 
-    /// Bit `i` set when vertex `i` of `cell` is inside.
-    fn mask(&self, cell: Cell) -> u8 {
-        let t = self.threshold;
-        let (v, n) = self.options.cells.vertices(cell);
-        (0..n).filter(|&i| self.corners.value(v[i]) > t).fold(0u8, |m, i| m | 1 << i)
-    }
-
-    /// Every crossed cell with its mask.
+    /// Every crossed cell with its mask, in the canonical order of
+    /// [`crate::mesh::visited::VisitedCells::in_order`].
     pub(super) fn crossed_with_masks(&self) -> Vec<(Cell, u8)> {
         let shape = self.options.cells;
-        self.cells.iter().filter(|&(_, m)| crossed(m, shape)).collect()
+        self.cells.in_order(|m| crossed(m, shape))
     }
 }
 
-/// The neighbours of one cell to visit (at most six, across the faces of a cube).
-struct Neighbours {
-    cells: [Cell; 6],
-    len: u8,
+/// The block of 8³ cubes holding `cell`.
+fn block_of(cell: Cell) -> IVec3 {
+    cell.cube >> BLOCK_SHIFT
 }
 
-impl Neighbours {
-    fn as_slice(&self) -> &[Cell] {
-        &self.cells[..usize::from(self.len)]
+/// One of eight classes: blocks of one class are two apart along some axis.
+fn parity_class(block: IVec3) -> u8 {
+    (block.x & 1 | (block.y & 1) << 1 | (block.z & 1) << 2) as u8
+}
+
+/// What every block's growth reads.
+struct BlockContext {
+    lattice: Lattice,
+    shape: CellShape,
+    threshold: f32,
+}
+
+/// A block to grow, with the stores it owns while it grows.
+struct Block {
+    base: IVec3,
+    corners: CornerPatch,
+    cells: visited::Brick,
+    /// Cells of the block claimed and waiting to be examined.
+    seeds: Vec<Cell>,
+}
+
+/// A grown block: its stores to put back and what it found.
+struct Grown {
+    base: IVec3,
+    corners: CornerPatch,
+    cells: visited::Brick,
+    /// Crossed cells examined.
+    crossed: Vec<Cell>,
+    /// Neighbours across crossed faces in other blocks.
+    leaving: Vec<Cell>,
+    evaluated: u64,
+    examined: u64,
+}
+
+impl Block {
+    /// Examines the seeds and every cell of the block reachable from them
+    /// across crossed faces, depth first. `all` locates cells in bricks.
+    fn grow<F: Field + ?Sized>(mut self, field: &F, c: &BlockContext, all: &visited::VisitedCells) -> Grown {
+        let mut grown = Grown {
+            base: self.base,
+            corners: self.corners,
+            cells: self.cells,
+            crossed: vec![],
+            leaving: vec![],
+            evaluated: 0,
+            examined: 0,
+        };
+        let mut stack = std::mem::take(&mut self.seeds);
+        let mut neighbours = Vec::with_capacity(6);
+        while let Some(cell) = stack.pop() {
+            let mask = grown.mask(field, c, cell);
+            grown.cells.set(all.brick_and_slot(cell).1, mask);
+            grown.examined += 1;
+            if !crossed(mask, c.shape) {
+                continue;
+            }
+            grown.crossed.push(cell);
+            neighbours.clear();
+            c.shape.neighbours(cell, mask, &mut neighbours);
+            for &n in &neighbours {
+                let (block, slot) = all.brick_and_slot(n);
+                if block != self.base {
+                    grown.leaving.push(n);
+                } else if grown.cells.get(slot).is_none() {
+                    grown.cells.set(slot, PENDING);
+                    stack.push(n);
+                }
+            }
+        }
+        grown
     }
 }
 
-impl From<&[Cell]> for Neighbours {
-    fn from(found: &[Cell]) -> Self {
-        let mut cells = [Cell { cube: IVec3::ZERO, sub: 0 }; 6];
-        cells[..found.len()].copy_from_slice(found);
-        Self { cells, len: found.len() as u8 }
+impl Grown {
+    /// Bit `i` set when vertex `i` of `cell` is inside; vertices not known yet evaluated.
+    fn mask<F: Field + ?Sized>(&mut self, field: &F, c: &BlockContext, cell: Cell) -> u8 {
+        let (v, n) = c.shape.vertices(cell);
+        let mut mask = 0;
+        for (i, &q) in v[..n].iter().enumerate() {
+            let value = self.corners.get(q).unwrap_or_else(|| {
+                let value = field.value(c.lattice.position(q));
+                self.corners.set(q, value);
+                self.evaluated += 1;
+                value
+            });
+            mask |= u8::from(value > c.threshold) << i;
+        }
+        mask
     }
 }

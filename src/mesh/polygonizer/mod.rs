@@ -93,7 +93,7 @@ impl Polygonizer {
             options,
             corners: CornerValues::default(),
             cells: VisitedCells::new(options.cells.cells_per_cube()),
-            vertices: EdgeVertices::default(),
+            vertices: EdgeVertices::new(options.cells == CellShape::Bcc),
             row_spans: FxHashMap::default(),
             starts: SeedStarts::default(),
             with_colors: false,

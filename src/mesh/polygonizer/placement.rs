@@ -16,24 +16,25 @@ impl Polygonizer {
     pub(super) fn place_vertices<F: Field + ?Sized>(&mut self, field: &F, crossed_cells: &[(Cell, u8)]) {
         let shape = self.options.cells;
         let known = &self.vertices;
-        let mut edges: Vec<[LatticePoint; 2]> = crossed_cells
-            .par_iter()
-            .with_min_len(MIN_PARALLEL_ITEMS)
-            .flat_map_iter(|&(cell, mask)| {
-                let mut crossed = vec![];
-                shape.crossed_edges(cell, mask, &mut crossed);
+        const CELLS_PER_TASK: usize = 1024;
+        let parts: Vec<Vec<[LatticePoint; 2]>> = crossed_cells
+            .par_chunks(CELLS_PER_TASK)
+            .map(|chunk| {
+                let mut crossed = Vec::with_capacity(chunk.len() * 2);
+                for &(cell, mask) in chunk {
+                    shape.crossed_edges(cell, mask, &mut crossed);
+                }
                 crossed.retain(|&[a, b]| !known.contains(edge_key(a, b)));
                 crossed
             })
             .collect();
-        // Sorted by position, each edge reads cache samples from the blocks
-        // the edges before it just read; in the cells' hash order nearly
-        // every lookup missed the processor's caches (in a cached
-        // polygonization at res 512, reaching sample blocks took an eighth
-        // of the time). An edge's key names it alone, so the sort also
-        // brings an edge listed twice together.
-        edges.par_sort_unstable_by_key(|&[a, b]| sort_key(edge_key(a, b)));
+        let mut edges = parts.concat();
+        // The cells come brick by brick, so each edge reads the corners (and
+        // a cached field the sample blocks) the edges before it just read.
+        // Tetrahedra list an edge once per cell around it: sorting brings
+        // the copies together.
         if !shape.lists_each_edge_once() {
+            edges.par_sort_unstable_by_key(|&[a, b]| sort_key(edge_key(a, b)));
             edges.dedup();
         }
         let (lattice, placement, with_colors) = (self.lattice, self.options.vertex, self.with_colors);
