@@ -142,10 +142,12 @@ impl PolygonizeArgs {
 /// Remedies for the polygonized mesh, each off by default.
 #[derive(Clone, Copy, Debug, Args)]
 pub struct RepairArgs {
-    /// Snap vertices within F of a cell from a lattice corner onto it, merging
-    /// those that meet and dropping the triangles that collapse: removes the
-    /// needles and slivers marching cubes makes there, and moves the surface by
-    /// at most F cells (both reported)
+    /// Snap the lattice corners within F of a cell from a crossing onto the
+    /// surface (F at most 0.3; cubes only): every vertex on an edge leaving such
+    /// a corner moves onto it, vertices that meet merge, collapsed triangles are
+    /// dropped. Removes the needles and slivers marching cubes makes next to
+    /// corners; moved vertices stay within about F cells of the surface (the
+    /// smallest angle and the distance before and after are reported)
     #[arg(long, value_name = "F")]
     pub snap: Option<f32>,
     /// Drop connected pieces of fewer than N triangles. Off by default: a thin
