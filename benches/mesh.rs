@@ -5,6 +5,10 @@
 //! `blobtrace bench mesh` and `blobtrace bench edit` print the same ratios
 //! in one process.
 
+/// The allocator the `blobtrace` command uses.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use std::time::{Duration, Instant};
 
 use blobtrace::field::{Edit, EvalMode, ModelField};

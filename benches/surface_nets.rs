@@ -10,6 +10,10 @@
 //! meshing; blobtrace's counts polygonizing and assembling the mesh.
 //! `cargo bench --bench surface_nets`.
 
+/// The allocator the `blobtrace` command uses.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use blobtrace::field::{EvalMode, Field, ModelField};
 use blobtrace::mesh::{Lattice, Mesh, PolygonizeOptions, Polygonizer, VertexPlacement, skeleton_seeds};
 use blobtrace::scene::{NodeDesc, Scene, parse_desc};

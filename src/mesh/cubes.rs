@@ -166,17 +166,42 @@ pub fn cells_touching(q: LatticePoint, out: &mut Vec<Cell>) {
 
 /// The cubes across every face of `cell` whose corners differ in sign.
 pub fn neighbours(cell: Cell, mask: u8, out: &mut Vec<Cell>) {
-    for axis in 0..3 {
-        for side in 0..2 {
-            let (c, _) = face(axis, side);
-            let signs = c.iter().map(|&i| mask >> i & 1).sum::<u8>();
-            if signs != 0 && signs != 4 {
-                let mut step = IVec3::ZERO;
-                step[axis] = if side == 1 { 1 } else { -1 };
-                out.push(Cell { cube: cell.cube + step, sub: 0 });
-            }
+    let crossed = crossed_faces()[usize::from(mask)];
+    for (face, step) in FACE_STEPS.iter().enumerate() {
+        if crossed >> face & 1 == 1 {
+            out.push(Cell { cube: cell.cube + *step, sub: 0 });
         }
     }
+}
+
+/// The step to the cube across face `2·axis + side`.
+const FACE_STEPS: [IVec3; 6] = [
+    IVec3::new(-1, 0, 0),
+    IVec3::new(1, 0, 0),
+    IVec3::new(0, -1, 0),
+    IVec3::new(0, 1, 0),
+    IVec3::new(0, 0, -1),
+    IVec3::new(0, 0, 1),
+];
+
+/// For every sign case, bit `2·axis + side` set when that face's corners differ in sign.
+fn crossed_faces() -> &'static [u8; 256] {
+    static TABLE: OnceLock<[u8; 256]> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        std::array::from_fn(|mask| {
+            let mut faces = 0u8;
+            for axis in 0..3 {
+                for side in 0..2 {
+                    let (c, _) = face(axis, side);
+                    let inside = c.iter().filter(|&&i| mask >> i & 1 == 1).count();
+                    if inside != 0 && inside != 4 {
+                        faces |= 1 << (2 * axis + side);
+                    }
+                }
+            }
+            faces
+        })
+    })
 }
 
 /// The crossed edges `cell` owns: those leaving its lowest corner along +x,
