@@ -143,6 +143,11 @@ impl EdgeVertices {
         self.slot(key).map(|s| self.at(s))
     }
 
+    /// Makes room for `more` vertices beyond the free slots.
+    pub fn reserve(&mut self, more: usize) {
+        self.placed.reserve(more.saturating_sub(self.free.len()));
+    }
+
     /// Gives edge `key` the vertex `vertex`, in place of any it had.
     pub fn insert(&mut self, key: EdgeKey, vertex: EdgeVertex) {
         let (brick, index) = self.locate(key);

@@ -67,6 +67,8 @@ impl Polygonizer {
             colors: (self.with_colors && !vertices.is_empty()).then(|| vertices.iter().map(|v| v.color).collect()),
             ..Mesh::default()
         };
+        let triangles = loops.lengths.iter().map(|&len| usize::from(len).saturating_sub(2)).sum();
+        mesh.triangles.reserve_exact(triangles);
         let mut first = 0;
         for &len in &loops.lengths {
             let end = first + usize::from(len);
@@ -105,7 +107,10 @@ impl Polygonizer {
                 part
             })
             .collect();
-        let mut loops = PolygonLoops::default();
+        let mut loops = PolygonLoops {
+            slots: Vec::with_capacity(parts.iter().map(|p| p.slots.len()).sum()),
+            lengths: Vec::with_capacity(parts.iter().map(|p| p.lengths.len()).sum()),
+        };
         for part in parts {
             loops.slots.extend(part.slots);
             loops.lengths.extend(part.lengths);

@@ -62,6 +62,7 @@ impl Polygonizer {
         if with_colors {
             self.stats.color_evals += placed.len() as u64;
         }
+        self.vertices.reserve(placed.len());
         for (key, vertex, evals) in placed {
             self.stats.root_evals += u64::from(evals);
             self.vertices.insert(key, vertex);
