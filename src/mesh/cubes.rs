@@ -13,7 +13,7 @@ use std::sync::OnceLock;
 
 use glam::{IVec3, Vec3};
 
-use super::lattice::{Cell, LatticePoint};
+use super::lattice::{Cell, EdgeKey, LatticePoint};
 
 /// Corner `i` of a cube sits at offset `(i & 1, i >> 1 & 1, i >> 2 & 1)`.
 #[must_use]
@@ -217,6 +217,20 @@ pub fn owned_crossed_edges(cell: Cell, mask: u8, out: &mut Vec<[LatticePoint; 2]
     }
 }
 
+/// The triangles of sign case `mask`, each as three of the cube's edge numbers
+/// (see [`edge_key_of`]), oriented outwards.
+#[must_use]
+pub fn case_triangles(mask: u8) -> &'static [[u8; 3]] {
+    &case_table()[usize::from(mask)]
+}
+
+/// The key of edge number `e` of `cell` (the sum of its ends).
+#[must_use]
+pub fn edge_key_of(cell: Cell, e: u8) -> EdgeKey {
+    let (a, b) = EDGES[usize::from(e)];
+    cell.cube * 4 + (corner_offset(usize::from(a)) + corner_offset(usize::from(b))) * 2
+}
+
 /// Emits the cell's triangles, each as its three edges (an edge as its two
 /// lattice endpoints), oriented outwards.
 pub fn polygons(cell: Cell, mask: u8, emit: &mut impl FnMut(&[[LatticePoint; 2]])) {
@@ -233,6 +247,20 @@ pub fn polygons(cell: Cell, mask: u8, emit: &mut impl FnMut(&[[LatticePoint; 2]]
 mod tests {
     use super::*;
     use crate::mesh::lattice::ordered_edge;
+
+    #[test]
+    fn case_triangles_name_the_edges_polygons_emits() {
+        let cell = Cell { cube: IVec3::new(3, -2, 7), sub: 0 };
+        for mask in 1..=254u8 {
+            let mut emitted = vec![];
+            polygons(cell, mask, &mut |p| {
+                emitted.push(p.iter().map(|&[a, b]| crate::mesh::lattice::edge_key(a, b)).collect::<Vec<_>>())
+            });
+            let named: Vec<Vec<EdgeKey>> =
+                case_triangles(mask).iter().map(|t| t.iter().map(|&e| edge_key_of(cell, e)).collect()).collect();
+            assert_eq!(emitted, named, "case {mask:#010b}");
+        }
+    }
 
     #[test]
     fn the_owned_edges_of_the_cubes_around_a_crossed_edge_list_it_once() {

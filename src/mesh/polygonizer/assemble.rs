@@ -3,8 +3,9 @@
 
 use rayon::prelude::*;
 
-use super::{Polygonizer, crossed};
+use super::{CellShape, Polygonizer, crossed};
 use crate::mesh::Mesh;
+use crate::mesh::cubes;
 use crate::mesh::edge_vertices::{EdgeVertex, SlotCursor};
 use crate::mesh::lattice::{Cell, EdgeKey, edge_key};
 use crate::mesh::vertex::VertexPlacement;
@@ -95,12 +96,15 @@ impl Polygonizer {
             .map(|chunk| {
                 let mut part = PolygonLoops::default();
                 let mut cursor = SlotCursor::new(&self.vertices);
+                let mut slot =
+                    |key: EdgeKey| cursor.slot(key).unwrap_or_else(|| panic!("no vertex on the edge with key {key}"));
                 for &(cell, mask) in chunk {
+                    if shape == CellShape::Cubes {
+                        part.push_cube_triangles(cell, mask, &mut slot);
+                        continue;
+                    }
                     shape.polygons(cell, mask, &mut |polygon| {
-                        part.slots.extend(polygon.iter().map(|&[a, b]| {
-                            let key = edge_key(a, b);
-                            cursor.slot(key).unwrap_or_else(|| panic!("no vertex on the edge with key {key}"))
-                        }));
+                        part.slots.extend(polygon.iter().map(|&[a, b]| slot(edge_key(a, b))));
                         part.lengths.push(polygon.len() as u8);
                     });
                 }
@@ -124,4 +128,23 @@ impl Polygonizer {
 struct PolygonLoops {
     slots: Vec<u32>,
     lengths: Vec<u8>,
+}
+
+impl PolygonLoops {
+    /// Adds the triangles of a cube, looking each crossed edge's slot up once
+    /// (its triangles share most of them).
+    fn push_cube_triangles(&mut self, cell: Cell, mask: u8, slot: &mut impl FnMut(EdgeKey) -> u32) {
+        const UNKNOWN: u32 = u32::MAX;
+        let mut of_edge = [UNKNOWN; 12];
+        for triangle in cubes::case_triangles(mask) {
+            for &e in triangle {
+                let known = &mut of_edge[usize::from(e)];
+                if *known == UNKNOWN {
+                    *known = slot(cubes::edge_key_of(cell, e));
+                }
+                self.slots.push(*known);
+            }
+            self.lengths.push(3);
+        }
+    }
 }
