@@ -40,6 +40,28 @@ fn render_writes_png_and_exr_and_reports_json() {
 }
 
 #[test]
+fn render_draws_where_the_time_went_and_refuses_it_for_a_mesh() {
+    let dir = scratch("cost");
+    let (png, cost) = (dir.join("sharp.png"), dir.join("cost.png"));
+    let args = ["render", "scenes/sharp.ron", "--size", "80x60", "-o", png.to_str().unwrap()];
+    let out = blobtrace(&[&args[..], &["--cost-png", cost.to_str().unwrap()]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let picture = image::open(&cost).expect("the cost picture was written").to_rgb8();
+    assert!(picture.width() >= 2 * 80 && picture.height() > 60, "two heat maps: {:?}", picture.dimensions());
+    // Some pixel of each half is drawn in magma's reds (not white, not black text).
+    let magma = |p: &image::Rgb<u8>| p.0[0] > 100 && p.0[1] < 100;
+    let coloured =
+        |x0: u32| (x0..x0 + picture.width() / 2).any(|x| (0..picture.height()).any(|y| magma(picture.get_pixel(x, y))));
+    assert!(coloured(0) && coloured(picture.width() / 2));
+    std::fs::remove_file(&cost).unwrap();
+    let out = blobtrace(&[&args[..], &["--mesh", "--res", "16", "--cost-png", cost.to_str().unwrap()]].concat());
+    assert_eq!(out.status.code(), Some(64), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--cost-png"));
+    assert!(!cost.exists(), "nothing written");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
 fn threads_option_does_not_change_the_image() {
     let dir = scratch("threads");
     let render = |threads: &str, name: &str| {

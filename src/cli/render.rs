@@ -8,11 +8,13 @@ use super::args::{
     CameraArgs, EvalOptions, PolygonizeArgs, check_output_file, load_scene, output_or_default, parse_size, print_json,
     with_threads,
 };
+use super::exit::UsageError;
 use super::progress::Bars;
+use crate::compare::Rgb8Image;
 use crate::field::EvalMode;
 use crate::frame::{Frame, Size};
 use crate::output::FileSet;
-use crate::pipeline::{polygonize, render_field, render_mesh};
+use crate::pipeline::{cost_map, polygonize, render_field, render_mesh};
 use crate::scene::Scene;
 
 /// Options of `blobtrace render`.
@@ -38,6 +40,11 @@ pub struct RenderArgs {
     /// Field evaluation: exact or cached, and the cache budget.
     #[command(flatten)]
     pub field: EvalOptions,
+    /// Also write where the time went: heat maps of field evaluations and
+    /// tracing steps per pixel (magma, each with its scale), as a PNG. Field
+    /// renders only.
+    #[arg(long, value_name = "PNG")]
+    pub cost_png: Option<PathBuf>,
     /// Render the polygonized surface (ray cast through a BVH) instead of the field.
     #[arg(long)]
     pub mesh: bool,
@@ -58,6 +65,12 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     if let Some(exr) = &a.exr {
         check_output_file(exr, "exr")?;
     }
+    if let Some(cost) = &a.cost_png {
+        check_output_file(cost, "png")?;
+        if a.mesh {
+            return Err(UsageError("--cost-png draws a field render's work: leave out --mesh".into()).into());
+        }
+    }
     let size = a.size.unwrap_or(scene.size);
     if a.mesh { run_mesh(a, &scene, mode, size, &output) } else { run_field(a, &scene, mode, size, &output) }
 }
@@ -66,7 +79,8 @@ fn run_field(a: &RenderArgs, scene: &Scene, mode: EvalMode, size: Size, output: 
     let bars = Bars::new();
     let (frame, report) = with_threads(a.threads, || render_field(scene, size, mode, &bars))?;
     bars.finish();
-    save(&frame, output, a.exr.as_deref())?;
+    let cost = a.cost_png.as_deref().map(|path| Ok::<_, anyhow::Error>((path, cost_map(&frame)?))).transpose()?;
+    save(&frame, output, a.exr.as_deref(), cost)?;
     warn_if_empty(report.stats.hits);
     if a.json {
         return print_json(&report);
@@ -90,7 +104,7 @@ fn run_mesh(a: &RenderArgs, scene: &Scene, mode: EvalMode, size: Size, output: &
         Ok(render_mesh(scene, &mesh, mesh_report, size, &bars))
     })??;
     bars.finish();
-    save(&frame, output, a.exr.as_deref())?;
+    save(&frame, output, a.exr.as_deref(), None)?;
     warn_if_empty(report.stats.hits);
     if a.json {
         return print_json(&report);
@@ -118,12 +132,15 @@ fn warn_if_empty(hits: u64) {
     }
 }
 
-/// Writes the PNG and, when asked, the EXR: both or neither.
-fn save(frame: &Frame, png: &Path, exr: Option<&Path>) -> anyhow::Result<()> {
+/// Writes the PNG and, when asked, the EXR and the cost picture: all or none.
+fn save(frame: &Frame, png: &Path, exr: Option<&Path>, cost: Option<(&Path, Rgb8Image)>) -> anyhow::Result<()> {
     let mut files = FileSet::new();
     files.add(png, frame.png_bytes_for(png)?);
     if let Some(exr) = exr {
         files.add(exr, frame.exr_bytes(exr)?);
+    }
+    if let Some((path, image)) = cost {
+        files.add(path, image.png_bytes_for(path)?);
     }
     Ok(files.commit()?)
 }

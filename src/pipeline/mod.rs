@@ -41,6 +41,7 @@
 
 mod cache_report;
 mod compare;
+mod cost_map;
 mod edit_session;
 mod error;
 mod eval;
@@ -61,6 +62,7 @@ pub use compare::{
     COMPARE_OUTPUTS, CompareReport, CompareSettings, Comparison, ErrorImages, ErrorScales, ErrorStats, StageSeconds,
     Tolerances, UsedScales, compare,
 };
+pub use cost_map::cost_map;
 pub use edit_session::{EditSession, FrameRow, FrameUpdate, Verification, outline_dirty};
 pub use error::{PipelineError, Result};
 pub use eval::{EvalSettings, ExactLookup, FieldChoice, MB};
