@@ -35,9 +35,13 @@ pub struct ViewArgs {
     /// Keys for `--headless`, comma-separated: left, right, up, down, pageup,
     /// pagedown (move the node), tab (next node), v (next view), space (next
     /// script frame), r (outline the dirty rectangles), a, d, w, s (orbit),
-    /// z, x (zoom in, out), p (snapshot).
+    /// z, x (zoom in, out), p (snapshot), h or f1 (help card).
     #[arg(long, value_delimiter = ',', requires = "headless")]
     pub keys: Vec<String>,
+    /// With `--headless`, draw the status line, the colour bar and the help
+    /// card (when its key was pressed) into `--output`, as the window shows them.
+    #[arg(long, requires = "headless")]
+    pub hud: bool,
     /// The PNG `--headless` writes at the end; P writes snapshots beside it
     /// (`view-0001.png`, …).
     #[arg(short, long, default_value = "view.png")]
@@ -75,5 +79,6 @@ pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
         pool.install(|| viewer.act(action))?;
     }
     eprintln!("{}", viewer.title());
-    Ok(viewer.image().save_png(&a.output)?)
+    let image = if a.hud { viewer.screen() } else { viewer.image() };
+    Ok(image.save_png(&a.output)?)
 }

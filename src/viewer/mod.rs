@@ -8,6 +8,7 @@
 //! list of keys instead of a window, so the previewer runs where there is no
 //! display (and under `cargo test`).
 
+mod hud;
 mod window;
 
 use std::path::PathBuf;
@@ -45,6 +46,8 @@ pub enum Action {
     Zoom(f32),
     /// Write the view to the next numbered file beside `--output`.
     Snapshot,
+    /// Show or hide the card listing every key.
+    ToggleHelp,
 }
 
 /// Degrees an orbit key turns the camera.
@@ -53,7 +56,7 @@ const ORBIT_DEGREES: f32 = 10.0;
 const ZOOM_FACTOR: f32 = 0.9;
 
 /// Every key: its name for `--keys`, the window's key, and what it does.
-const KEYS: [(&str, minifb::Key, Action); 17] = {
+const KEYS: [(&str, minifb::Key, Action); 19] = {
     use minifb::Key;
     [
         ("left", Key::Left, Action::Move(0, -1.0)),
@@ -73,6 +76,8 @@ const KEYS: [(&str, minifb::Key, Action); 17] = {
         ("z", Key::Z, Action::Zoom(ZOOM_FACTOR)),
         ("x", Key::X, Action::Zoom(1.0 / ZOOM_FACTOR)),
         ("p", Key::P, Action::Snapshot),
+        ("h", Key::H, Action::ToggleHelp),
+        ("f1", Key::F1, Action::ToggleHelp),
     ]
 };
 
@@ -84,6 +89,39 @@ impl Action {
             let names: Vec<&str> = KEYS.iter().map(|(name, ..)| *name).collect();
             format!("--keys: unknown key {key:?} (known: {})", names.join(", "))
         })
+    }
+
+    /// What the action does, as the help card says it.
+    #[must_use]
+    pub fn describe(self) -> &'static str {
+        match self {
+            Action::Move(0, _) => "move the node along the screen",
+            Action::Move(1, _) => "move the node up or down the screen",
+            Action::Move(..) => "move the node away or nearer",
+            Action::NextNode => "move the next named node",
+            Action::NextView => "next view: field, mesh, depth difference",
+            Action::NextScriptFrame => "apply the script's next frame",
+            Action::ToggleRectangles => "outline the last frame's dirty rectangles",
+            Action::Orbit(..) => "orbit the camera about the model",
+            Action::Zoom(f) if f < 1.0 => "zoom in",
+            Action::Zoom(_) => "zoom out",
+            Action::Snapshot => "write the view beside --output (numbered)",
+            Action::ToggleHelp => "show or hide this card",
+        }
+    }
+
+    /// Every key, grouped with the keys that do the same, and what they do.
+    #[must_use]
+    pub fn help() -> Vec<(String, &'static str)> {
+        let mut lines: Vec<(String, &'static str)> = vec![];
+        for (name, _, action) in KEYS {
+            match lines.last_mut() {
+                Some((names, what)) if *what == action.describe() => *names = format!("{names}, {name}"),
+                _ => lines.push((name.to_string(), action.describe())),
+            }
+        }
+        lines.push(("escape".to_string(), "close the window"));
+        lines
     }
 
     /// The action of a key pressed in the window.
@@ -120,6 +158,10 @@ pub struct Viewer {
     orbit: Orbit,
     /// Where snapshots go (numbered from this name), and how many were taken.
     snapshots: (PathBuf, usize),
+    /// Whether the help card shows.
+    help: bool,
+    /// The last camera move's time (the images rendered again whole).
+    camera_s: Option<f64>,
 }
 
 /// The camera as it orbits the model's first centre: its eye, the up axis it
@@ -193,6 +235,8 @@ impl Viewer {
             dirty: (vec![], false),
             orbit,
             snapshots: (snapshot_path, 0),
+            help: false,
+            camera_s: None,
         })
     }
 
@@ -216,6 +260,7 @@ impl Viewer {
                 }
             }
             Action::ToggleRectangles => self.dirty.1 = !self.dirty.1,
+            Action::ToggleHelp => self.help = !self.help,
             Action::Snapshot => {
                 self.snapshots.1 += 1;
                 let path = numbered(&self.snapshots.0, self.snapshots.1);
@@ -224,7 +269,9 @@ impl Viewer {
             }
             Action::Orbit(..) | Action::Zoom(_) => {
                 let camera = self.orbit.moved(action);
+                let start = std::time::Instant::now();
                 self.session.set_camera(camera);
+                self.camera_s = Some(start.elapsed().as_secs_f64());
                 self.dirty.0.clear();
             }
         }
@@ -277,6 +324,42 @@ impl Viewer {
             outline_dirty(&mut image, &self.dirty.0);
         }
         image
+    }
+
+    /// What the window shows: the view, a status line, a colour bar over the
+    /// depth difference, and the help card when asked for.
+    pub fn screen(&self) -> Rgb8Image {
+        let mut image = self.image();
+        hud::status(&mut image, &self.status());
+        if self.view == View::Difference {
+            let scale = Scale::Signed { max: self.session.lattice().cell };
+            hud::colour_bar(&mut image, scale, "mesh depth - field depth, 1 cell full scale", "scene units");
+        }
+        if self.help {
+            hud::help(&mut image, &Action::help());
+        }
+        image
+    }
+
+    /// The status line's parts: view, evaluation, the node the keys move,
+    /// the last frame's and camera move's cost.
+    pub fn status(&self) -> Vec<String> {
+        let view = match self.view {
+            View::Field => "field",
+            View::Mesh => "mesh",
+            View::Difference => "depth difference",
+        };
+        let mode = format!("{:?}", self.session.mode()).to_lowercase();
+        let node = self.names.get(self.selected).map_or("no named node", String::as_str);
+        let mut parts = vec![view.to_string(), mode, format!("moving {node}")];
+        if let Some((s, dirty)) = self.last {
+            parts.push(format!("frame {}: {:.0} ms, {:.1}% dirty", self.frames, 1e3 * s, 100.0 * dirty));
+        }
+        if let Some(s) = self.camera_s {
+            parts.push(format!("camera {:.0} ms", 1e3 * s));
+        }
+        parts.push("H: help".into());
+        parts
     }
 
     fn view_image(&self) -> Rgb8Image {
@@ -406,6 +489,30 @@ mod tests {
         assert!((from_up - MIN_POLE_DEGREES).abs() < 1e-3, "{from_up}");
         assert!((top.eye.length() - 5.0 * ZOOM_FACTOR).abs() < 1e-4);
         assert!((top.tan_half_fov() - camera.tan_half_fov()).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_help_card_names_every_key_and_the_screen_draws_over_the_view() {
+        let listed: Vec<String> =
+            Action::help().iter().flat_map(|(names, _)| names.split(", ").map(String::from)).collect();
+        for (name, ..) in KEYS {
+            assert!(listed.iter().any(|l| l == name), "{name} is on the help card");
+        }
+        let (mut v, _) = viewer(EvalMode::Indexed);
+        let (plain, screen) = (v.image(), v.screen());
+        assert_eq!((plain.width, plain.height), (screen.width, screen.height));
+        let row = |img: &Rgb8Image, y: u32| {
+            img.pixels[(3 * y * img.width) as usize..(3 * (y + 1) * img.width) as usize].to_vec()
+        };
+        assert_ne!(row(&plain, 2), row(&screen, 2), "the status line");
+        assert!(v.status().iter().any(|p| p.contains("moving left")), "{:?}", v.status());
+        v.act(Action::named("h").unwrap()).unwrap();
+        let with_help = v.screen();
+        assert_ne!(row(&with_help, screen.height / 2), row(&screen, screen.height / 2), "the card");
+        v.act(Action::named("f1").unwrap()).unwrap();
+        assert_eq!(v.screen().pixels, screen.pixels, "f1 hides it again");
+        v.act(Action::named("a").unwrap()).unwrap();
+        assert!(v.status().iter().any(|p| p.starts_with("camera ")), "a camera move's cost is shown");
     }
 
     #[test]

@@ -9,7 +9,7 @@ use crate::compare::Rgb8Image;
 /// The window loop: keys in, the current view out, until the window closes or Escape.
 pub fn show(viewer: &mut Viewer, pool: &rayon::ThreadPool) -> anyhow::Result<()> {
     use minifb::{Key, KeyRepeat, Window, WindowOptions};
-    let image = viewer.image();
+    let image = viewer.screen();
     let (w, h) = (image.width as usize, image.height as usize);
     let mut window = Window::new(&viewer.title(), w, h, WindowOptions::default()).map_err(|e| {
         anyhow::anyhow!("could not open a window ({e}); where there is no display, run with --headless --keys …")
@@ -23,7 +23,7 @@ pub fn show(viewer: &mut Viewer, pool: &rayon::ThreadPool) -> anyhow::Result<()>
             for action in actions {
                 pool.install(|| viewer.act(action))?;
             }
-            buffer = to_window_pixels(&viewer.image());
+            buffer = to_window_pixels(&viewer.screen());
             window.set_title(&viewer.title());
         }
         window.update_with_buffer(&buffer, w, h).context("drawing the window")?;

@@ -1,0 +1,138 @@
+//! What the previewer draws over its view: a status line (view, evaluation,
+//! the node being moved, the last frame's cost), a colour bar with scale and
+//! unit over a heat-map view, and, on H or F1, a card listing every key.
+//! Drawn into the frame itself, so it shows without a window manager's title
+//! bar and in screenshots.
+
+use crate::compare::{CHAR_WIDTH, LINE_HEIGHT, Rgb8Image, Scale};
+
+/// Space around text, in pixels.
+const PAD: u32 = 4;
+/// How much of the view shows through a panel's background.
+const SHOW_THROUGH: f32 = 0.3;
+const TEXT: [u8; 3] = [240, 240, 240];
+const HEADING: [u8; 3] = [255, 210, 120];
+
+/// Darkens the rectangle `x, y, w, h` (clipped to the image) so text reads over any view.
+fn shade(image: &mut Rgb8Image, x: u32, y: u32, w: u32, h: u32) {
+    for row in y..(y + h).min(image.height) {
+        for col in x..(x + w).min(image.width) {
+            let at = 3 * (row * image.width + col) as usize;
+            for c in &mut image.pixels[at..at + 3] {
+                *c = (f32::from(*c) * SHOW_THROUGH) as u8;
+            }
+        }
+    }
+}
+
+/// Lines of text on a shaded panel whose top left corner is `x, y`.
+fn panel(image: &mut Rgb8Image, x: u32, y: u32, lines: &[(String, [u8; 3])]) {
+    let width = lines.iter().map(|(l, _)| Rgb8Image::text_width(l)).max().unwrap_or(0) + 2 * PAD;
+    let height = lines.len() as u32 * (LINE_HEIGHT + 2) + 2 * PAD;
+    shade(image, x, y, width, height);
+    for (k, (line, color)) in lines.iter().enumerate() {
+        let top = y + PAD + k as u32 * (LINE_HEIGHT + 2);
+        image.text(i64::from(x + PAD), i64::from(top), line, *color);
+    }
+}
+
+/// The status line across the top of the view: `parts` joined by bars,
+/// wrapped onto more lines where the view is too narrow for one.
+pub fn status(image: &mut Rgb8Image, parts: &[String]) {
+    let fits = |line: &str| Rgb8Image::text_width(line) + 2 * PAD <= image.width;
+    let mut lines: Vec<String> = vec![];
+    for part in parts {
+        match lines.last_mut() {
+            Some(line) if fits(&format!("{line} | {part}")) => *line = format!("{line} | {part}"),
+            _ => lines.push(part.clone()),
+        }
+    }
+    panel(image, 0, 0, &lines.into_iter().map(|l| (l, TEXT)).collect::<Vec<_>>());
+}
+
+/// The help card: every key and what it does, centred on the view.
+pub fn help(image: &mut Rgb8Image, keys: &[(String, &str)]) {
+    let mut lines = vec![("Keys (H or F1 hides this card)".to_string(), HEADING)];
+    let key_width = keys.iter().map(|(k, _)| k.chars().count()).max().unwrap_or(0);
+    lines.extend(keys.iter().map(|(k, what)| (format!("{k:<key_width$}  {what}"), TEXT)));
+    let width = lines.iter().map(|(l, _)| Rgb8Image::text_width(l)).max().unwrap_or(0) + 2 * PAD;
+    let height = lines.len() as u32 * (LINE_HEIGHT + 2) + 2 * PAD;
+    panel(image, image.width.saturating_sub(width) / 2, image.height.saturating_sub(height) / 2, &lines);
+}
+
+/// A colour bar along the bottom left of a heat-map view: `title`, the
+/// colours of `scale` and its ends and middle in `unit`.
+pub fn colour_bar(image: &mut Rgb8Image, scale: Scale, title: &str, unit: &str) {
+    let bar_width = (image.width / 3).max(120).min(image.width.saturating_sub(2 * PAD));
+    let (lo, hi) = match scale {
+        Scale::Signed { max } => (-max, max),
+        Scale::Magnitude { max } => (0.0, max),
+    };
+    let labels = [format!("{lo:+.3}"), format!("{:+.3}", 0.5 * (lo + hi)), format!("{hi:+.3} {unit}")];
+    let label_width = Rgb8Image::text_width(&labels[2]);
+    let width = bar_width.max(Rgb8Image::text_width(title)) + label_width + 2 * PAD;
+    let height = 3 * LINE_HEIGHT + 4 * PAD + 8;
+    let top = image.height.saturating_sub(height);
+    shade(image, 0, top, width, height);
+    image.text(i64::from(PAD), i64::from(top + PAD), title, TEXT);
+    let bar_top = top + 2 * PAD + LINE_HEIGHT;
+    for i in 0..bar_width {
+        let v = lo + (hi - lo) * i as f32 / (bar_width - 1).max(1) as f32;
+        image.fill_rect(i64::from(PAD + i), i64::from(bar_top), 1, 8, scale.color(v));
+    }
+    let label_top = i64::from(bar_top + 8 + PAD);
+    image.text(i64::from(PAD), label_top, &labels[0], TEXT);
+    let middle = PAD + bar_width / 2 - Rgb8Image::text_width(&labels[1]) / 2;
+    image.text(i64::from(middle), label_top, &labels[1], TEXT);
+    image.text(i64::from(PAD + bar_width) - i64::from(CHAR_WIDTH) * 6, label_top, &labels[2], TEXT);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grey(w: u32, h: u32) -> Rgb8Image {
+        Rgb8Image::filled(w, h, [128, 128, 128])
+    }
+
+    #[test]
+    fn the_status_line_shades_the_top_and_writes_on_it() {
+        let mut image = grey(200, 100);
+        status(&mut image, &["field".to_string()]);
+        let at = |x: u32, y: u32| &image.pixels[3 * (y * 200 + x) as usize..][..3];
+        assert!(at(199, 99) == [128, 128, 128], "below the line, the view");
+        assert!((0..16).any(|y| (0..48).any(|x| at(x, y) == TEXT)), "the text");
+        assert!(at(44, 1) == [38, 38, 38], "shaded around the text");
+        assert!(at(60, 1) == [128, 128, 128], "no wider than the text");
+    }
+
+    #[test]
+    fn a_long_status_wraps_onto_more_lines() {
+        let parts: Vec<String> = (0..6).map(|k| format!("part {k} of it")).collect();
+        let (mut narrow, mut wide) = (grey(160, 100), grey(1000, 100));
+        status(&mut narrow, &parts);
+        status(&mut wide, &parts);
+        let shaded_rows = |image: &Rgb8Image| {
+            (0..image.height).filter(|&y| image.pixels[3 * (y * image.width) as usize] != 128).count()
+        };
+        assert!(shaded_rows(&narrow) > shaded_rows(&wide), "more lines where narrow");
+    }
+
+    #[test]
+    fn the_help_card_lists_every_key_it_is_given_and_fits() {
+        let mut image = grey(400, 300);
+        let keys = vec![("a, d".to_string(), "orbit"), ("h, f1".to_string(), "help")];
+        help(&mut image, &keys);
+        let changed = image.pixels.iter().filter(|&&c| c != 128).count();
+        assert!(changed > 0 && image.pixels.len() == 400 * 300 * 3);
+    }
+
+    #[test]
+    fn the_colour_bar_draws_the_scale_ends() {
+        let mut image = grey(300, 200);
+        let scale = Scale::Signed { max: 0.5 };
+        colour_bar(&mut image, scale, "depth", "cells");
+        let has = |c: [u8; 3]| image.pixels.chunks_exact(3).any(|p| p == c);
+        assert!(has(scale.color(-0.5)) && has(scale.color(0.5)), "both ends of the bar");
+    }
+}
