@@ -1,8 +1,8 @@
-//! The previewer in a real window: under a virtual X server (Xvfb), keys
-//! typed with xdotool switch the view and open the help card, and a
-//! screenshot of the window (ImageMagick's `import`) equals, pixel for pixel,
-//! what `view --headless --hud` writes after the same keys. `scripts/test`
-//! installs the three tools.
+//! The previewer in a real window: under a virtual X server (Xvfb), a click
+//! with xdotool selects Medusa's tail, keys switch the view and open the
+//! help card, and a screenshot of the window (ImageMagick's `import`)
+//! equals, pixel for pixel, what `view --headless --hud` writes after the
+//! same input. `scripts/test` installs the three tools.
 
 mod common;
 
@@ -11,15 +11,18 @@ use std::process::Command;
 
 use common::{blobtrace, scratch};
 
-/// Opens the viewer, waits for its window, types `v` then `h` (held long
-/// enough for a frame to see them), and screenshots the window into `$SHOT`
-/// once it matches `$EXPECTED` (or after ten tries, as it is).
+/// Opens the viewer, waits for its window, clicks the tail and types `v`
+/// then `h` (each held long enough for a frame to see it: the window polls
+/// the mouse and keys once a frame), and screenshots the window into
+/// `$SHOT` once it matches `$EXPECTED` (or after ten tries, as it is).
 const DRIVE_THE_WINDOW: &str = r#"
 set -u
-"$BIN" view scenes/sphere.ron --size 320x240 &
+"$BIN" view scenes/medusa.ron --size 320x240 &
 viewer=$!
-window=$(timeout 30 xdotool search --sync --name "blobtrace view" | head -1)
+window=$(timeout 60 xdotool search --sync --name "blobtrace view" | head -1)
 xdotool windowfocus --sync "$window"
+xdotool mousemove --window "$window" 170 150
+sleep 0.3; xdotool mousedown 1; sleep 0.2; xdotool mouseup 1; sleep 0.3
 for key in v h; do
   xdotool keydown "$key"; sleep 0.2; xdotool keyup "$key"; sleep 0.3
 done
@@ -49,17 +52,18 @@ fn the_window_shows_what_the_headless_viewer_draws_after_the_same_keys() {
     let (expected, shot) = (dir.join("expected.png"), dir.join("shot.png"));
     let out = blobtrace(&[
         "view",
-        "scenes/sphere.ron",
+        "scenes/medusa.ron",
         "--size",
         "320x240",
         "--headless",
         "--keys",
-        "v,h",
+        "click:170:150,v,h",
         "--hud",
         "-o",
         expected.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("moving tail"), "the click selects the tail");
     let drawn = rgb(&expected);
     let hud_text = drawn.pixels().filter(|p| p.0 == [240, 240, 240]).count();
     assert!(hud_text > 500, "the status line and the help card are drawn ({hud_text} text pixels)");

@@ -35,7 +35,9 @@ pub struct ViewArgs {
     /// Keys for `--headless`, comma-separated: left, right, up, down, pageup,
     /// pagedown (move the node), tab (next node), v (next view), space (next
     /// script frame), r (outline the dirty rectangles), a, d, w, s (orbit),
-    /// z, x (zoom in, out), p (snapshot), h or f1 (help card).
+    /// z, x (zoom in, out), p (snapshot), h or f1 (help card); and mouse
+    /// gestures drag:DX:DY (orbit), pan:DX:DY, wheel:N (zoom), click:X:Y
+    /// (select the named node under that pixel).
     #[arg(long, value_delimiter = ',', requires = "headless")]
     pub keys: Vec<String>,
     /// With `--headless`, draw the status line, the colour bar and the help

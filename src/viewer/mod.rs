@@ -2,9 +2,11 @@
 //! render or their depth difference; keys move a named node along the
 //! screen or play an edit script, and each move updates only what it
 //! changed (an [`EditSession`] frame: dirty rectangles, local mesh cells,
-//! BVH2 triangles, the difference in those rectangles). Other keys orbit and
-//! zoom the camera about the model, which renders the images again whole
-//! (the empty space and the mesh stay). Headless, the same loop runs on a
+//! BVH2 triangles, the difference in those rectangles). Other keys and the
+//! mouse orbit, pan and zoom the camera about the model, which renders the
+//! images again whole (the empty space and the mesh stay); a click selects
+//! the named node strongest at the surface under the pointer. A status line,
+//! a colour bar and a help card are drawn over the view (`hud`). Headless, the same loop runs on a
 //! list of keys instead of a window, so the previewer runs where there is no
 //! display (and under `cargo test`).
 
@@ -48,7 +50,14 @@ pub enum Action {
     Snapshot,
     /// Show or hide the card listing every key.
     ToggleHelp,
+    /// Slide the camera and the point it orbits by this many pixels right and down.
+    Pan(f32, f32),
+    /// Select the named node strongest at the surface under this pixel.
+    SelectAt(u32, u32),
 }
+
+/// Degrees of orbit per pixel a mouse drag moves.
+pub const DRAG_DEGREES_PER_PIXEL: f32 = 0.4;
 
 /// Degrees an orbit key turns the camera.
 const ORBIT_DEGREES: f32 = 10.0;
@@ -82,13 +91,44 @@ const KEYS: [(&str, minifb::Key, Action); 19] = {
 };
 
 impl Action {
-    /// The action of a key named on the command line.
+    /// The action of a key named on the command line, or of a mouse gesture:
+    /// `drag:DX:DY` (left button, pixels), `pan:DX:DY` (right button),
+    /// `wheel:N` (notches, positive away from the user), `click:X:Y`.
     pub fn named(key: &str) -> anyhow::Result<Self> {
         let key = key.trim().to_lowercase();
+        if let Some((gesture, args)) = key.split_once(':') {
+            return Self::gesture(gesture, args).with_context(|| format!("--keys: {key:?}"));
+        }
         KEYS.iter().find(|(name, ..)| *name == key).map(|&(.., action)| action).with_context(|| {
             let names: Vec<&str> = KEYS.iter().map(|(name, ..)| *name).collect();
             format!("--keys: unknown key {key:?} (known: {})", names.join(", "))
         })
+    }
+
+    /// A mouse gesture's action.
+    fn gesture(gesture: &str, args: &str) -> anyhow::Result<Self> {
+        let numbers: Vec<f32> = args.split(':').map(str::parse).collect::<Result<_, _>>()?;
+        let finite = numbers.iter().all(|v| v.is_finite());
+        anyhow::ensure!(finite, "the numbers must be finite");
+        Ok(match (gesture, numbers.as_slice()) {
+            ("drag", &[dx, dy]) => Self::drag(dx, dy),
+            ("pan", &[dx, dy]) => Action::Pan(dx, dy),
+            ("wheel", &[notches]) => Self::wheel(notches),
+            ("click", &[x, y]) if x >= 0.0 && y >= 0.0 => Action::SelectAt(x as u32, y as u32),
+            _ => anyhow::bail!("expected drag:DX:DY, pan:DX:DY, wheel:N or click:X:Y"),
+        })
+    }
+
+    /// The orbit a left-button drag by `dx, dy` pixels makes: the model turns with the pointer.
+    #[must_use]
+    pub fn drag(dx: f32, dy: f32) -> Self {
+        Action::Orbit(-dx * DRAG_DEGREES_PER_PIXEL, dy * DRAG_DEGREES_PER_PIXEL)
+    }
+
+    /// The zoom `notches` of the wheel make (positive: in).
+    #[must_use]
+    pub fn wheel(notches: f32) -> Self {
+        Action::Zoom(ZOOM_FACTOR.powf(notches))
     }
 
     /// What the action does, as the help card says it.
@@ -107,6 +147,8 @@ impl Action {
             Action::Zoom(_) => "zoom out",
             Action::Snapshot => "write the view beside --output (numbered)",
             Action::ToggleHelp => "show or hide this card",
+            Action::Pan(..) => "pan the camera",
+            Action::SelectAt(..) => "select the named node under the pointer",
         }
     }
 
@@ -120,7 +162,13 @@ impl Action {
                 _ => lines.push((name.to_string(), action.describe())),
             }
         }
-        lines.push(("escape".to_string(), "close the window"));
+        lines.extend([
+            ("left drag".to_string(), "orbit the camera about the model"),
+            ("wheel".to_string(), "zoom in or out"),
+            ("right or shift drag".to_string(), "pan the camera"),
+            ("click".to_string(), "select the named node under the pointer"),
+            ("escape".to_string(), "close the window"),
+        ]);
         lines
     }
 
@@ -171,15 +219,17 @@ struct Orbit {
     eye: Vec3,
     up: Vec3,
     fov_y: f32,
+    /// The image's height in pixels, which a pan's pixels are measured in.
+    height: f32,
 }
 
 /// Closest the camera's view comes to the up axis, in degrees.
 const MIN_POLE_DEGREES: f32 = 5.0;
 
 impl Orbit {
-    fn new(camera: &Camera, centre: Vec3) -> Self {
+    fn new(camera: &Camera, centre: Vec3, height: u32) -> Self {
         let fov_y = 2.0 * camera.tan_half_fov().atan().to_degrees();
-        Self { centre, eye: camera.eye.into(), up: camera.up().into(), fov_y }
+        Self { centre, eye: camera.eye.into(), up: camera.up().into(), fov_y, height: height.max(1) as f32 }
     }
 
     /// Applies an orbit or zoom and returns the camera looking at the centre.
@@ -195,6 +245,15 @@ impl Orbit {
                 glam::Quat::from_axis_angle(right, pitch.to_radians()) * turned
             }
             Action::Zoom(factor) => offset * factor,
+            Action::Pan(dx, dy) => {
+                // A pixel at the centre's distance, so the centre follows the pointer.
+                let per_pixel = 2.0 * offset.length() * (0.5 * self.fov_y).to_radians().tan() / self.height;
+                let forward = -offset.normalize_or_zero();
+                let right = forward.cross(self.up).normalize_or_zero();
+                let up = right.cross(forward);
+                self.centre += (up * dy - right * dx) * per_pixel;
+                offset
+            }
             _ => offset,
         };
         self.eye = self.centre + offset;
@@ -221,7 +280,7 @@ impl Viewer {
         };
         let bounds = session.scene().model.bounds();
         let step_length = bounds.diagonal() / 50.0;
-        let orbit = Orbit::new(&session.settings().camera, bounds.center().into());
+        let orbit = Orbit::new(&session.settings().camera, bounds.center().into(), session.field_frame().height);
         Ok(Self {
             session,
             names,
@@ -267,7 +326,8 @@ impl Viewer {
                 self.image().save_png(&path)?;
                 eprintln!("wrote {}", path.display());
             }
-            Action::Orbit(..) | Action::Zoom(_) => {
+            Action::SelectAt(x, y) => self.select_at(x, y),
+            Action::Orbit(..) | Action::Zoom(_) | Action::Pan(..) => {
                 let camera = self.orbit.moved(action);
                 let start = std::time::Instant::now();
                 self.session.set_camera(camera);
@@ -276,6 +336,25 @@ impl Viewer {
             }
         }
         Ok(())
+    }
+
+    /// Selects the named node strongest at the surface seen at pixel `x, y`
+    /// (nothing changes where the ray missed or no named node reaches).
+    fn select_at(&mut self, x: u32, y: u32) {
+        let frame = self.session.field_frame();
+        if x >= frame.width || y >= frame.height {
+            return;
+        }
+        let depth = frame.depth[(y * frame.width + x) as usize];
+        if !depth.is_finite() {
+            return;
+        }
+        let ray = self.session.settings().camera.ray(x, y, frame.width, frame.height);
+        let hit = ray.origin + ray.dir * depth;
+        let model = &self.session.scene().model;
+        if let Some(name) = model.strongest_named_at(hit, self.session.mode()) {
+            self.selected = self.names.iter().position(|n| n == name).unwrap_or(self.selected);
+        }
     }
 
     /// Moves the selected node one step along screen axis `axis` in direction
@@ -428,7 +507,22 @@ mod tests {
     fn after_moves_by_key_the_views_equal_a_render_and_a_mesh_from_scratch() {
         for mode in [EvalMode::Indexed, EvalMode::Cached] {
             let (mut v, polygonize) = viewer(mode);
-            let keys = ["right", "right", "a", "up", "tab", "w", "left", "z", "pagedown", "tab", "down"];
+            let keys = [
+                "right",
+                "right",
+                "a",
+                "up",
+                "tab",
+                "w",
+                "left",
+                "z",
+                "drag:12:-5",
+                "pagedown",
+                "pan:6:3",
+                "tab",
+                "wheel:1",
+                "down",
+            ];
             // Where each move should take its node: along the screen as the camera then was.
             let mut expected = [glam::Vec3A::ZERO; 2];
             for key in keys {
@@ -475,7 +569,7 @@ mod tests {
     #[test]
     fn orbit_keys_turn_the_camera_about_the_centre_and_stop_short_of_the_pole() {
         let camera = Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
-        let mut orbit = Orbit::new(&camera, Vec3::ZERO);
+        let mut orbit = Orbit::new(&camera, Vec3::ZERO, 100);
         let right = orbit.moved(Action::Orbit(ORBIT_DEGREES, 0.0));
         assert!(right.eye.x > 0.0 && (right.eye.length() - 5.0).abs() < 1e-4, "d moves the camera to its right");
         let up = orbit.moved(Action::Orbit(0.0, ORBIT_DEGREES));
@@ -513,6 +607,40 @@ mod tests {
         assert_eq!(v.screen().pixels, screen.pixels, "f1 hides it again");
         v.act(Action::named("a").unwrap()).unwrap();
         assert!(v.status().iter().any(|p| p.starts_with("camera ")), "a camera move's cost is shown");
+    }
+
+    #[test]
+    fn mouse_gestures_orbit_zoom_pan_and_select() {
+        assert_eq!(Action::named("drag:10:-5").unwrap(), Action::Orbit(-4.0, -2.0));
+        assert_eq!(Action::named("wheel:1").unwrap(), Action::Zoom(ZOOM_FACTOR));
+        for bad in ["drag:1", "wheel:x", "click:-1:2", "drag:nan:0", "pan:1:2:3", "spin:1"] {
+            assert!(Action::named(bad).is_err(), "{bad} is refused");
+        }
+        // A wheel notch in is the zoom key.
+        let (mut by_wheel, _) = viewer(EvalMode::Indexed);
+        let (mut by_key, _) = viewer(EvalMode::Indexed);
+        by_wheel.act(Action::named("wheel:1").unwrap()).unwrap();
+        by_key.act(Action::named("z").unwrap()).unwrap();
+        assert_eq!(by_wheel.image().pixels, by_key.image().pixels);
+        // A pan and its opposite bring the camera back.
+        let (mut v, _) = viewer(EvalMode::Indexed);
+        let before = v.session.settings().camera;
+        v.act(Action::Pan(15.0, -4.0)).unwrap();
+        assert!((v.session.settings().camera.eye - before.eye).length() > 1e-3, "the pan moved the camera");
+        v.act(Action::Pan(-15.0, 4.0)).unwrap();
+        assert!((v.session.settings().camera.eye - before.eye).length() < 1e-4);
+        // A click on either blob selects it; a click on the background keeps the selection.
+        let frame = v.session.field_frame();
+        let (w, h) = (frame.width, frame.height);
+        let hit_in =
+            |xs: std::ops::Range<u32>| xs.into_iter().find(|&x| frame.depth[(h / 2 * w + x) as usize].is_finite());
+        let (left_x, right_x) = (hit_in(0..w / 2 - 4).unwrap(), hit_in(w / 2 + 4..w).map(|x| x + 2).unwrap());
+        v.act(Action::SelectAt(right_x, h / 2)).unwrap();
+        assert_eq!(v.names[v.selected], "right");
+        v.act(Action::SelectAt(0, 0)).unwrap();
+        assert_eq!(v.names[v.selected], "right", "the background selects nothing");
+        v.act(Action::named(&format!("click:{left_x}:{}", h / 2)).unwrap()).unwrap();
+        assert_eq!(v.names[v.selected], "left");
     }
 
     #[test]

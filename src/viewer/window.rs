@@ -1,5 +1,8 @@
-//! The previewer's window (minifb): keys in, the current view out, the
-//! frames' work on the worker pool while the window stays on its thread.
+//! The previewer's window (minifb): keys and mouse in, the current view
+//! out, the frames' work on the worker pool while the window stays on its
+//! thread. A left drag orbits, a right or shift drag pans, the wheel zooms,
+//! and a click (a press and release without moving) selects the named node
+//! under the pointer.
 
 use anyhow::Context;
 
@@ -16,9 +19,11 @@ pub fn show(viewer: &mut Viewer, pool: &rayon::ThreadPool) -> anyhow::Result<()>
     })?;
     window.set_target_fps(60);
     let mut buffer = to_window_pixels(&image);
+    let mut mouse = Mouse::default();
     while window.is_open() && !window.is_key_down(Key::Escape) {
-        let actions: Vec<Action> =
+        let mut actions: Vec<Action> =
             window.get_keys_pressed(KeyRepeat::Yes).into_iter().filter_map(Action::of_key).collect();
+        actions.extend(mouse.actions(&window));
         if !actions.is_empty() {
             for action in actions {
                 pool.install(|| viewer.act(action))?;
@@ -34,4 +39,52 @@ pub fn show(viewer: &mut Viewer, pool: &rayon::ThreadPool) -> anyhow::Result<()>
 /// `0RGB` words, as the window takes them.
 fn to_window_pixels(image: &Rgb8Image) -> Vec<u32> {
     image.pixels.chunks_exact(3).map(|p| u32::from_be_bytes([0, p[0], p[1], p[2]])).collect()
+}
+
+/// The mouse between frames: where the pointer was, where the buttons went
+/// down, and whether it moved since.
+#[derive(Default)]
+struct Mouse {
+    last: Option<(f32, f32)>,
+    pressed_at: Option<(f32, f32)>,
+    dragged: bool,
+}
+
+/// Pixels a press may move and still count as a click.
+const CLICK_SLACK: f32 = 3.0;
+
+impl Mouse {
+    /// What the mouse did since the last frame.
+    fn actions(&mut self, window: &minifb::Window) -> Vec<Action> {
+        use minifb::{Key, MouseButton, MouseMode};
+        let mut actions = vec![];
+        if let Some((_, notches)) = window.get_scroll_wheel()
+            && notches != 0.0
+        {
+            actions.push(Action::wheel(notches.signum()));
+        }
+        let Some(at) = window.get_mouse_pos(MouseMode::Discard) else { return actions };
+        let (left, right) = (window.get_mouse_down(MouseButton::Left), window.get_mouse_down(MouseButton::Right));
+        let shift = window.is_key_down(Key::LeftShift) || window.is_key_down(Key::RightShift);
+        if left || right {
+            let pressed = *self.pressed_at.get_or_insert(at);
+            self.dragged |= (at.0 - pressed.0).abs() > CLICK_SLACK || (at.1 - pressed.1).abs() > CLICK_SLACK;
+            if let Some(last) = self.last
+                && self.dragged
+                && last != at
+            {
+                let (dx, dy) = (at.0 - last.0, at.1 - last.1);
+                actions.push(if right || shift { Action::Pan(dx, dy) } else { Action::drag(dx, dy) });
+            }
+            self.last = Some(at);
+        } else {
+            if let Some(pressed) = self.pressed_at.take()
+                && !self.dragged
+            {
+                actions.push(Action::SelectAt(pressed.0 as u32, pressed.1 as u32));
+            }
+            (self.last, self.dragged) = (None, false);
+        }
+        actions
+    }
 }

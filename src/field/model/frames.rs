@@ -1,9 +1,11 @@
 //! Where a node sits in the world: the box its field occupies there, and a
-//! world point carried into the frame the node is evaluated in.
+//! world point carried into the frame the node is evaluated in, and the named
+//! node strongest at a point.
 
 use glam::Vec3A;
 
 use super::Model;
+use crate::field::EvalMode;
 use crate::field::node::NodeKind;
 use crate::field::node_id::NodeId;
 use crate::geom::Aabb;
@@ -41,6 +43,21 @@ impl Model {
             NodeKind::Warp { warp, .. } => warp.inverse(p),
             _ => p,
         })
+    }
+
+    /// Of the named nodes, the one whose part of the field is largest at the
+    /// world point `p` (none where every named node is zero there).
+    #[must_use]
+    pub fn strongest_named_at(&self, p: Vec3A, mode: EvalMode) -> Option<&str> {
+        self.names()
+            .into_iter()
+            .filter_map(|name| {
+                let id = self.find(name)?;
+                Some((name, self.node_value(id, self.to_local(id, p), mode)))
+            })
+            .filter(|&(_, v)| v > 0.0)
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(name, _)| name)
     }
 }
 
