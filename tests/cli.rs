@@ -62,6 +62,23 @@ fn render_draws_where_the_time_went_and_refuses_it_for_a_mesh() {
 }
 
 #[test]
+fn bench_view_times_each_kind_of_event() {
+    let out = blobtrace(&["bench", "view", "scenes/example.ron", "--size", "64x48", "--events", "3", "--json"]);
+    let v = json(&out);
+    let kinds: Vec<&str> = v["events"].as_array().unwrap().iter().map(|e| e["kind"].as_str().unwrap()).collect();
+    assert_eq!(kinds, ["orbit", "zoom", "move arm"]);
+    for e in v["events"].as_array().unwrap() {
+        assert_eq!(e["events"], 3);
+        let (median, max) = (e["median_seconds"].as_f64().unwrap(), e["max_seconds"].as_f64().unwrap());
+        assert!(median > 0.0 && median <= max, "{e}");
+        assert!((e["frame_rate"].as_f64().unwrap() * median - 1.0).abs() < 1e-6);
+    }
+    assert!(v["launch_seconds"].as_f64().unwrap() > 0.0);
+    let out = blobtrace(&["bench", "view", "scenes/example.ron", "--events", "0"]);
+    assert_eq!(out.status.code(), Some(64), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+#[test]
 fn threads_option_does_not_change_the_image() {
     let dir = scratch("threads");
     let render = |threads: &str, name: &str| {

@@ -2,12 +2,13 @@
 //! in one process and reported as ratios against the baseline on the same
 //! scene, so a noisy machine affects both sides alike — field rendering
 //! (indexed against naive, cached against exact), polygonization (the
-//! caching paper's Table 1, triangle and ray rates) and edits (its Figure 8
-//! and Table 2).
+//! caching paper's Table 1, triangle and ray rates), edits (its Figure 8
+//! and Table 2) and the previewer's latency per kind of event.
 
 mod edit;
 mod mesh;
 mod render;
+mod view;
 
 pub use edit::{EditBenchReport, EditBenchSettings, ModeTotals, bench_edit};
 pub use mesh::{MeshBenchReport, MeshBenchSettings, PlacementCost, RayRate, TableRow, TriangleRate, bench_mesh};
@@ -15,3 +16,4 @@ pub use render::{
     CacheBenchReport, CacheBenchRuns, EvalBenchReport, LookupCost, RenderBenchSettings, bench_cache, bench_eval,
     lookup_costs,
 };
+pub use view::{EventLatency, ViewBenchReport, ViewBenchSettings, bench_view};

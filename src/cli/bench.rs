@@ -10,7 +10,8 @@ use super::args::{CellsArg, check_output_file, parse_size, print_json};
 use super::progress::Bars;
 use crate::bench::{
     CacheBenchReport, EditBenchReport, EditBenchSettings, EvalBenchReport, LookupCost, MeshBenchReport,
-    MeshBenchSettings, RenderBenchSettings, bench_cache, bench_edit, bench_eval, bench_mesh,
+    MeshBenchSettings, RenderBenchSettings, ViewBenchReport, ViewBenchSettings, bench_cache, bench_edit, bench_eval,
+    bench_mesh, bench_view,
 };
 use crate::frame::Size;
 use crate::pipeline::RenderReport;
@@ -29,6 +30,33 @@ pub enum BenchCommand {
     /// The caching paper's Figure 8: an edit script's per-frame times with and
     /// without caches, local updates against work from scratch.
     Edit(EditBenchArgs),
+    /// The previewer's latency without a window: orbit steps, zoom steps,
+    /// moves of the first named node and an edit script's frames, each kind's
+    /// median and slowest frame time and the frame rate it allows.
+    View(ViewBenchArgs),
+}
+
+/// Options of `blobtrace bench view`.
+#[derive(Debug, Args)]
+pub struct ViewBenchArgs {
+    /// Scene file (RON).
+    #[arg(default_value = "scenes/medusa.ron")]
+    pub scene: PathBuf,
+    /// Image size WIDTHxHEIGHT.
+    #[arg(long, value_parser = parse_size, default_value = "640x480")]
+    pub size: Size,
+    /// Edit script (RON) whose frames are replayed as one more kind of event.
+    #[arg(long)]
+    pub script: Option<PathBuf>,
+    /// Events of each kind (orbit, zoom, node move).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub events: u32,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Options of `blobtrace bench eval`.
@@ -126,6 +154,34 @@ pub fn run(c: &BenchCommand) -> anyhow::Result<()> {
             let report = bench_edit(&a.settings(), &Bars::new())?;
             emit(a.json, &report, |r| print_edit(a, r))
         }
+        BenchCommand::View(a) => {
+            let settings = ViewBenchSettings {
+                scene: a.scene.clone(),
+                size: a.size,
+                script: a.script.clone(),
+                events: a.events,
+                threads: a.threads,
+            };
+            emit(a.json, &bench_view(&settings)?, print_view)
+        }
+    }
+}
+
+fn print_view(r: &ViewBenchReport) {
+    println!(
+        "{}: the previewer at {}, {} threads; first frame after {:.3} s (no progressive passes yet: a frame shows whole)",
+        r.scene, r.size, r.threads, r.launch_seconds
+    );
+    println!("  {:<20} {:>6} {:>12} {:>12} {:>10}", "event", "events", "median ms", "slowest ms", "frames/s");
+    for e in &r.events {
+        println!(
+            "  {:<20} {:>6} {:>12.1} {:>12.1} {:>10.1}",
+            e.kind,
+            e.events,
+            1e3 * e.median_seconds,
+            1e3 * e.max_seconds,
+            e.frame_rate
+        );
     }
 }
 
