@@ -175,7 +175,7 @@ impl CornerPatch {
     fn locate(&self, q: LatticePoint) -> (usize, usize) {
         let ((brick, odd), slot) = locate(q);
         let d = brick - self.base;
-        debug_assert!(d.cmpge(IVec3::ZERO).all() && d.cmple(IVec3::ONE).all(), "{q} lies outside the patch");
+        assert!(d.cmpge(IVec3::ZERO).all() && d.cmple(IVec3::ONE).all(), "{q} lies outside the patch");
         ((d.x | d.y << 1 | d.z << 2) as usize | usize::from(odd) << 3, slot)
     }
 

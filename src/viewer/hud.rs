@@ -82,8 +82,8 @@ pub fn colour_bar(image: &mut Rgb8Image, scale: Scale, title: &str, unit: &str) 
     }
     let label_top = i64::from(bar_top + 8 + PAD);
     image.text(i64::from(PAD), label_top, &labels[0], TEXT);
-    let middle = PAD + bar_width / 2 - Rgb8Image::text_width(&labels[1]) / 2;
-    image.text(i64::from(middle), label_top, &labels[1], TEXT);
+    let middle = i64::from(PAD + bar_width / 2) - i64::from(Rgb8Image::text_width(&labels[1]) / 2);
+    image.text(middle, label_top, &labels[1], TEXT);
     image.text(i64::from(PAD + bar_width) - i64::from(CHAR_WIDTH) * 6, label_top, &labels[2], TEXT);
 }
 
@@ -123,8 +123,17 @@ mod tests {
         let mut image = grey(400, 300);
         let keys = vec![("a, d".to_string(), "orbit"), ("h, f1".to_string(), "help")];
         help(&mut image, &keys);
-        let changed = image.pixels.iter().filter(|&&c| c != 128).count();
-        assert!(changed > 0 && image.pixels.len() == 400 * 300 * 3);
+        let shaded_rows = (0..300).filter(|&y| image.pixels[3 * (y * 400 + 200) as usize] != 128).count() as u32;
+        assert_eq!(shaded_rows, 3 * (LINE_HEIGHT + 2) + 2 * PAD, "a heading and a line per entry");
+        let centre_left = |y: u32| image.pixels[3 * (y * 400) as usize];
+        assert!((0..300).all(|y| centre_left(y) == 128), "centred, with the view showing beside it");
+    }
+
+    #[test]
+    fn a_colour_bar_on_a_narrow_view_stays_inside_it() {
+        let mut image = grey(40, 30);
+        colour_bar(&mut image, Scale::Signed { max: 1.0 }, "depth", "cells");
+        assert_eq!(image.pixels.len(), 40 * 30 * 3);
     }
 
     #[test]

@@ -221,6 +221,8 @@ struct Orbit {
     fov_y: f32,
     /// The image's height in pixels, which a pan's pixels are measured in.
     height: f32,
+    /// The eye's first distance from the centre, which bounds zooming.
+    first_distance: f32,
 }
 
 /// Closest the camera's view comes to the up axis, in degrees.
@@ -229,7 +231,9 @@ const MIN_POLE_DEGREES: f32 = 5.0;
 impl Orbit {
     fn new(camera: &Camera, centre: Vec3, height: u32) -> Self {
         let fov_y = 2.0 * camera.tan_half_fov().atan().to_degrees();
-        Self { centre, eye: camera.eye.into(), up: camera.up().into(), fov_y, height: height.max(1) as f32 }
+        let eye: Vec3 = camera.eye.into();
+        let first_distance = eye.distance(centre).max(f32::MIN_POSITIVE);
+        Self { centre, eye, up: camera.up().into(), fov_y, height: height.max(1) as f32, first_distance }
     }
 
     /// Applies an orbit or zoom and returns the camera looking at the centre.
@@ -244,7 +248,12 @@ impl Orbit {
                 let pitch = pitch.clamp(from_up - (180.0 - MIN_POLE_DEGREES), from_up - MIN_POLE_DEGREES);
                 glam::Quat::from_axis_angle(right, pitch.to_radians()) * turned
             }
-            Action::Zoom(factor) => offset * factor,
+            // Kept between a thousandth and a thousand times the first
+            // distance, so no run of zooms loses the camera.
+            Action::Zoom(factor) => {
+                let distance = (offset.length() * factor).clamp(1e-3 * self.first_distance, 1e3 * self.first_distance);
+                offset.normalize_or_zero() * distance
+            }
             Action::Pan(dx, dy) => {
                 // A pixel at the centre's distance, so the centre follows the pointer.
                 let per_pixel = 2.0 * offset.length() * (0.5 * self.fov_y).to_radians().tan() / self.height;
@@ -622,6 +631,12 @@ mod tests {
         by_wheel.act(Action::named("wheel:1").unwrap()).unwrap();
         by_key.act(Action::named("z").unwrap()).unwrap();
         assert_eq!(by_wheel.image().pixels, by_key.image().pixels);
+        // However far the wheel turns, the camera stays usable.
+        let (mut far, _) = viewer(EvalMode::Indexed);
+        for gesture in ["wheel:-1000", "wheel:1000", "wheel:1000"] {
+            far.act(Action::named(gesture).unwrap()).unwrap();
+            assert!(far.session.settings().camera.eye.is_finite(), "after {gesture}");
+        }
         // A pan and its opposite bring the camera back.
         let (mut v, _) = viewer(EvalMode::Indexed);
         let before = v.session.settings().camera;

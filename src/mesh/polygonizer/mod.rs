@@ -1,8 +1,9 @@
 //! The continuation polygonizer.
 //!
 //! Starting from cells found by marching from every skeleton, it grows across
-//! the faces the surface crosses, one wave at a time: the new corners of a
-//! wave are evaluated in parallel, then the wave's crossed cells name the next.
+//! the faces the surface crosses, block by block: each block of 8³ cubes is
+//! grown on one thread with the corner bricks it owns, blocks of one parity
+//! class at a time, and the cells reached in other blocks become their work.
 //! Corner values (in bricks of lattice points, see [`super::corners`]),
 //! visited cells and edge vertices are keyed by integer lattice coordinates,
 //! so each corner is evaluated once and each crossed edge gets one vertex,
@@ -15,7 +16,7 @@
 //!
 //! - `cell_shape`: cubes or tetrahedra, and what each asks of a cell;
 //! - `seeding`: the first cells, marched to from the skeletons;
-//! - `growth`: continuation across crossed faces, wave by wave;
+//! - `growth`: continuation across crossed faces, block by block;
 //! - `hole`: the local update, which drops what lies near an edit and grows back;
 //! - `placement`: vertices on the crossed edges;
 //! - `assemble`: the mesh, and the triangles of one cell, from what was found;
@@ -46,9 +47,8 @@ use cell_shape::crossed;
 pub use hole::Repolygonized;
 pub use stats::PolygonizeStats;
 
-/// The fewest cells, corners or edges a parallel task takes on: a local
-/// update grows through many small waves, which splitting among the threads
-/// would slow down.
+/// The fewest edges a parallel task takes on: a local update places few
+/// vertices, which splitting among the threads would slow down.
 const MIN_PARALLEL_ITEMS: usize = 64;
 
 /// The polygonizer's knobs.

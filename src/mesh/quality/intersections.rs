@@ -85,7 +85,9 @@ fn segment_crosses(p: DVec3, q: DVec3, t: [DVec3; 3]) -> bool {
     let h = dir.cross(e2);
     let det = e1.dot(h);
     if det.abs() < 1e-30 {
-        return false; // parallel or coplanar: left to the other triangle's sides
+        // Parallel: a coplanar overlap is not counted (a known limit; the
+        // polygonizer's cells keep its triangles apart).
+        return false;
     }
     let s = p - t[0];
     let u = s.dot(h) / det;

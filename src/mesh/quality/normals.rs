@@ -11,7 +11,7 @@ use serde::Serialize;
 pub struct NormalCheck {
     /// Vertices whose normal points against the area-weighted normal of their faces.
     pub against_faces: u64,
-    /// The smallest cosine between a vertex normal and its faces' normal (1 when none disagree).
+    /// The smallest cosine between a vertex normal and its faces' normal (1 for a mesh without vertices).
     pub smallest_cosine: f64,
     /// Vertices with no normal (a vanished gradient).
     pub zero: u64,

@@ -4,9 +4,10 @@
 //! leaving a snapped corner moves onto it (to the nearer end when both ends
 //! are snapped). The vertices that meet on a corner become one, the
 //! triangles that collapse are dropped, and two triangles folded onto each
-//! other cancel. Afterwards no vertex lies within `δ` of a corner it does
-//! not sit on, which is what removes the needles and slivers; each moved
-//! vertex sits on a corner within `δ` of the surface.
+//! other cancel. Afterwards no vertex lies within `δ` of a snapped corner it
+//! does not sit on, which is what removes the needles and slivers; each
+//! moved vertex sits on a corner within `δ` of the surface. A corner whose
+//! merge would pinch two sheets or open a hole is not snapped.
 //!
 //! Vertices are matched to their lattice edges by position: a vertex on a
 //! cube edge shares two coordinates with the edge's ends (up to the
@@ -16,8 +17,8 @@ use glam::{IVec3, Vec3};
 use rustc_hash::{FxHashMap, FxHashSet};
 use serde::Serialize;
 
-use crate::mesh::Mesh;
 use crate::mesh::quality::{EdgeKind, Edges, kind};
+use crate::mesh::{Mesh, Topology};
 
 /// What [`snap_to_corners`] changed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
@@ -46,10 +47,12 @@ pub fn snap_to_corners(mesh: &mut Mesh, cell: f32, fraction: f32) -> SnapReport 
         .zip(&edges)
         .filter_map(|(&p, edge)| edge.and_then(|e| e.into_iter().find(|&k| p.distance(corner_at(k, cell)) <= reach)))
         .collect();
+    // Holes the merge would open count against a corner only where the mesh had none.
+    let closed = Topology::of(&mesh.triangles).boundary_edges == 0;
     loop {
         let mut trial = mesh.clone();
         let merge = merge_onto_corners(&mut trial, &edges, &snapped, cell);
-        let pinched = pinched_corners(&trial.triangles, &merge.corner_of_keeper);
+        let pinched = pinched_corners(&trial.triangles, &merge.corner_of_keeper, closed);
         if pinched.is_empty() {
             let report = SnapReport {
                 fraction,
@@ -113,12 +116,14 @@ fn merge_onto_corners(mesh: &mut Mesh, edges: &[Option<[IVec3; 2]>], snapped: &F
 }
 
 /// The snapped corners on an edge that is no longer shared by exactly two
-/// triangles (or a boundary).
-fn pinched_corners(triangles: &[[u32; 3]], corner_of_keeper: &FxHashMap<u32, IVec3>) -> FxHashSet<IVec3> {
+/// triangles (a boundary edge counts too where the mesh was `closed`).
+fn pinched_corners(triangles: &[[u32; 3]], corner_of_keeper: &FxHashMap<u32, IVec3>, closed: bool) -> FxHashSet<IVec3> {
     let mut pinched = FxHashSet::default();
     for sides in Edges::of(triangles).groups() {
-        if matches!(kind(sides), EdgeKind::Manifold | EdgeKind::Boundary) {
-            continue;
+        match kind(sides) {
+            EdgeKind::Manifold => continue,
+            EdgeKind::Boundary if !closed => continue,
+            _ => {}
         }
         let edge = sides[0].edge;
         for end in [(edge >> 32) as u32, edge as u32] {
