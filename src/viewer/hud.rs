@@ -64,11 +64,16 @@ pub fn help(image: &mut Rgb8Image, keys: &[(String, &str)]) {
 /// colours of `scale` and its ends and middle in `unit`.
 pub fn colour_bar(image: &mut Rgb8Image, scale: Scale, title: &str, unit: &str) {
     let bar_width = (image.width / 3).max(120).min(image.width.saturating_sub(2 * PAD));
-    let (lo, hi) = match scale {
-        Scale::Signed { max } => (-max, max),
-        Scale::Magnitude { max } => (0.0, max),
+    let (lo, hi, signed) = match scale {
+        Scale::Signed { max } => (-max, max, true),
+        Scale::Magnitude { max } => (0.0, max, false),
     };
-    let labels = [format!("{lo:+.3}"), format!("{:+.3}", 0.5 * (lo + hi)), format!("{hi:+.3} {unit}")];
+    let label = |v: f32| match (signed, hi >= 10.0) {
+        (true, _) => format!("{v:+.3}"),
+        (false, true) => format!("{v:.0}"),
+        (false, false) => format!("{v:.3}"),
+    };
+    let labels = [label(lo), label(0.5 * (lo + hi)), format!("{} {unit}", label(hi))];
     let label_width = Rgb8Image::text_width(&labels[2]);
     let width = bar_width.max(Rgb8Image::text_width(title)) + label_width + 2 * PAD;
     let height = 3 * LINE_HEIGHT + 4 * PAD + 8;

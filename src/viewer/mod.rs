@@ -5,8 +5,10 @@
 //! BVH2 triangles, the difference in those rectangles). Other keys and the
 //! mouse orbit, pan and zoom the camera about the model, which renders the
 //! images again whole (the empty space and the mesh stay); a click selects
-//! the named node strongest at the surface under the pointer. A status line,
-//! a colour bar and a help card are drawn over the view (`hud`). Headless, the same loop runs on a
+//! the named node strongest at the surface under the pointer. Views: the
+//! field, the mesh, their depth difference, and the field evaluations per
+//! pixel. A status line, a colour bar over the heat-map views and a help
+//! card are drawn over the view (`hud`). Headless, the same loop runs on a
 //! list of keys instead of a window, so the previewer runs where there is no
 //! display (and under `cargo test`).
 
@@ -139,7 +141,7 @@ impl Action {
             Action::Move(1, _) => "move the node up or down the screen",
             Action::Move(..) => "move the node away or nearer",
             Action::NextNode => "move the next named node",
-            Action::NextView => "next view: field, mesh, depth difference",
+            Action::NextView => "next view: field, mesh, depth difference, cost",
             Action::NextScriptFrame => "apply the script's next frame",
             Action::ToggleRectangles => "outline the last frame's dirty rectangles",
             Action::Orbit(..) => "orbit the camera about the model",
@@ -185,6 +187,8 @@ enum View {
     Mesh,
     /// Mesh depth less field depth, red where the mesh lies behind.
     Difference,
+    /// Field evaluations per pixel, on magma.
+    Cost,
 }
 
 /// Moves through a model's edits one key at a time, keeping every image up to date.
@@ -318,7 +322,8 @@ impl Viewer {
                 self.view = match self.view {
                     View::Field => View::Mesh,
                     View::Mesh => View::Difference,
-                    View::Difference => View::Field,
+                    View::Difference => View::Cost,
+                    View::Cost => View::Field,
                 }
             }
             Action::NextScriptFrame => {
@@ -419,9 +424,13 @@ impl Viewer {
     pub fn screen(&self) -> Rgb8Image {
         let mut image = self.image();
         hud::status(&mut image, &self.status());
-        if self.view == View::Difference {
-            let scale = Scale::Signed { max: self.session.lattice().cell };
-            hud::colour_bar(&mut image, scale, "mesh depth - field depth, 1 cell full scale", "scene units");
+        match self.view {
+            View::Difference => {
+                let scale = Scale::Signed { max: self.session.lattice().cell };
+                hud::colour_bar(&mut image, scale, "mesh depth - field depth, 1 cell full scale", "scene units");
+            }
+            View::Cost => hud::colour_bar(&mut image, self.cost_scale(), "field evaluations per pixel", "evaluations"),
+            View::Field | View::Mesh => {}
         }
         if self.help {
             hud::help(&mut image, &Action::help());
@@ -436,6 +445,7 @@ impl Viewer {
             View::Field => "field",
             View::Mesh => "mesh",
             View::Difference => "depth difference",
+            View::Cost => "cost",
         };
         let mode = format!("{:?}", self.session.mode()).to_lowercase();
         let node = self.names.get(self.selected).map_or("no named node", String::as_str);
@@ -450,8 +460,24 @@ impl Viewer {
         parts
     }
 
+    /// The field evaluations per pixel of the field render.
+    fn evaluations(&self) -> &[f32] {
+        self.session.field_frame().aov("evals.Y").unwrap_or(&[])
+    }
+
+    /// The cost view's scale: the evaluations' 99th percentile, rounded up.
+    fn cost_scale(&self) -> Scale {
+        Scale::from_data(self.evaluations(), false, 1.0)
+    }
+
     fn view_image(&self) -> Rgb8Image {
         match self.view {
+            View::Cost => {
+                let frame = self.session.field_frame();
+                let scale = self.cost_scale();
+                let pixels = self.evaluations().iter().flat_map(|&e| scale.color(e)).collect();
+                Rgb8Image { width: frame.width, height: frame.height, pixels }
+            }
             View::Field => frame_image(self.session.field_frame()),
             View::Mesh => frame_image(self.session.mesh_frame()),
             View::Difference => {
@@ -470,6 +496,7 @@ impl Viewer {
             View::Field => "field",
             View::Mesh => "mesh",
             View::Difference => "mesh − field depth (±1 cell)",
+            View::Cost => "field evaluations per pixel",
         };
         let node = self.names.get(self.selected).map_or("no named node", String::as_str);
         let last = self.last.map_or(String::new(), |(s, dirty)| {
@@ -667,10 +694,14 @@ mod tests {
         v.act(Action::NextView).unwrap();
         let difference = v.image();
         v.act(Action::NextView).unwrap();
-        assert_eq!(v.image().pixels, field.pixels, "three presses come back to the field");
+        let cost = v.image();
+        assert!(v.status()[0] == "cost", "{:?}", v.status());
+        v.act(Action::NextView).unwrap();
+        assert_eq!(v.image().pixels, field.pixels, "four presses come back to the field");
         assert_ne!(mesh.pixels, field.pixels);
         assert_ne!(difference.pixels, field.pixels);
-        for image in [&field, &mesh, &difference] {
+        assert_ne!(cost.pixels, field.pixels);
+        for image in [&field, &mesh, &difference, &cost] {
             assert_eq!((image.width, image.height), (48, 36));
         }
         v.act(Action::Move(0, 1.0)).unwrap();
