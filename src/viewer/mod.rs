@@ -6,11 +6,11 @@
 //! mouse orbit, pan and zoom the camera about the model, which renders the
 //! images again whole (the empty space and the mesh stay); a click selects
 //! the named node strongest at the surface under the pointer. Views: the
-//! field, the mesh, their depth difference, and the field evaluations per
-//! pixel. A status line, a colour bar over the heat-map views and a help
-//! card are drawn over the view (`hud`). Headless, the same loop runs on a
-//! list of keys instead of a window, so the previewer runs where there is no
-//! display (and under `cargo test`).
+//! field, the mesh, their depth difference, the angle between their normals,
+//! and the field evaluations per pixel. A status line, a colour bar over the
+//! heat-map views and a help card are drawn over the view (`hud`).
+//! Headless, the same loop runs on a list of keys instead of a window, so the
+//! previewer runs where there is no display (and under `cargo test`).
 
 mod hud;
 mod window;
@@ -21,7 +21,7 @@ use anyhow::Context;
 use glam::Vec3;
 
 use crate::camera::Camera;
-use crate::compare::{Rgb8Image, Scale, frame_image};
+use crate::compare::{Metric, Rgb8Image, Scale, differences, frame_image};
 use crate::field::Edit;
 use crate::pipeline::{EditSession, outline_dirty};
 use crate::scene::Script;
@@ -57,6 +57,9 @@ pub enum Action {
     /// Select the named node strongest at the surface under this pixel.
     SelectAt(u32, u32),
 }
+
+/// The normal-error view's full scale: 30°, beyond which pixels are marked.
+const NORMAL_ERROR_SCALE: Scale = Scale::Magnitude { max: 30.0 };
 
 /// Degrees of orbit per pixel a mouse drag moves.
 pub const DRAG_DEGREES_PER_PIXEL: f32 = 0.4;
@@ -141,7 +144,7 @@ impl Action {
             Action::Move(1, _) => "move the node up or down the screen",
             Action::Move(..) => "move the node away or nearer",
             Action::NextNode => "move the next named node",
-            Action::NextView => "next view: field, mesh, depth difference, cost",
+            Action::NextView => "next view: field, mesh, depth and normal differences, cost",
             Action::NextScriptFrame => "apply the script's next frame",
             Action::ToggleRectangles => "outline the last frame's dirty rectangles",
             Action::Orbit(..) => "orbit the camera about the model",
@@ -187,6 +190,8 @@ enum View {
     Mesh,
     /// Mesh depth less field depth, red where the mesh lies behind.
     Difference,
+    /// The angle between the mesh's and the field's normals, on magma.
+    NormalError,
     /// Field evaluations per pixel, on magma.
     Cost,
 }
@@ -322,7 +327,8 @@ impl Viewer {
                 self.view = match self.view {
                     View::Field => View::Mesh,
                     View::Mesh => View::Difference,
-                    View::Difference => View::Cost,
+                    View::Difference => View::NormalError,
+                    View::NormalError => View::Cost,
                     View::Cost => View::Field,
                 }
             }
@@ -429,6 +435,9 @@ impl Viewer {
                 let scale = Scale::Signed { max: self.session.lattice().cell };
                 hud::colour_bar(&mut image, scale, "mesh depth - field depth, 1 cell full scale", "scene units");
             }
+            View::NormalError => {
+                hud::colour_bar(&mut image, NORMAL_ERROR_SCALE, "angle between mesh and field normals", "deg");
+            }
             View::Cost => hud::colour_bar(&mut image, self.cost_scale(), "field evaluations per pixel", "evaluations"),
             View::Field | View::Mesh => {}
         }
@@ -445,6 +454,7 @@ impl Viewer {
             View::Field => "field",
             View::Mesh => "mesh",
             View::Difference => "depth difference",
+            View::NormalError => "normal error",
             View::Cost => "cost",
         };
         let mode = format!("{:?}", self.session.mode()).to_lowercase();
@@ -472,6 +482,12 @@ impl Viewer {
 
     fn view_image(&self) -> Rgb8Image {
         match self.view {
+            View::NormalError => {
+                let (field, mesh) = (self.session.field_frame(), self.session.mesh_frame());
+                let angles = differences(mesh, field, Metric::Normal);
+                let pixels = angles.iter().flat_map(|&a| NORMAL_ERROR_SCALE.color(a)).collect();
+                Rgb8Image { width: field.width, height: field.height, pixels }
+            }
             View::Cost => {
                 let frame = self.session.field_frame();
                 let scale = self.cost_scale();
@@ -496,6 +512,7 @@ impl Viewer {
             View::Field => "field",
             View::Mesh => "mesh",
             View::Difference => "mesh − field depth (±1 cell)",
+            View::NormalError => "mesh against field normals (0–30°)",
             View::Cost => "field evaluations per pixel",
         };
         let node = self.names.get(self.selected).map_or("no named node", String::as_str);
@@ -694,14 +711,17 @@ mod tests {
         v.act(Action::NextView).unwrap();
         let difference = v.image();
         v.act(Action::NextView).unwrap();
+        let normals = v.image();
+        v.act(Action::NextView).unwrap();
         let cost = v.image();
         assert!(v.status()[0] == "cost", "{:?}", v.status());
         v.act(Action::NextView).unwrap();
-        assert_eq!(v.image().pixels, field.pixels, "four presses come back to the field");
+        assert_eq!(v.image().pixels, field.pixels, "five presses come back to the field");
+        assert_ne!(normals.pixels, cost.pixels);
         assert_ne!(mesh.pixels, field.pixels);
         assert_ne!(difference.pixels, field.pixels);
         assert_ne!(cost.pixels, field.pixels);
-        for image in [&field, &mesh, &difference, &cost] {
+        for image in [&field, &mesh, &difference, &normals, &cost] {
             assert_eq!((image.width, image.height), (48, 36));
         }
         v.act(Action::Move(0, 1.0)).unwrap();
