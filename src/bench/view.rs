@@ -8,10 +8,10 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use glam::{Quat, Vec3};
+use glam::Vec3;
 use serde::Serialize;
 
-use crate::camera::Camera;
+use crate::camera::{CameraMove, Orbit};
 use crate::field::{Edit, EvalMode};
 use crate::frame::Size;
 use crate::pipeline::{EditSession, PipelineError, PolygonizeSettings, Result, with_threads};
@@ -111,39 +111,27 @@ fn timed(f: impl FnOnce()) -> f64 {
     start.elapsed().as_secs_f64()
 }
 
-/// `count` camera moves, each `step(camera, k)`, timed as the session renders again.
-fn camera_events(
-    session: &mut EditSession,
-    kind: &str,
-    count: u32,
-    step: fn(&Camera, Vec3, u32) -> Camera,
-) -> EventLatency {
+/// `count` moves of an orbiting camera, the k-th `step(k)`, timed as the session renders again.
+fn camera_events(session: &mut EditSession, kind: &str, count: u32, step: fn(u32) -> CameraMove) -> EventLatency {
     let centre: Vec3 = session.scene().model.bounds().center().into();
+    let mut orbit = Orbit::new(&session.settings().camera, centre, session.field_frame().height);
     let seconds = (0..count)
         .map(|k| {
-            let camera = step(&session.settings().camera, centre, k);
+            let camera = orbit.moved(step(k));
             timed(|| session.set_camera(camera))
         })
         .collect();
     latency(kind, seconds)
 }
 
-/// Ten degrees about the camera's up axis through `centre`.
-fn orbit_step(camera: &Camera, centre: Vec3, _: u32) -> Camera {
-    let (eye, up) = (Vec3::from(camera.eye), Vec3::from(camera.up()));
-    let turned = centre + Quat::from_axis_angle(up, 10f32.to_radians()) * (eye - centre);
-    Camera::look_at(turned, centre, up, fov_degrees(camera))
+/// Ten degrees about the camera's up axis.
+fn orbit_step(_: u32) -> CameraMove {
+    CameraMove::Orbit(10.0, 0.0)
 }
 
 /// A tenth in, then out again, alternately.
-fn zoom_step(camera: &Camera, centre: Vec3, k: u32) -> Camera {
-    let factor = if k.is_multiple_of(2) { 0.9 } else { 1.0 / 0.9 };
-    let (eye, up) = (Vec3::from(camera.eye), Vec3::from(camera.up()));
-    Camera::look_at(centre + (eye - centre) * factor, centre, up, fov_degrees(camera))
-}
-
-fn fov_degrees(camera: &Camera) -> f32 {
-    2.0 * camera.tan_half_fov().atan().to_degrees()
+fn zoom_step(k: u32) -> CameraMove {
+    CameraMove::Zoom(if k.is_multiple_of(2) { 0.9 } else { 1.0 / 0.9 })
 }
 
 /// `count` moves of the first named node along the screen, back and forth

@@ -69,13 +69,16 @@ pub(super) struct EdgeVertices {
 }
 
 /// The kind of an edge by its key's remainders, `x + 4y + 16z`.
-fn kind_of_pattern() -> [u8; 64] {
+const KIND_OF_PATTERN: [u8; 64] = {
     let mut table = [NO_KIND; 64];
-    for (kind, [x, y, z]) in KINDS.iter().enumerate() {
+    let mut kind = 0;
+    while kind < KINDS.len() {
+        let [x, y, z] = KINDS[kind];
         table[(x + 4 * y + 16 * z) as usize] = kind as u8;
+        kind += 1;
     }
     table
-}
+};
 
 impl EdgeVertices {
     /// An empty store for the edges of cubes, or with `centres` of a body-centred lattice too.
@@ -92,9 +95,8 @@ impl EdgeVertices {
     /// The brick of edge `key` and its index there.
     #[inline]
     fn locate(&self, key: EdgeKey) -> (IVec3, usize) {
-        static KIND: std::sync::OnceLock<[u8; 64]> = std::sync::OnceLock::new();
         let rest = key & IVec3::splat(3);
-        let kind = KIND.get_or_init(kind_of_pattern)[(rest.x + 4 * rest.y + 16 * rest.z) as usize];
+        let kind = KIND_OF_PATTERN[(rest.x + 4 * rest.y + 16 * rest.z) as usize];
         assert!(usize::from(kind) < self.kinds, "{key} is no edge key of this lattice");
         let cube: IVec3 = key >> 2;
         let within = cube & IVec3::splat((1 << BRICK_SHIFT) - 1);

@@ -18,9 +18,11 @@ pub use snap::{SnapReport, snap_to_corners};
 
 use super::Mesh;
 
+/// A vertex no triangle uses.
+const UNUSED: u32 = u32::MAX;
+
 /// Removes the vertices no triangle uses, keeping the others in order.
 pub(super) fn drop_unused_vertices(mesh: &mut Mesh) {
-    const UNUSED: u32 = u32::MAX;
     let mut number = vec![UNUSED; mesh.positions.len()];
     for &i in mesh.triangles.iter().flatten() {
         number[i as usize] = 0;
@@ -32,27 +34,24 @@ pub(super) fn drop_unused_vertices(mesh: &mut Mesh) {
             kept += 1;
         }
     }
-    let keep = |i: usize| number[i] != UNUSED;
-    let retain = |values: &mut Vec<glam::Vec3>| {
-        let mut i = 0;
-        values.retain(|_| {
-            i += 1;
-            keep(i - 1)
-        });
-    };
-    retain(&mut mesh.positions);
-    retain(&mut mesh.normals);
+    keep_used(&mut mesh.positions, &number);
+    keep_used(&mut mesh.normals, &number);
     if let Some(colors) = &mut mesh.colors {
-        retain(colors);
+        keep_used(colors, &number);
     }
     if let Some(error) = &mut mesh.error {
-        let mut i = 0;
-        error.retain(|_| {
-            i += 1;
-            keep(i - 1)
-        });
+        keep_used(error, &number);
     }
     for t in &mut mesh.triangles {
         *t = t.map(|i| number[i as usize]);
     }
+}
+
+/// Keeps the entries of `values` whose vertex `number` does not mark unused.
+fn keep_used<T>(values: &mut Vec<T>, number: &[u32]) {
+    let mut i = 0;
+    values.retain(|_| {
+        i += 1;
+        number[i - 1] != UNUSED
+    });
 }

@@ -1,4 +1,9 @@
-//! The pinhole camera: look-at, vertical field of view, rays through pixel centres.
+//! The pinhole camera: look-at, vertical field of view, rays through pixel
+//! centres; and a camera orbiting a centre (`orbit`).
+
+mod orbit;
+
+pub use orbit::{CameraMove, Orbit};
 
 use glam::{Vec3, Vec3A};
 
