@@ -7,7 +7,9 @@ use glam::{Vec2, Vec3, Vec3A};
 use super::RayTarget;
 use crate::field::DEFAULT_COLOR;
 use crate::frame::Frame;
-use crate::trace::{PixelRect, PixelSample, RenderSettings, Retrace, assemble, render_pixels, rerender_pixels};
+use crate::trace::{
+    PixelRect, PixelSample, Refinement, RenderSettings, Retrace, assemble, render_pixels, rerender_pixels, retrace_listed,
+};
 
 /// Totals over a mesh render.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -57,6 +59,23 @@ pub fn rerender_mesh(
     let done = rerender_pixels(frame, rects, MESH_COUNTERS, |x, y, _| {
         Some(Retrace::Changed(shade_pixel(target, settings, x, y)))
     });
+    MeshRenderStats::of(&done.changed)
+}
+
+/// Casts the next batch of about `max_rays` stale pixels of `refinement`
+/// into `frame`: once the refinement is done, `frame` equals a full render.
+pub fn refine_mesh(
+    target: &impl RayTarget,
+    settings: &RenderSettings,
+    frame: &mut Frame,
+    refinement: &mut Refinement,
+    max_rays: usize,
+) -> MeshRenderStats {
+    let batch = refinement.next_batch(max_rays);
+    let done = retrace_listed(frame, &batch, MESH_COUNTERS, |x, y, _, _| {
+        Some(Retrace::Changed(shade_pixel(target, settings, x, y)))
+    });
+    refinement.finish(&batch);
     MeshRenderStats::of(&done.changed)
 }
 

@@ -78,7 +78,11 @@ pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
         return show(&mut viewer, &pool);
     }
     for action in actions {
-        pool.install(|| viewer.act(action))?;
+        pool.install(|| {
+            viewer.act(action)?;
+            viewer.settle();
+            anyhow::Ok(())
+        })?;
     }
     eprintln!("{}", viewer.title());
     let image = if a.hud { viewer.screen() } else { viewer.image() };

@@ -4,13 +4,14 @@
 //! triangles in the BVH2, the mesh image and the depth difference in those
 //! rectangles — and checkable, frame by frame, against work from scratch.
 
+use std::borrow::Cow;
 use std::time::Instant;
 
 use serde::Serialize;
 
 use super::error::{PipelineError, Result};
 use super::polygonize::{MAX_RES, PolygonizeSettings, polygonizer_on};
-use crate::bvh::{BvhUpdate, DynamicMesh, render_mesh, rerender_mesh};
+use crate::bvh::{BvhUpdate, DynamicMesh, refine_mesh, render_mesh};
 use crate::camera::Camera;
 use crate::compare::{Metric, Rgb8Image, difference_at, differences};
 use crate::field::{Edit, EmptySpace, EvalMode, Model, ModelField};
@@ -19,7 +20,8 @@ use crate::geom::{Aabb, Support};
 use crate::mesh::{Lattice, Polygonizer, canonical_triangles, skeleton_seeds};
 use crate::scene::Scene;
 use crate::trace::{
-    PixelRect, RenderSettings, changed_space, merge_rects, render, render_model, rerender, screen_rect,
+    ChangedSpace, PixelRect, PixelState, Refinement, RenderSettings, changed_space, merge_rects, refine, render_model,
+    screen_rect,
 };
 
 /// One frame's measurements.
@@ -96,6 +98,50 @@ pub struct EditSession {
     /// Mesh depth less field depth, per pixel.
     depth_diff: Vec<f32>,
     frames: usize,
+    /// What the last edits and camera moves left to do.
+    todo: Todo,
+}
+
+/// What the last edits and camera moves left to do, in the order
+/// [`EditSession::refine`] does it: the field image's stale pixels, the
+/// mesh near the edits, the mesh image's stale pixels, the depth difference.
+struct Todo {
+    field: Refinement,
+    /// The change the field's pixels to retrace are traced against.
+    changed: Option<ChangedSpace>,
+    /// The edits' regions and support regions, not yet re-polygonized.
+    remesh: Option<(Vec<Aabb>, Vec<Support>)>,
+    mesh: Refinement,
+    /// Where the depth difference is to be computed again.
+    diff: Vec<PixelRect>,
+    /// The measurements of the frame under way.
+    row: FrameRow,
+    /// Field rays traced per second in the last batch, to size the next.
+    rays_per_second: f64,
+}
+
+/// The work a session has left, as the previewer's status says it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pending {
+    /// The field image, in the pass of this block edge.
+    Field(u32),
+    /// The mesh near the edits.
+    Remesh,
+    /// The mesh image, in the pass of this block edge.
+    Mesh(u32),
+    /// The depth difference.
+    Difference,
+}
+
+impl std::fmt::Display for Pending {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Pending::Field(step) => write!(f, "refining the field, {step}x{step} pass"),
+            Pending::Remesh => write!(f, "meshing the edit"),
+            Pending::Mesh(step) => write!(f, "refining the mesh, {step}x{step} pass"),
+            Pending::Difference => write!(f, "updating the difference"),
+        }
+    }
 }
 
 impl EditSession {
@@ -110,6 +156,15 @@ impl EditSession {
         let dynamic = DynamicMesh::build(&polygonizer);
         let mesh_frame = render_mesh(&dynamic, &settings, &|_| {}).0;
         let depth_diff = differences(&mesh_frame, &field_frame, Metric::Depth);
+        let todo = Todo {
+            field: Refinement::new(size.0, size.1),
+            changed: None,
+            remesh: None,
+            mesh: Refinement::new(size.0, size.1),
+            diff: vec![],
+            row: FrameRow::default(),
+            rays_per_second: 1e6,
+        };
         Ok(Self {
             scene,
             mode,
@@ -122,6 +177,7 @@ impl EditSession {
             mesh_frame,
             depth_diff,
             frames: 0,
+            todo,
         })
     }
 
@@ -182,11 +238,20 @@ impl EditSession {
     /// Looks through `camera` from now on: the field, the mesh and their
     /// difference are rendered again whole (the empty space and the mesh keep).
     pub fn set_camera(&mut self, camera: Camera) {
+        self.begin_camera(camera);
+        self.finish();
+    }
+
+    /// [`Self::set_camera`] up to the first, coarse pass over the field and
+    /// mesh images; [`Self::refine`] does the rest.
+    pub fn begin_camera(&mut self, camera: Camera) {
         self.settings.camera = camera;
-        let field = ModelField::new(&self.scene.model, self.mode);
-        self.field_frame = render(&field.skipping(&self.empty), &self.settings, &|_| {}).0;
-        self.mesh_frame = render_mesh(&self.dynamic, &self.settings, &|_| {}).0;
-        self.depth_diff = differences(&self.mesh_frame, &self.field_frame, Metric::Depth);
+        let todo = &mut self.todo;
+        todo.field.mark_all();
+        todo.changed = None;
+        todo.mesh.mark_all();
+        todo.diff = vec![PixelRect::full(self.settings.width, self.settings.height)];
+        self.coarse_passes();
     }
 
     /// Applies one frame's edits and updates everything incrementally. An edit
@@ -196,6 +261,15 @@ impl EditSession {
     /// (grown too far for the lattice) is reported with its edits applied and
     /// the images not updated.
     pub fn apply(&mut self, edits: &[Edit]) -> Result<FrameUpdate> {
+        let begun = self.begin_apply(edits);
+        let row = self.finish();
+        begun.map(|update| FrameUpdate { row, dirty: update.dirty })
+    }
+
+    /// [`Self::apply`] up to the first, coarse pass over the field image's
+    /// dirty rectangles, so no pixel there shows the field before the edits;
+    /// [`Self::refine`] does the rest. The row holds the work so far.
+    pub fn begin_apply(&mut self, edits: &[Edit]) -> Result<FrameUpdate> {
         let mut row = FrameRow { frame: self.frames, ..Default::default() };
         let clock = Instant::now();
         let (mut regions, mut support_regions, mut refused) = (vec![], vec![], None);
@@ -217,19 +291,23 @@ impl EditSession {
             return Err(e.into());
         }
         check_edited_model(&self.scene.model, self.polygonizer.lattice())?;
-        let dirty = self.retrace(&support_regions, &mut row);
-        self.remesh(&regions, &support_regions, &mut row);
-        row.incremental_s = row.apply_s + row.field_s + row.polygonize_s + row.bvh_s + row.mesh_render_s + row.diff_s;
-        row.triangles = self.dynamic.triangle_count();
+        let dirty = self.mark_changed(&support_regions, &mut row);
+        let remesh = self.todo.remesh.get_or_insert_default();
+        remesh.0.extend(regions);
+        remesh.1.extend(support_regions);
+        self.todo.diff.extend(&dirty);
+        self.todo.row = row;
         self.frames += 1;
+        self.coarse_passes();
         match refused {
             Some(e) => Err(e.into()),
-            None => Ok(FrameUpdate { row, dirty }),
+            None => Ok(FrameUpdate { row: self.todo.row.clone(), dirty }),
         }
     }
 
-    /// Re-traces the rays the change may have altered; returns the dirty rectangles.
-    fn retrace(&mut self, support_regions: &[Support], row: &mut FrameRow) -> Vec<PixelRect> {
+    /// Marks stale the field pixels whose rays the change may alter; returns
+    /// the dirty rectangles.
+    fn mark_changed(&mut self, support_regions: &[Support], row: &mut FrameRow) -> Vec<PixelRect> {
         let (w, h) = (self.settings.width, self.settings.height);
         let supports: Vec<Aabb> = support_regions.iter().map(Support::bounds).collect();
         let field = ModelField::new(&self.scene.model, self.mode);
@@ -238,41 +316,165 @@ impl EditSession {
         let changed = changed_space(&field, &self.settings, support_regions);
         let rects: Vec<PixelRect> = changed.screen_rect(&self.settings.camera, w, h).into_iter().collect();
         row.dirty_fraction = rects.iter().map(PixelRect::area).sum::<u64>() as f64 / f64::from(w * h);
-        let retraced = rerender(&field.skipping(&self.empty), &self.settings, &mut self.field_frame, &changed);
+        self.todo.field.mark(&rects, PixelState::Retrace);
+        self.todo.changed = Some(changed);
         row.field_s = clock.elapsed().as_secs_f64();
-        row.retraced_fraction = retraced.rays as f64 / f64::from(w * h);
-        row.field_evals = retraced.field_evals;
         rects
     }
 
-    /// Re-polygonizes near the change, updates the BVH2, re-casts the mesh
-    /// image and the depth difference in the rectangles the triangles moved in.
-    fn remesh(&mut self, regions: &[Aabb], support_regions: &[Support], row: &mut FrameRow) {
+    /// The coarse passes over the images' stale pixels: after them no pixel
+    /// of the previews is stale.
+    fn coarse_passes(&mut self) {
+        while !self.todo.field.coarse_pass_done() {
+            self.refine_field(usize::MAX);
+        }
+        while !self.todo.mesh.coarse_pass_done() {
+            self.refine_mesh(usize::MAX);
+        }
+    }
+
+    /// Finishes what the last edits and camera moves left; returns the
+    /// measurements of the last edit's frame, whole.
+    pub fn finish(&mut self) -> FrameRow {
+        while self.step(usize::MAX) {}
+        let row = &mut self.todo.row;
+        row.incremental_s = row.apply_s + row.field_s + row.polygonize_s + row.bvh_s + row.mesh_render_s + row.diff_s;
+        row.triangles = self.dynamic.triangle_count();
+        row.clone()
+    }
+
+    /// Does what is left, pass by pass, for about `budget` (at least one
+    /// batch of rays or one re-polygonization); returns whether work remains.
+    pub fn refine(&mut self, budget: std::time::Duration) -> bool {
+        let start = Instant::now();
+        loop {
+            let left = budget.saturating_sub(start.elapsed()).as_secs_f64();
+            let rays = (self.todo.rays_per_second * left) as usize;
+            if !self.step(rays.max(MIN_BATCH_RAYS)) {
+                self.finish();
+                return false;
+            }
+            if start.elapsed() >= budget {
+                return true;
+            }
+        }
+    }
+
+    /// The work left, `None` once everything is up to date.
+    #[must_use]
+    pub fn pending(&self) -> Option<Pending> {
+        let todo = &self.todo;
+        if let Some(step) = todo.field.level() {
+            Some(Pending::Field(step))
+        } else if todo.remesh.is_some() {
+            Some(Pending::Remesh)
+        } else if let Some(step) = todo.mesh.level() {
+            Some(Pending::Mesh(step))
+        } else {
+            (!todo.diff.is_empty()).then_some(Pending::Difference)
+        }
+    }
+
+    /// One piece of the work left (a batch of about `max_rays`); false when none was left.
+    fn step(&mut self, max_rays: usize) -> bool {
+        match self.pending() {
+            Some(Pending::Field(_)) => self.refine_field(max_rays),
+            Some(Pending::Remesh) => {
+                let (regions, support_regions) = self.todo.remesh.take().unwrap_or_default();
+                self.remesh(&regions, &support_regions);
+            }
+            Some(Pending::Mesh(_)) => self.refine_mesh(max_rays),
+            Some(Pending::Difference) => {
+                let clock = Instant::now();
+                let rects = merge_rects(std::mem::take(&mut self.todo.diff));
+                update_depth_diff(&mut self.depth_diff, &self.mesh_frame, &self.field_frame, &rects);
+                self.todo.row.diff_s += clock.elapsed().as_secs_f64();
+            }
+            None => return false,
+        }
+        true
+    }
+
+    /// Traces a batch of the field image's stale pixels.
+    fn refine_field(&mut self, max_rays: usize) {
+        let field = ModelField::new(&self.scene.model, self.mode);
+        let clock = Instant::now();
+        let todo = &mut self.todo;
+        let field = field.skipping(&self.empty);
+        let stats = refine(&field, &self.settings, &mut self.field_frame, &mut todo.field, todo.changed.as_ref(), max_rays);
+        let seconds = clock.elapsed().as_secs_f64();
+        todo.row.field_s += seconds;
+        todo.row.field_evals += stats.field_evals;
+        todo.row.retraced_fraction += stats.rays as f64 / f64::from(self.settings.width * self.settings.height);
+        if stats.rays >= MIN_BATCH_RAYS as u64 {
+            todo.rays_per_second = stats.rays as f64 / seconds.max(1e-6);
+        }
+        if todo.field.is_done() {
+            todo.changed = None;
+        }
+    }
+
+    /// Casts a batch of the mesh image's stale pixels.
+    fn refine_mesh(&mut self, max_rays: usize) {
+        let clock = Instant::now();
+        refine_mesh(&self.dynamic, &self.settings, &mut self.mesh_frame, &mut self.todo.mesh, max_rays);
+        self.todo.row.mesh_render_s += clock.elapsed().as_secs_f64();
+    }
+
+    /// The field image as it stands: stale pixels show the nearest traced one.
+    #[must_use]
+    pub fn field_preview(&self) -> Cow<'_, Frame> {
+        self.todo.field.preview(&self.field_frame)
+    }
+
+    /// The mesh image as it stands: stale pixels show the nearest cast one.
+    #[must_use]
+    pub fn mesh_preview(&self) -> Cow<'_, Frame> {
+        self.todo.mesh.preview(&self.mesh_frame)
+    }
+
+    /// The depth difference of the two previews.
+    #[must_use]
+    pub fn depth_diff_preview(&self) -> Cow<'_, [f32]> {
+        match self.pending() {
+            None => Cow::Borrowed(&self.depth_diff),
+            Some(_) => Cow::Owned(differences(&self.mesh_preview(), &self.field_preview(), Metric::Depth)),
+        }
+    }
+
+    /// Re-polygonizes near the change and updates the BVH2; the mesh image
+    /// and the depth difference are then stale in the rectangles the
+    /// triangles moved in.
+    fn remesh(&mut self, regions: &[Aabb], support_regions: &[Support]) {
         let (w, h) = (self.settings.width, self.settings.height);
         let field = ModelField::new(&self.scene.model, self.mode);
+        let row = &mut self.todo.row;
         let clock = Instant::now();
         let seeds = skeleton_seeds(&self.scene.model, self.scene.model.root());
         let remeshed = self.polygonizer.repolygonize_within(&field, support_regions, &seeds);
-        row.polygonize_s = clock.elapsed().as_secs_f64();
+        row.polygonize_s += clock.elapsed().as_secs_f64();
         let clock = Instant::now();
         row.bvh_rebuilt = self.dynamic.update(&self.polygonizer, &remeshed) == BvhUpdate::Rebuilt;
-        row.bvh_s = clock.elapsed().as_secs_f64();
+        row.bvh_s += clock.elapsed().as_secs_f64();
         // Triangles change only within two lattice cells of each edit's region.
         let margin = 2.0 * self.polygonizer.lattice().cell;
         let camera = &self.settings.camera;
         let mesh_rects =
             merge_rects(regions.iter().filter_map(|r| screen_rect(camera, w, h, &r.padded(margin))).collect());
-        let clock = Instant::now();
-        rerender_mesh(&self.dynamic, &self.settings, &mut self.mesh_frame, &mesh_rects);
-        row.mesh_render_s = clock.elapsed().as_secs_f64();
-        let clock = Instant::now();
-        update_depth_diff(&mut self.depth_diff, &self.mesh_frame, &self.field_frame, &mesh_rects);
-        row.diff_s = clock.elapsed().as_secs_f64();
+        self.todo.mesh.mark(&mesh_rects, PixelState::Trace);
+        self.todo.diff.extend(mesh_rects);
+    }
+
+    /// Whether the images, the mesh and the difference are up to date.
+    #[must_use]
+    pub fn is_refined(&self) -> bool {
+        self.pending().is_none()
     }
 
     /// Renders and polygonizes from scratch, on a copy of the model with cold
     /// caches on the same lattices (so a sample an edit should have cleared and
-    /// did not shows), and compares the session's images and mesh with them.
+    /// did not shows), and compares the session's images and mesh with them
+    /// (as [`Self::finish`] leaves them).
     #[must_use]
     pub fn verify(&self) -> Verification {
         let fresh_model = self.scene.model.clone();
@@ -289,6 +491,10 @@ impl EditSession {
         Verification { render_s, full_s, mismatch }
     }
 }
+
+/// The fewest field rays a batch of [`EditSession::refine`] traces: fewer
+/// would cost more in set-up than in tracing.
+const MIN_BATCH_RAYS: usize = 1024;
 
 /// Refuses an edited model the frame's work cannot handle: one too far from
 /// the origin for single precision, or one grown past the largest mesh the

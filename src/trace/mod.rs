@@ -1,17 +1,20 @@
 //! The field ray caster: segment tracing with local Lipschitz bounds, root
-//! refinement, shading from the analytic gradient, rows rendered in parallel.
+//! refinement, shading from the analytic gradient, rows rendered in parallel,
+//! or stale pixels refined progressively (`progressive`).
 
 mod changed_space;
 mod dirty_rects;
+pub mod progressive;
 mod render;
 mod segment;
 mod shade;
 
 pub use changed_space::ChangedSpace;
 pub use dirty_rects::{PixelRect, merge_rects, screen_rect};
+pub use progressive::{PixelState, Refinement};
 pub use render::{
     KeptPixel, PixelSample, RenderSettings, RenderStats, Rerendered, Retrace, assemble, changed_space, outward_normal,
-    render, render_model, render_pixels, rerender, rerender_pixels,
+    refine, render, render_model, render_pixels, rerender, rerender_pixels, retrace_listed,
 };
 pub use segment::{Crossing, TraceOptions, TraceResult, march, trace_ray};
 pub use shade::Lighting;

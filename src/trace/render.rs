@@ -8,6 +8,7 @@ use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
 use super::changed_space::ChangedSpace;
+use super::progressive::{PixelState, Refinement};
 use super::segment::{Crossing, TraceOptions, march, snap_reach, trace_ray};
 use super::shade::Lighting;
 use crate::camera::Camera;
@@ -147,17 +148,10 @@ pub fn rerender<F: Field + ?Sized>(
     changed: &ChangedSpace,
 ) -> RenderStats {
     let rect = changed.screen_rect(&settings.camera, settings.width, settings.height);
-    let done = rerender_pixels(frame, rect.as_slice(), FIELD_COUNTERS, |x, y, depth| {
+    rerender_pixels(frame, rect.as_slice(), FIELD_COUNTERS, |x, y, depth| {
         retrace_pixel(field, settings, x, y, depth, changed)
-    });
-    let mut stats = RenderStats::of(&done.changed);
-    for kept in &done.kept {
-        stats.rays += 1;
-        stats.hits += u64::from(kept.hit);
-        stats.steps += u64::from(kept.counts[0]);
-        stats.field_evals += u64::from(kept.counts[1]);
-    }
-    stats
+    })
+    .stats()
 }
 
 /// What re-rendering a pixel whose ray can meet the change did.
@@ -235,15 +229,51 @@ pub fn rerender_pixels(
     counters: [&str; 2],
     pixel: impl Fn(u32, u32, f32) -> Option<Retrace> + Sync,
 ) -> Rerendered {
-    let pixels: Vec<(u32, u32)> =
-        rects.iter().flat_map(|r| (r.y0..r.y1).flat_map(move |y| (r.x0..r.x1).map(move |x| (x, y)))).collect();
+    let pixels: Vec<(u32, u32, PixelState)> = rects
+        .iter()
+        .flat_map(|r| (r.y0..r.y1).flat_map(move |y| (r.x0..r.x1).map(move |x| (x, y, PixelState::Retrace))))
+        .collect();
+    retrace_listed(frame, &pixels, counters, |x, y, _, depth| pixel(x, y, depth))
+}
+
+/// Traces the next batch of about `max_rays` stale pixels of `refinement`
+/// into `frame`, a render of `field` with `settings` that was up to date
+/// before the field changed inside `changed` (for the pixels to retrace)
+/// or the camera moved (for those to trace whole). Once the refinement is
+/// done, `frame` equals a full render (see [`crate::trace::progressive`]).
+pub fn refine<F: Field + ?Sized>(
+    field: &F,
+    settings: &RenderSettings,
+    frame: &mut Frame,
+    refinement: &mut Refinement,
+    changed: Option<&ChangedSpace>,
+    max_rays: usize,
+) -> RenderStats {
+    let batch = refinement.next_batch(max_rays);
+    let done = retrace_listed(frame, &batch, FIELD_COUNTERS, |x, y, state, before| match (state, changed) {
+        (PixelState::Retrace, Some(changed)) => retrace_pixel(field, settings, x, y, before, changed),
+        _ => Some(Retrace::Changed(trace_pixel(field, settings, x, y))),
+    });
+    refinement.finish(&batch);
+    done.stats()
+}
+
+/// Calls `pixel` on each of `pixels` with its state and the hit distance it
+/// had (in parallel) and writes the samples it changes into `frame`,
+/// counters into the extra channels named `counters`.
+pub fn retrace_listed(
+    frame: &mut Frame,
+    pixels: &[(u32, u32, PixelState)],
+    counters: [&str; 2],
+    pixel: impl Fn(u32, u32, PixelState, f32) -> Option<Retrace> + Sync,
+) -> Rerendered {
     let depth = &frame.depth;
     let width = frame.width;
     let done: Vec<(usize, Retrace)> = pixels
         .par_iter()
-        .filter_map(|&(x, y)| {
+        .filter_map(|&(x, y, state)| {
             let i = (y * width + x) as usize;
-            pixel(x, y, depth[i]).map(|r| (i, r))
+            pixel(x, y, state, depth[i]).map(|r| (i, r))
         })
         .collect();
     let channels = counters.map(|name| frame.extra.iter().position(|(n, _)| n == name));
@@ -274,6 +304,20 @@ pub struct Rerendered {
     pub changed: Vec<PixelSample>,
     /// Those traced again that stand as they were.
     pub kept: Vec<KeptPixel>,
+}
+
+impl Rerendered {
+    /// The field tracer's totals over every pixel traced again.
+    fn stats(&self) -> RenderStats {
+        let mut stats = RenderStats::of(&self.changed);
+        for kept in &self.kept {
+            stats.rays += 1;
+            stats.hits += u64::from(kept.hit);
+            stats.steps += u64::from(kept.counts[0]);
+            stats.field_evals += u64::from(kept.counts[1]);
+        }
+        stats
+    }
 }
 
 /// Stores what pixel `i` shows: colour, depth, normal, and coverage from the depth.

@@ -16,6 +16,7 @@ mod hud;
 mod window;
 
 use std::path::PathBuf;
+use std::time::Instant;
 
 use anyhow::Context;
 use glam::Vec3;
@@ -218,8 +219,8 @@ pub struct Viewer {
     script: Script,
     next_script_frame: usize,
     frames: usize,
-    /// The last frame's time and dirty fraction.
-    last: Option<(f64, f64)>,
+    /// The last edit's or camera move's timing.
+    last: Option<EventTiming>,
     /// The last frame's dirty rectangles, and whether the view outlines them.
     dirty: (Vec<PixelRect>, bool),
     orbit: Orbit,
@@ -227,8 +228,20 @@ pub struct Viewer {
     snapshots: (PathBuf, usize),
     /// Whether the help card shows.
     help: bool,
-    /// The last camera move's time (the images rendered again whole).
-    camera_s: Option<f64>,
+}
+
+/// How long the last edit or camera move took to show, coarse and refined.
+#[derive(Clone, Debug)]
+struct EventTiming {
+    /// "frame N" or "camera".
+    what: String,
+    start: Instant,
+    /// Seconds until its first, coarse pass showed.
+    first_pass_s: f64,
+    /// Seconds until everything was up to date.
+    refined_s: Option<f64>,
+    /// The fraction of the image its dirty rectangles cover (edits only).
+    dirty: Option<f64>,
 }
 
 impl Viewer {
@@ -265,7 +278,6 @@ impl Viewer {
             orbit,
             snapshots: (snapshot_path, 0),
             help: false,
-            camera_s: None,
         })
     }
 
@@ -293,6 +305,7 @@ impl Viewer {
             Action::ToggleRectangles => self.dirty.1 = !self.dirty.1,
             Action::ToggleHelp => self.help = !self.help,
             Action::Snapshot => {
+                self.settle();
                 self.snapshots.1 += 1;
                 let path = numbered(&self.snapshots.0, self.snapshots.1);
                 self.image().save_png(&path)?;
@@ -301,19 +314,47 @@ impl Viewer {
             Action::SelectAt(x, y) => self.select_at(x, y),
             Action::Orbit(..) | Action::Zoom(_) | Action::Pan(..) => {
                 let camera = self.orbit.moved(action.camera_move().expect("a camera action"));
-                let start = std::time::Instant::now();
-                self.session.set_camera(camera);
-                self.camera_s = Some(start.elapsed().as_secs_f64());
+                let start = Instant::now();
+                self.session.begin_camera(camera);
+                self.last = Some(EventTiming::new("camera", start, None));
                 self.dirty.0.clear();
             }
         }
+        self.note_refined();
         Ok(())
+    }
+
+    /// Whether the last edits or camera moves left work to do.
+    #[must_use]
+    pub fn is_refining(&self) -> bool {
+        !self.session.is_refined()
+    }
+
+    /// Refines the images for about `budget` (see [`EditSession::refine`]).
+    pub fn refine(&mut self, budget: std::time::Duration) {
+        self.session.refine(budget);
+        self.note_refined();
+    }
+
+    /// Finishes every refinement.
+    pub fn settle(&mut self) {
+        self.session.finish();
+        self.note_refined();
+    }
+
+    /// Records when the last event's images became up to date.
+    fn note_refined(&mut self) {
+        if let Some(last) = self.last.as_mut().filter(|l| l.refined_s.is_none())
+            && self.session.is_refined()
+        {
+            last.refined_s = Some(last.start.elapsed().as_secs_f64());
+        }
     }
 
     /// Selects the named node strongest at the surface seen at pixel `x, y`
     /// (nothing changes where the ray missed or no named node reaches).
     fn select_at(&mut self, x: u32, y: u32) {
-        let frame = self.session.field_frame();
+        let frame = self.session.field_preview();
         if x >= frame.width || y >= frame.height {
             return;
         }
@@ -359,12 +400,13 @@ impl Viewer {
         [camera.right(), camera.up(), camera.forward()][axis]
     }
 
-    /// One incremental frame.
+    /// One incremental frame, up to its coarse pass.
     fn apply(&mut self, edits: &[Edit]) -> anyhow::Result<()> {
-        let update = self.session.apply(edits)?;
+        let start = Instant::now();
+        let update = self.session.begin_apply(edits)?;
         self.dirty.0 = update.dirty;
         self.frames += 1;
-        self.last = Some((update.row.incremental_s, update.row.dirty_fraction));
+        self.last = Some(EventTiming::new(&format!("frame {}", self.frames), start, Some(update.row.dirty_fraction)));
         Ok(())
     }
 
@@ -412,48 +454,44 @@ impl Viewer {
         let mode = format!("{:?}", self.session.mode()).to_lowercase();
         let node = self.names.get(self.selected).map_or("no named node", String::as_str);
         let mut parts = vec![view.to_string(), mode, format!("moving {node}")];
-        if let Some((s, dirty)) = self.last {
-            parts.push(format!("frame {}: {:.0} ms, {:.1}% dirty", self.frames, 1e3 * s, 100.0 * dirty));
+        if let Some(last) = &self.last {
+            parts.push(last.describe());
         }
-        if let Some(s) = self.camera_s {
-            parts.push(format!("camera {:.0} ms", 1e3 * s));
+        if let Some(pending) = self.session.pending() {
+            parts.push(pending.to_string());
         }
         parts.push("H: help".into());
         parts
     }
 
-    /// The field evaluations per pixel of the field render.
-    fn evaluations(&self) -> &[f32] {
-        self.session.field_frame().aov("evals.Y").unwrap_or(&[])
+    /// The field evaluations per pixel of the field render, as it stands.
+    fn evaluations(&self) -> Vec<f32> {
+        self.session.field_preview().aov("evals.Y").unwrap_or(&[]).to_vec()
     }
 
     /// The cost view's scale: the evaluations' 99th percentile, rounded up.
     fn cost_scale(&self) -> Scale {
-        Scale::from_data(self.evaluations(), false, 1.0)
+        Scale::from_data(&self.evaluations(), false, 1.0)
     }
 
     fn view_image(&self) -> Rgb8Image {
+        let (w, h) = (self.session.settings().width, self.session.settings().height);
+        let heat_map = |values: &[f32], scale: Scale| Rgb8Image {
+            width: w,
+            height: h,
+            pixels: values.iter().flat_map(|&v| scale.color(v)).collect(),
+        };
         match self.view {
             View::NormalError => {
-                let (field, mesh) = (self.session.field_frame(), self.session.mesh_frame());
-                let angles = differences(mesh, field, Metric::Normal);
-                let pixels = angles.iter().flat_map(|&a| NORMAL_ERROR_SCALE.color(a)).collect();
-                Rgb8Image { width: field.width, height: field.height, pixels }
+                let angles = differences(&self.session.mesh_preview(), &self.session.field_preview(), Metric::Normal);
+                heat_map(&angles, NORMAL_ERROR_SCALE)
             }
-            View::Cost => {
-                let frame = self.session.field_frame();
-                let scale = self.cost_scale();
-                let pixels = self.evaluations().iter().flat_map(|&e| scale.color(e)).collect();
-                Rgb8Image { width: frame.width, height: frame.height, pixels }
-            }
-            View::Field => frame_image(self.session.field_frame()),
-            View::Mesh => frame_image(self.session.mesh_frame()),
+            View::Cost => heat_map(&self.evaluations(), self.cost_scale()),
+            View::Field => frame_image(&self.session.field_preview()),
+            View::Mesh => frame_image(&self.session.mesh_preview()),
+            // A lattice cell either way is the strongest colour.
             View::Difference => {
-                let (w, h) = (self.session.field_frame().width, self.session.field_frame().height);
-                // A lattice cell either way is the strongest colour.
-                let scale = Scale::Signed { max: self.session.lattice().cell };
-                let pixels = self.session.depth_diff().iter().flat_map(|&d| scale.color(d)).collect();
-                Rgb8Image { width: w, height: h, pixels }
+                heat_map(&self.session.depth_diff_preview(), Scale::Signed { max: self.session.lattice().cell })
             }
         }
     }
@@ -461,6 +499,26 @@ impl Viewer {
     /// The window's title: the status line's parts.
     pub fn title(&self) -> String {
         format!("blobtrace view · {}", self.status().join(" · "))
+    }
+}
+
+impl EventTiming {
+    /// An event that started at `start` and has just shown its coarse pass.
+    fn new(what: &str, start: Instant, dirty: Option<f64>) -> Self {
+        let first_pass_s = start.elapsed().as_secs_f64();
+        Self { what: what.into(), start, first_pass_s, refined_s: None, dirty }
+    }
+
+    /// As the status line says it.
+    fn describe(&self) -> String {
+        let mut text = format!("{}: first pass {:.0} ms", self.what, 1e3 * self.first_pass_s);
+        if let Some(s) = self.refined_s {
+            text += &format!(", refined {:.0} ms", 1e3 * s);
+        }
+        if let Some(dirty) = self.dirty {
+            text += &format!(", {:.1}% dirty", 100.0 * dirty);
+        }
+        text
     }
 }
 
@@ -519,13 +577,20 @@ mod tests {
             ];
             // Where each move should take its node: along the screen as the camera then was.
             let mut expected = [glam::Vec3A::ZERO; 2];
-            for key in keys {
+            for (k, key) in keys.into_iter().enumerate() {
                 let action = Action::named(key).unwrap();
                 if let Action::Move(axis, sign) = action {
                     expected[v.selected] += v.screen_axis(axis) * sign * v.step_length;
                 }
                 v.act(action).unwrap();
+                // Events come as the last one's passes stand: coarse only, one pass further, or all.
+                match k % 3 {
+                    0 => {}
+                    1 => v.refine(std::time::Duration::ZERO),
+                    _ => v.settle(),
+                }
             }
+            v.settle();
             assert_eq!(v.frames, 6, "every move is a frame; tab is none");
             let s = &v.session;
             let full = render_model(&s.scene().model, mode, s.settings(), &|_| {}).0;
@@ -553,6 +618,7 @@ mod tests {
         // Far past where a model may reach (a thousand times its size).
         v.step_length = 1.0e5;
         v.act(Action::Move(0, 1.0)).unwrap();
+        v.settle();
         let now = model(&v).node(model(&v).find("left").unwrap()).bounds;
         assert!((now.center() - start.center()).length() < 0.02, "{start:?} -> {now:?}");
         let s = &v.session;
@@ -581,7 +647,9 @@ mod tests {
         v.act(Action::named("f1").unwrap()).unwrap();
         assert_eq!(v.screen().pixels, screen.pixels, "f1 hides it again");
         v.act(Action::named("a").unwrap()).unwrap();
-        assert!(v.status().iter().any(|p| p.starts_with("camera ")), "a camera move's cost is shown");
+        assert!(v.status().iter().any(|p| p.starts_with("camera: first pass")), "{:?}", v.status());
+        v.settle();
+        assert!(v.status().iter().any(|p| p.contains("refined")), "{:?}", v.status());
     }
 
     #[test]
@@ -609,6 +677,7 @@ mod tests {
         v.act(Action::Pan(15.0, -4.0)).unwrap();
         assert!((v.session.settings().camera.eye - before.eye).length() > 1e-3, "the pan moved the camera");
         v.act(Action::Pan(-15.0, 4.0)).unwrap();
+        v.settle();
         assert!((v.session.settings().camera.eye - before.eye).length() < 1e-4);
         // A click on either blob selects it; a click on the background keeps the selection.
         let frame = v.session.field_frame();
@@ -647,6 +716,7 @@ mod tests {
             assert_eq!((image.width, image.height), (48, 36));
         }
         v.act(Action::Move(0, 1.0)).unwrap();
+        v.settle();
         let moved = v.image();
         v.act(Action::ToggleRectangles).unwrap();
         let outlined = v.image();

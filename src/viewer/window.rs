@@ -1,6 +1,7 @@
 //! The previewer's window (minifb): keys and mouse in, the current view
 //! out, the frames' work on the worker pool while the window stays on its
-//! thread. A left drag orbits, a right or shift drag pans, the wheel zooms,
+//! thread. Each event shows its coarse pass at once; while no input comes,
+//! the passes refine about a frame's time at a time. A left drag orbits, a right or shift drag pans, the wheel zooms,
 //! and a click (a press and release without moving) selects the named node
 //! under the pointer.
 
@@ -24,10 +25,16 @@ pub fn show(viewer: &mut Viewer, pool: &rayon::ThreadPool) -> anyhow::Result<()>
         let mut actions: Vec<Action> =
             window.get_keys_pressed(KeyRepeat::Yes).into_iter().filter_map(Action::of_key).collect();
         actions.extend(mouse.actions(&window));
-        if !actions.is_empty() {
+        let (refining, acted) = (viewer.is_refining(), !actions.is_empty());
+        if acted {
             for action in actions {
                 pool.install(|| viewer.act(action))?;
             }
+        } else if refining {
+            // No input: refine for about one frame, then show the pass so far.
+            pool.install(|| viewer.refine(REFINE_BUDGET));
+        }
+        if acted || refining {
             buffer = to_window_pixels(&viewer.screen());
             window.set_title(&viewer.title());
         }
@@ -35,6 +42,10 @@ pub fn show(viewer: &mut Viewer, pool: &rayon::ThreadPool) -> anyhow::Result<()>
     }
     Ok(())
 }
+
+/// How long the window refines before it shows the passes so far and looks
+/// for input again.
+const REFINE_BUDGET: std::time::Duration = std::time::Duration::from_millis(25);
 
 /// `0RGB` words, as the window takes them.
 fn to_window_pixels(image: &Rgb8Image) -> Vec<u32> {
