@@ -16,4 +16,4 @@ pub use render::{
     CacheBenchReport, CacheBenchRuns, EvalBenchReport, LookupCost, RenderBenchSettings, bench_cache, bench_eval,
     lookup_costs,
 };
-pub use view::{EventLatency, ViewBenchReport, ViewBenchSettings, bench_view};
+pub use view::{EventLatency, Seconds, ViewBenchReport, ViewBenchSettings, bench_view};

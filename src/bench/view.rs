@@ -1,9 +1,8 @@
 //! The previewer's latency without a window: the edit session the viewer
 //! drives replays the events a user makes — orbit steps, zoom steps, moves
 //! of a named node, an edit script's frames — and each event kind reports
-//! how long a frame took to show and the frame rate that allows. The viewer
-//! has no progressive passes yet, so a frame shows when it is whole: the
-//! first pass is the full frame.
+//! how long its first, coarse pass took to show, how long until everything
+//! (field, mesh, difference) was refined, and the frame rates those allow.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -14,7 +13,7 @@ use serde::Serialize;
 use crate::camera::{CameraMove, Orbit};
 use crate::field::{Edit, EvalMode};
 use crate::frame::Size;
-use crate::pipeline::{EditSession, PipelineError, PolygonizeSettings, Result, with_threads};
+use crate::pipeline::{EditSession, Pending, PipelineError, PolygonizeSettings, Result, with_threads};
 use crate::scene::{Scene, Script, load_script};
 
 /// What `bench view` replays.
@@ -39,12 +38,30 @@ pub struct EventLatency {
     pub kind: String,
     /// Events replayed.
     pub events: usize,
-    /// Median seconds until the frame showed.
-    pub median_seconds: f64,
-    /// Slowest event, seconds.
-    pub max_seconds: f64,
-    /// Frames per second the median allows.
+    /// Until the first, coarse pass showed.
+    pub first_pass: Seconds,
+    /// Until the field image was refined whole.
+    pub field_refined: Seconds,
+    /// Until everything was: the field, the mesh and its image, the difference.
+    pub refined: Seconds,
+    /// Frames per second the median first pass allows: how often the view follows input.
     pub frame_rate: f64,
+}
+
+/// The median and the slowest of some events' seconds.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Seconds {
+    /// Median.
+    pub median: f64,
+    /// Slowest.
+    pub max: f64,
+}
+
+impl Seconds {
+    fn of(mut seconds: Vec<f64>) -> Self {
+        seconds.sort_by(f64::total_cmp);
+        Self { median: seconds[seconds.len() / 2], max: seconds.last().copied().unwrap_or(0.0) }
+    }
 }
 
 /// What `bench view` measured.
@@ -73,8 +90,8 @@ pub fn bench_view(a: &ViewBenchSettings) -> Result<ViewBenchReport> {
         let scene = Scene::load(&a.scene)?;
         let mut session = EditSession::new(scene, EvalMode::Indexed, a.size, &PolygonizeSettings::default())?;
         let launch_seconds = start.elapsed().as_secs_f64();
-        let mut events = vec![camera_events(&mut session, "orbit", a.events, orbit_step)];
-        events.push(camera_events(&mut session, "zoom", a.events, zoom_step));
+        let mut events = vec![camera_events(&mut session, "orbit", a.events, orbit_step)?];
+        events.push(camera_events(&mut session, "zoom", a.events, zoom_step)?);
         if let Some(moves) = node_moves(&mut session, a.events)? {
             events.push(moves);
         }
@@ -91,37 +108,64 @@ pub fn bench_view(a: &ViewBenchSettings) -> Result<ViewBenchReport> {
     })?
 }
 
-/// The latency of `kind` from the seconds of its events.
-fn latency(kind: &str, mut seconds: Vec<f64>) -> EventLatency {
-    seconds.sort_by(f64::total_cmp);
-    let median = seconds[seconds.len() / 2];
+/// The latency of `kind` from the times of its events.
+fn latency(kind: &str, times: &[EventTimes]) -> EventLatency {
+    let first_pass = Seconds::of(times.iter().map(|t| t.first_pass).collect());
     EventLatency {
         kind: kind.into(),
-        events: seconds.len(),
-        median_seconds: median,
-        max_seconds: seconds.last().copied().unwrap_or(0.0),
-        frame_rate: 1.0 / median.max(1e-9),
+        events: times.len(),
+        first_pass,
+        field_refined: Seconds::of(times.iter().map(|t| t.field_refined).collect()),
+        refined: Seconds::of(times.iter().map(|t| t.refined).collect()),
+        frame_rate: 1.0 / first_pass.median.max(1e-9),
     }
 }
 
-/// Seconds of `f`.
-fn timed(f: impl FnOnce()) -> f64 {
-    let start = Instant::now();
-    f();
-    start.elapsed().as_secs_f64()
+/// One event's times from its start, in seconds.
+struct EventTimes {
+    first_pass: f64,
+    field_refined: f64,
+    refined: f64,
 }
 
+/// Times an event `begin` starts on `session`, then its refinement as the
+/// viewer runs it while idle.
+fn timed<T>(session: &mut EditSession, begin: impl FnOnce(&mut EditSession) -> Result<T>) -> Result<EventTimes> {
+    let start = Instant::now();
+    begin(session)?;
+    let first_pass = start.elapsed().as_secs_f64();
+    let mut field_refined = None;
+    while session.refine(REFINE_BUDGET) {
+        if field_refined.is_none() && !matches!(session.pending(), Some(Pending::Field(_))) {
+            field_refined = Some(start.elapsed().as_secs_f64());
+        }
+    }
+    let refined = start.elapsed().as_secs_f64();
+    Ok(EventTimes { first_pass, field_refined: field_refined.unwrap_or(refined), refined })
+}
+
+/// The window's refinement budget between looks for input.
+const REFINE_BUDGET: std::time::Duration = std::time::Duration::from_millis(25);
+
 /// `count` moves of an orbiting camera, the k-th `step(k)`, timed as the session renders again.
-fn camera_events(session: &mut EditSession, kind: &str, count: u32, step: fn(u32) -> CameraMove) -> EventLatency {
+fn camera_events(
+    session: &mut EditSession,
+    kind: &str,
+    count: u32,
+    step: fn(u32) -> CameraMove,
+) -> Result<EventLatency> {
     let centre: Vec3 = session.scene().model.bounds().center().into();
     let mut orbit = Orbit::new(&session.settings().camera, centre, session.field_frame().height);
-    let seconds = (0..count)
+    let times = (0..count)
         .map(|k| {
             let camera = orbit.moved(step(k));
-            timed(|| session.set_camera(camera))
+            timed(session, |s| {
+                s.begin_camera(camera);
+                Ok(())
+            })
         })
-        .collect();
-    latency(kind, seconds)
+        .collect::<Result<Vec<_>>>()?;
+    Ok(latency(kind, &times))
 }
 
 /// Ten degrees about the camera's up axis.
@@ -139,26 +183,22 @@ fn zoom_step(k: u32) -> CameraMove {
 fn node_moves(session: &mut EditSession, count: u32) -> Result<Option<EventLatency>> {
     let Some(node) = session.scene().model.names().first().map(|n| n.to_string()) else { return Ok(None) };
     let step = Vec3::from(session.settings().camera.right()) * (session.scene().model.bounds().diagonal() / 50.0);
-    let mut seconds = vec![];
+    let mut times = vec![];
     for k in 0..count {
         let by = if k.is_multiple_of(2) { step } else { -step };
-        let start = Instant::now();
-        session.apply(&[Edit::Translate { node: node.clone(), by }])?;
-        seconds.push(start.elapsed().as_secs_f64());
+        times.push(timed(session, |s| s.begin_apply(&[Edit::Translate { node: node.clone(), by }]))?);
     }
-    Ok(Some(latency(&format!("move {node}"), seconds)))
+    Ok(Some(latency(&format!("move {node}"), &times)))
 }
 
 /// Every frame of `script`.
 fn script_frames(session: &mut EditSession, script: &Script) -> Result<EventLatency> {
-    let mut seconds = vec![];
+    let mut times = vec![];
     for frame in &script.frames {
-        let start = Instant::now();
-        session.apply(frame)?;
-        seconds.push(start.elapsed().as_secs_f64());
+        times.push(timed(session, |s| s.begin_apply(frame))?);
     }
-    if seconds.is_empty() {
+    if times.is_empty() {
         return Err(PipelineError::Unsuitable("the script has no frames".into()));
     }
-    Ok(latency("script frame", seconds))
+    Ok(latency("script frame", &times))
 }

@@ -10,7 +10,7 @@ use super::args::{CellsArg, check_output_file, parse_size, print_json};
 use super::progress::Bars;
 use crate::bench::{
     CacheBenchReport, EditBenchReport, EditBenchSettings, EvalBenchReport, LookupCost, MeshBenchReport,
-    MeshBenchSettings, RenderBenchSettings, ViewBenchReport, ViewBenchSettings, bench_cache, bench_edit, bench_eval,
+    MeshBenchSettings, RenderBenchSettings, Seconds, ViewBenchReport, ViewBenchSettings, bench_cache, bench_edit, bench_eval,
     bench_mesh, bench_view,
 };
 use crate::frame::Size;
@@ -169,17 +169,22 @@ pub fn run(c: &BenchCommand) -> anyhow::Result<()> {
 
 fn print_view(r: &ViewBenchReport) {
     println!(
-        "{}: the previewer at {}, {} threads; first frame after {:.3} s (no progressive passes yet: a frame shows whole)",
+        "{}: the previewer at {}, {} threads; first frame after {:.3} s; ms from each event (median / slowest)",
         r.scene, r.size, r.threads, r.launch_seconds
     );
-    println!("  {:<20} {:>6} {:>12} {:>12} {:>10}", "event", "events", "median ms", "slowest ms", "frames/s");
+    println!(
+        "  {:<20} {:>6} {:>15} {:>15} {:>15} {:>9}",
+        "event", "events", "first pass", "field refined", "all refined", "frames/s"
+    );
+    let ms = |s: Seconds| format!("{:.1} / {:.1}", 1e3 * s.median, 1e3 * s.max);
     for e in &r.events {
         println!(
-            "  {:<20} {:>6} {:>12.1} {:>12.1} {:>10.1}",
+            "  {:<20} {:>6} {:>15} {:>15} {:>15} {:>9.1}",
             e.kind,
             e.events,
-            1e3 * e.median_seconds,
-            1e3 * e.max_seconds,
+            ms(e.first_pass),
+            ms(e.field_refined),
+            ms(e.refined),
             e.frame_rate
         );
     }

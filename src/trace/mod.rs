@@ -11,7 +11,7 @@ mod shade;
 
 pub use changed_space::ChangedSpace;
 pub use dirty_rects::{PixelRect, merge_rects, screen_rect};
-pub use progressive::{PixelState, Refinement};
+pub use progressive::{PASS_STEPS, PixelState, Refinement};
 pub use render::{
     KeptPixel, PixelSample, RenderSettings, RenderStats, Rerendered, Retrace, assemble, changed_space, outward_normal,
     refine, render, render_model, render_pixels, rerender, rerender_pixels, retrace_listed,

@@ -1,0 +1,96 @@
+//! Progressive refinement: edits and camera moves taken in the middle of
+//! each other's passes end in images equal to renders from scratch, and once
+//! an event's coarse pass is up, no pixel shows the field from before it.
+
+mod common;
+
+use std::time::Duration;
+
+use blobtrace::camera::{CameraMove, Orbit};
+use blobtrace::field::{EvalMode, ModelField};
+use blobtrace::frame::Frame;
+use blobtrace::pipeline::{EditSession, PolygonizeSettings};
+use blobtrace::scene::{Scene, Size};
+use blobtrace::trace::{PASS_STEPS, render};
+use common::{Rng, bundled, random_edit};
+
+/// The field render of the session's model and camera from scratch.
+fn from_scratch(session: &EditSession) -> Frame {
+    let field = ModelField::new(&session.scene().model, session.mode());
+    render(&field, session.settings(), &|_| {}).0
+}
+
+/// Whether `shown` takes every pixel from `truth` at the pixel itself or at
+/// a corner of one of its 2×2, 4×4 or 8×8 blocks: the field as it is now,
+/// sampled nearby. The first pixel that does not, if one does not.
+fn first_pixel_not_from(shown: &Frame, truth: &Frame) -> Option<(u32, u32)> {
+    let same = |i: usize, j: usize| {
+        shown.color[i] == truth.color[j] && shown.depth[i].to_bits() == truth.depth[j].to_bits()
+    };
+    (0..shown.height).flat_map(|y| (0..shown.width).map(move |x| (x, y))).find(|&(x, y)| {
+        let i = (y * shown.width + x) as usize;
+        !PASS_STEPS.iter().any(|&s| same(i, ((y - y % s) * shown.width + x - x % s) as usize))
+    })
+}
+
+#[test]
+fn events_taken_mid_refinement_end_in_images_equal_to_work_from_scratch() {
+    let names: [(&str, bool); 2] = [("head", false), ("left_hand", false)];
+    let mut rng = Rng(35);
+    for mode in [EvalMode::Indexed, EvalMode::Cached] {
+        let scene: Scene = bundled("medusa.ron");
+        let polygonize = PolygonizeSettings { res: 24, ..Default::default() };
+        let mut session = EditSession::new(scene, mode, Size(72, 56), &polygonize).unwrap();
+        let centre = session.scene().model.bounds().center().into();
+        let mut orbit = Orbit::new(&session.settings().camera, centre, 56);
+        for event in 0..9 {
+            match event % 3 {
+                0 => session.begin_camera(orbit.moved(CameraMove::Orbit(17.0, 4.0))),
+                1 => {
+                    let (name, primitive) = names[event % 2];
+                    session.begin_apply(&[random_edit(&mut rng, name, primitive)]).unwrap();
+                }
+                _ => session.begin_camera(orbit.moved(CameraMove::Zoom(0.85))),
+            }
+            assert!(session.pending().is_some(), "{mode:?} event {event} left passes to do");
+            // The next event comes after none, one or a few of the passes.
+            for _ in 0..event % 4 {
+                session.refine(Duration::ZERO);
+            }
+            if event % 4 == 3 {
+                session.finish();
+                assert!(session.is_refined());
+                assert!(session.field_frame().same_image(&from_scratch(&session)), "{mode:?} event {event}");
+            }
+        }
+        session.finish();
+        assert!(session.field_frame().same_image(&from_scratch(&session)), "{mode:?}");
+        let check = session.verify();
+        assert_eq!(check.mismatch, None, "{mode:?}: the images and the mesh equal work from scratch");
+    }
+}
+
+#[test]
+fn once_the_coarse_pass_is_up_no_pixel_shows_the_field_before_the_edit() {
+    let mut rng = Rng(7);
+    for mode in [EvalMode::Indexed, EvalMode::Cached] {
+        let polygonize = PolygonizeSettings { res: 16, ..Default::default() };
+        let mut session = EditSession::new(bundled("medusa.ron"), mode, Size(80, 60), &polygonize).unwrap();
+        let mut stale_seen = 0;
+        for event in 0..4 {
+            let before = session.field_frame().clone();
+            let edit = random_edit(&mut rng, "head", false);
+            session.begin_apply(std::slice::from_ref(&edit)).unwrap();
+            let truth = from_scratch(&session);
+            stale_seen += (0..truth.len()).filter(|&i| before.color[i] != truth.color[i]).count();
+            // After the coarse pass, and after each pass or batch of rows since.
+            while session.pending().is_some() {
+                let shown = session.field_preview();
+                assert_eq!(first_pixel_not_from(&shown, &truth), None, "{mode:?} event {event} {edit:?}");
+                session.refine(Duration::ZERO);
+            }
+            assert!(session.field_frame().same_image(&truth), "{mode:?} event {event}: refined");
+        }
+        assert!(stale_seen > 50, "{mode:?}: the edits changed what the screen shows ({stale_seen} pixels)");
+    }
+}
