@@ -69,9 +69,15 @@ fn bench_view_times_each_kind_of_event() {
     assert_eq!(kinds, ["orbit", "zoom", "move arm"]);
     for e in v["events"].as_array().unwrap() {
         assert_eq!(e["events"], 3);
-        let (median, max) = (e["median_seconds"].as_f64().unwrap(), e["max_seconds"].as_f64().unwrap());
-        assert!(median > 0.0 && median <= max, "{e}");
-        assert!((e["frame_rate"].as_f64().unwrap() * median - 1.0).abs() < 1e-6);
+        let seconds = |what: &str| (e[what]["median"].as_f64().unwrap(), e[what]["max"].as_f64().unwrap());
+        for what in ["first_pass", "field_refined", "refined"] {
+            let (median, max) = seconds(what);
+            assert!(median > 0.0 && median <= max, "{what}: {e}");
+        }
+        // Each stage ends after the one before it, event by event, so their slowest do too.
+        let (first, field, all) = (seconds("first_pass").1, seconds("field_refined").1, seconds("refined").1);
+        assert!(first <= field && field <= all, "{e}");
+        assert!((e["frame_rate"].as_f64().unwrap() * seconds("first_pass").0 - 1.0).abs() < 1e-6);
     }
     assert!(v["launch_seconds"].as_f64().unwrap() > 0.0);
     let out = blobtrace(&["bench", "view", "scenes/example.ron", "--events", "0"]);
