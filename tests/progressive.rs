@@ -24,9 +24,8 @@ fn from_scratch(session: &EditSession) -> Frame {
 /// a corner of one of its 2×2, 4×4 or 8×8 blocks: the field as it is now,
 /// sampled nearby. The first pixel that does not, if one does not.
 fn first_pixel_not_from(shown: &Frame, truth: &Frame) -> Option<(u32, u32)> {
-    let same = |i: usize, j: usize| {
-        shown.color[i] == truth.color[j] && shown.depth[i].to_bits() == truth.depth[j].to_bits()
-    };
+    let same =
+        |i: usize, j: usize| shown.color[i] == truth.color[j] && shown.depth[i].to_bits() == truth.depth[j].to_bits();
     (0..shown.height).flat_map(|y| (0..shown.width).map(move |x| (x, y))).find(|&(x, y)| {
         let i = (y * shown.width + x) as usize;
         !PASS_STEPS.iter().any(|&s| same(i, ((y - y % s) * shown.width + x - x % s) as usize))

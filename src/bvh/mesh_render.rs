@@ -8,7 +8,8 @@ use super::RayTarget;
 use crate::field::DEFAULT_COLOR;
 use crate::frame::Frame;
 use crate::trace::{
-    PixelRect, PixelSample, Refinement, RenderSettings, Retrace, assemble, render_pixels, rerender_pixels, retrace_listed,
+    PixelRect, PixelSample, Refinement, RenderSettings, Retrace, assemble, render_pixels, rerender_pixels,
+    retrace_listed,
 };
 
 /// Totals over a mesh render.

@@ -10,8 +10,8 @@ use super::args::{CellsArg, check_output_file, parse_size, print_json};
 use super::progress::Bars;
 use crate::bench::{
     CacheBenchReport, EditBenchReport, EditBenchSettings, EvalBenchReport, LookupCost, MeshBenchReport,
-    MeshBenchSettings, RenderBenchSettings, Seconds, ViewBenchReport, ViewBenchSettings, bench_cache, bench_edit, bench_eval,
-    bench_mesh, bench_view,
+    MeshBenchSettings, RenderBenchSettings, Seconds, ViewBenchReport, ViewBenchSettings, bench_cache, bench_edit,
+    bench_eval, bench_mesh, bench_view,
 };
 use crate::frame::Size;
 use crate::pipeline::RenderReport;

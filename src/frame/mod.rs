@@ -137,7 +137,7 @@ impl Frame {
     /// The colour as 8-bit sRGB bytes, row-major RGB.
     #[must_use]
     pub fn to_srgb8(&self) -> Vec<u8> {
-        self.color.iter().flat_map(|c| c.to_array().map(linear_to_srgb8)).collect()
+        srgb8_of(&self.color)
     }
 
     /// PNG bytes (8-bit sRGB, tagged as such).
@@ -195,6 +195,14 @@ pub enum FrameIoError {
     /// Writing failed.
     #[error("{0}: could not write: {1}")]
     Write(String, std::io::Error),
+}
+
+/// Linear colours as 8-bit sRGB bytes, in order.
+#[must_use]
+pub fn srgb8_of(colors: &[Vec3]) -> Vec<u8> {
+    use rayon::prelude::*;
+    // In parallel: the previewer converts a frame per pass it shows.
+    colors.par_iter().flat_map_iter(|c| c.to_array().map(linear_to_srgb8)).collect()
 }
 
 /// Linear `[0, 1]` to an 8-bit sRGB code value.

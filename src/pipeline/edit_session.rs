@@ -401,7 +401,8 @@ impl EditSession {
         let clock = Instant::now();
         let todo = &mut self.todo;
         let field = field.skipping(&self.empty);
-        let stats = refine(&field, &self.settings, &mut self.field_frame, &mut todo.field, todo.changed.as_ref(), max_rays);
+        let stats =
+            refine(&field, &self.settings, &mut self.field_frame, &mut todo.field, todo.changed.as_ref(), max_rays);
         let seconds = clock.elapsed().as_secs_f64();
         todo.row.field_s += seconds;
         todo.row.field_evals += stats.field_evals;
@@ -431,6 +432,18 @@ impl EditSession {
     #[must_use]
     pub fn mesh_preview(&self) -> Cow<'_, Frame> {
         self.todo.mesh.preview(&self.mesh_frame)
+    }
+
+    /// The field image's stale pixels, to preview a channel of it alone.
+    #[must_use]
+    pub fn field_refinement(&self) -> &Refinement {
+        &self.todo.field
+    }
+
+    /// The mesh image's stale pixels.
+    #[must_use]
+    pub fn mesh_refinement(&self) -> &Refinement {
+        &self.todo.mesh
     }
 
     /// The depth difference of the two previews.

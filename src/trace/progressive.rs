@@ -10,6 +10,8 @@
 
 use std::borrow::Cow;
 
+use rayon::prelude::*;
+
 use super::PixelRect;
 use crate::frame::Frame;
 
@@ -66,7 +68,9 @@ impl Refinement {
     /// The block edge of the pass under way (8, 4, 2 or 1), `None` when done.
     #[must_use]
     pub fn level(&self) -> Option<u32> {
-        (!self.is_done()).then(|| PASS_STEPS[self.pass])
+        // A pass whose rows are all traced is over, though the next batch moves on from it.
+        let pass = if self.row >= self.height { (self.pass + 1).min(PASS_STEPS.len() - 1) } else { self.pass };
+        (!self.is_done()).then(|| PASS_STEPS[pass])
     }
 
     /// The state of pixel (`x`, `y`).
@@ -159,39 +163,47 @@ impl Refinement {
         if self.is_done() {
             return Cow::Borrowed(frame);
         }
-        let mut shown = frame.clone();
-        for y in 0..self.height {
-            for x in 0..self.width {
-                let i = self.index(x, y);
-                if self.state[i] == PixelState::Done {
-                    continue;
-                }
-                if let Some(from) = self.nearest_done_corner(x, y) {
-                    copy_pixel(frame, &mut shown, from, i);
-                }
-            }
-        }
+        let mut shown = Frame {
+            color: self.preview_values(&frame.color).into_owned(),
+            depth: self.preview_values(&frame.depth).into_owned(),
+            normal: self.preview_values(&frame.normal).into_owned(),
+            alpha: self.preview_values(&frame.alpha).into_owned(),
+            extra: vec![],
+            ..*frame
+        };
+        shown.extra = frame.extra.iter().map(|(n, v)| (n.clone(), self.preview_values(v).into_owned())).collect();
         Cow::Owned(shown)
+    }
+
+    /// [`Self::preview`] of one channel of a frame, `values` per pixel.
+    #[must_use]
+    pub fn preview_values<'a, T: Copy + Send + Sync>(&self, values: &'a [T]) -> Cow<'a, [T]> {
+        if self.is_done() {
+            return Cow::Borrowed(values);
+        }
+        // Rows in parallel: the previewer shows a preview per pass.
+        let rows = values.par_chunks(self.width as usize).zip(self.state.par_chunks(self.width as usize));
+        let shown = rows.enumerate().flat_map_iter(|(y, (row, states))| {
+            let y = y as u32;
+            row.iter().zip(states).enumerate().map(move |(x, (&v, &state))| match state {
+                PixelState::Done => v,
+                _ => self.nearest_done_corner(x as u32, y).map_or(v, |i| values[i]),
+            })
+        });
+        Cow::Owned(shown.collect())
     }
 
     /// The index of the finest block corner of (`x`, `y`) that is up to date.
     fn nearest_done_corner(&self, x: u32, y: u32) -> Option<usize> {
-        PASS_STEPS[..3].iter().rev().map(|&s| self.index(x - x % s, y - y % s)).find(|&i| self.state[i] == PixelState::Done)
+        PASS_STEPS[..3]
+            .iter()
+            .rev()
+            .map(|&s| self.index(x - x % s, y - y % s))
+            .find(|&i| self.state[i] == PixelState::Done)
     }
 
     fn index(&self, x: u32, y: u32) -> usize {
         (y * self.width + x) as usize
-    }
-}
-
-/// Copies every channel of pixel `from` of `source` into pixel `to` of `target`.
-fn copy_pixel(source: &Frame, target: &mut Frame, from: usize, to: usize) {
-    target.color[to] = source.color[from];
-    target.depth[to] = source.depth[from];
-    target.normal[to] = source.normal[from];
-    target.alpha[to] = source.alpha[from];
-    for ((_, t), (_, s)) in target.extra.iter_mut().zip(&source.extra) {
-        t[to] = s[from];
     }
 }
 
@@ -260,6 +272,7 @@ mod tests {
         frame.extra[0].1[0] = 7.0;
         r.finish(&batch);
         assert!(r.coarse_pass_done(), "one corner is the whole coarse pass");
+        assert_eq!(r.level(), Some(4), "the 4×4 pass is next");
         let shown = r.preview(&frame);
         assert!(shown.color.iter().all(|&c| c == glam::Vec3::ONE), "every pixel shows the corner");
         assert!(shown.extra[0].1.iter().all(|&e| e == 7.0));

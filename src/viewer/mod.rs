@@ -22,8 +22,9 @@ use anyhow::Context;
 use glam::Vec3;
 
 use crate::camera::{CameraMove, Orbit};
-use crate::compare::{Metric, Rgb8Image, Scale, differences, frame_image};
+use crate::compare::{Metric, Rgb8Image, Scale, differences};
 use crate::field::Edit;
+use crate::frame::srgb8_of;
 use crate::pipeline::{EditSession, outline_dirty};
 use crate::scene::Script;
 use crate::trace::PixelRect;
@@ -466,7 +467,8 @@ impl Viewer {
 
     /// The field evaluations per pixel of the field render, as it stands.
     fn evaluations(&self) -> Vec<f32> {
-        self.session.field_preview().aov("evals.Y").unwrap_or(&[]).to_vec()
+        let evaluations = self.session.field_frame().aov("evals.Y").unwrap_or(&[]);
+        self.session.field_refinement().preview_values(evaluations).into_owned()
     }
 
     /// The cost view's scale: the evaluations' 99th percentile, rounded up.
@@ -487,8 +489,15 @@ impl Viewer {
                 heat_map(&angles, NORMAL_ERROR_SCALE)
             }
             View::Cost => heat_map(&self.evaluations(), self.cost_scale()),
-            View::Field => frame_image(&self.session.field_preview()),
-            View::Mesh => frame_image(&self.session.mesh_preview()),
+            // The colours alone: a preview of every channel would cost as much again.
+            View::Field => {
+                let colors = self.session.field_refinement().preview_values(&self.session.field_frame().color);
+                Rgb8Image { width: w, height: h, pixels: srgb8_of(&colors) }
+            }
+            View::Mesh => {
+                let colors = self.session.mesh_refinement().preview_values(&self.session.mesh_frame().color);
+                Rgb8Image { width: w, height: h, pixels: srgb8_of(&colors) }
+            }
             // A lattice cell either way is the strongest colour.
             View::Difference => {
                 heat_map(&self.session.depth_diff_preview(), Scale::Signed { max: self.session.lattice().cell })

@@ -5,6 +5,8 @@
 //! and a click (a press and release without moving) selects the named node
 //! under the pointer.
 
+use std::time::{Duration, Instant};
+
 use anyhow::Context;
 
 use super::{Action, Viewer};
@@ -19,33 +21,42 @@ pub fn show(viewer: &mut Viewer, pool: &rayon::ThreadPool) -> anyhow::Result<()>
         anyhow::anyhow!("could not open a window ({e}); where there is no display, run with --headless --keys …")
     })?;
     window.set_target_fps(60);
-    let mut buffer = to_window_pixels(&image);
+    window.update_with_buffer(&to_window_pixels(&image), w, h).context("drawing the window")?;
     let mut mouse = Mouse::default();
+    let (mut shown_at, mut shown_refining) = (Instant::now(), false);
     while window.is_open() && !window.is_key_down(Key::Escape) {
         let mut actions: Vec<Action> =
             window.get_keys_pressed(KeyRepeat::Yes).into_iter().filter_map(Action::of_key).collect();
         actions.extend(mouse.actions(&window));
-        let (refining, acted) = (viewer.is_refining(), !actions.is_empty());
+        let acted = !actions.is_empty();
         if acted {
             for action in actions {
                 pool.install(|| viewer.act(action))?;
             }
-        } else if refining {
-            // No input: refine for about one frame, then show the pass so far.
+        } else if viewer.is_refining() {
+            // No input: refine for about a frame's time, then look for input again.
             pool.install(|| viewer.refine(REFINE_BUDGET));
         }
-        if acted || refining {
-            buffer = to_window_pixels(&viewer.screen());
+        // Each event's coarse pass shows at once; the passes after it, every
+        // so often and when done (each showing costs a few milliseconds).
+        let refined = !viewer.is_refining() && shown_refining;
+        if acted || refined || (viewer.is_refining() && shown_at.elapsed() >= SHOW_EVERY) {
             window.set_title(&viewer.title());
+            (shown_at, shown_refining) = (Instant::now(), viewer.is_refining());
+            window.update_with_buffer(&to_window_pixels(&viewer.screen()), w, h).context("drawing the window")?;
+        } else {
+            window.update();
         }
-        window.update_with_buffer(&buffer, w, h).context("drawing the window")?;
     }
     Ok(())
 }
 
 /// How long the window refines before it shows the passes so far and looks
 /// for input again.
-const REFINE_BUDGET: std::time::Duration = std::time::Duration::from_millis(25);
+const REFINE_BUDGET: Duration = Duration::from_millis(25);
+
+/// How often the window shows the passes while it refines.
+const SHOW_EVERY: Duration = Duration::from_millis(100);
 
 /// `0RGB` words, as the window takes them.
 fn to_window_pixels(image: &Rgb8Image) -> Vec<u32> {
