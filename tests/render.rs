@@ -5,7 +5,7 @@ mod common;
 use blobtrace::field::{EmptySpace, EvalMode, Field, ModelField};
 use blobtrace::geom::Ray;
 use blobtrace::scene::{Scene, Size};
-use blobtrace::trace::{Crossing, RenderSettings, march, render, trace_ray};
+use blobtrace::trace::{Coverage, Crossing, RenderSettings, march, render, render_covered, trace_ray};
 use common::{assert_traces_like_brute_force, bundled};
 use glam::Vec3A;
 
@@ -285,25 +285,40 @@ fn rays_touching_the_surface_hit_alike_with_and_without_skipping() {
 }
 
 #[test]
-fn skipping_empty_space_changes_no_pixel() {
-    for (name, mode) in [
-        ("medusa.ron", EvalMode::Cached),
-        ("sharp.ron", EvalMode::Indexed),
-        ("bottle.ron", EvalMode::Cached),
-        ("hair_point.ron", EvalMode::Naive),
+fn skipping_empty_space_and_starting_rays_at_their_coverage_change_no_pixel() {
+    for (name, mode, eye) in [
+        ("medusa.ron", EvalMode::Cached, None),
+        ("sharp.ron", EvalMode::Indexed, None),
+        ("bottle.ron", EvalMode::Cached, None),
+        ("hair_point.ron", EvalMode::Naive, None),
+        ("particles.ron", EvalMode::Indexed, None),
+        // The eye among the particles: boxes reach the eye plane and behind it.
+        ("particles.ron", EvalMode::Indexed, Some(Vec3A::new(2.0, -3.0, 1.0))),
     ] {
-        let scene = bundled(name);
+        let mut scene = bundled(name);
+        if let Some(eye) = eye {
+            scene.camera.eye = eye;
+        }
         let s = settings(&scene, 96, 72);
         let field = ModelField::new(&scene.model, mode);
         let empty = EmptySpace::build(&field);
         assert!(empty.empty_fraction() > 0.3, "{name}: only {} of the cells are empty", empty.empty_fraction());
+        let coverage = Coverage::of(&empty, &scene.model.bounds(), &s.camera, s.width, s.height);
         let (plain, plain_stats) = render(&field, &s, &|_| {});
         let (skipping, skipping_stats) = render(&field.skipping(&empty), &s, &|_| {});
+        let (covered, covered_stats) = render_covered(&field.skipping(&empty), &s, Some(&coverage), &|_| {});
         assert!(plain.depth.iter().any(|z| z.is_finite()), "{name}: nothing hit");
         let same = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
-        assert!(same(&plain.depth, &skipping.depth), "{name} in {mode:?}: skipping moved a hit");
-        assert!(plain.color == skipping.color && plain.normal == skipping.normal, "{name}: shading changed");
+        for (how, frame) in [("skipping", &skipping), ("coverage", &covered)] {
+            assert!(same(&plain.depth, &frame.depth), "{name} in {mode:?}: {how} moved a hit");
+            assert!(plain.color == frame.color && plain.normal == frame.normal, "{name}: {how} changed shading");
+        }
         assert!(skipping_stats.steps < plain_stats.steps, "{name}: skipping saved no steps");
+        // From inside, boxes at the eye cover every pixel from the eye: nothing to save.
+        if eye.is_none() {
+            assert!(covered_stats.field_evals < skipping_stats.field_evals, "{name}: coverage saved nothing");
+            assert!(coverage.uncovered_fraction() > 0.2, "{name}: {}", coverage.uncovered_fraction());
+        }
     }
 }
 

@@ -108,6 +108,38 @@ impl EmptySpace {
         self.marks[c].load(Ordering::Relaxed) == EMPTY
     }
 
+    /// The boxes of the cells the surface may be in: runs of cells along x
+    /// not marked empty (a stale mark counts as not empty), plus the parts of
+    /// `bounds` (the field's bounds now) outside the grid, which an edit may
+    /// have reached. Outside these boxes the field is below the threshold.
+    #[must_use]
+    pub fn occupied_boxes(&self, bounds: &Aabb) -> Vec<Aabb> {
+        let dims = self.grid.dims;
+        let mut boxes = vec![];
+        for z in 0..dims.z {
+            for y in 0..dims.y {
+                let row = self.grid.linear(UVec3::new(0, y, z));
+                let occupied = |x: u32| self.marks[row + x as usize].load(Ordering::Relaxed) != EMPTY;
+                let mut x = 0;
+                while x < dims.x {
+                    if !occupied(x) {
+                        x += 1;
+                        continue;
+                    }
+                    let first = x;
+                    while x < dims.x && occupied(x) {
+                        x += 1;
+                    }
+                    let (lo, hi) =
+                        (self.grid.box_at(UVec3::new(first, y, z)), self.grid.box_at(UVec3::new(x - 1, y, z)));
+                    boxes.push(lo.union(&hi));
+                }
+            }
+        }
+        boxes.extend(outside(bounds, &self.grid.bounds()));
+        boxes
+    }
+
     /// Fraction of the cells marked empty (as last marked, where an edit left
     /// cells stale).
     #[must_use]
@@ -138,6 +170,28 @@ impl EmptySpace {
         });
         Some(t + end? * (t_end - t))
     }
+}
+
+/// Boxes covering the part of `bounds` outside `grid`: for each axis, the
+/// slabs of `bounds` below and above the grid's extent.
+fn outside(bounds: &Aabb, grid: &Aabb) -> Vec<Aabb> {
+    if bounds.is_empty() {
+        return vec![];
+    }
+    let mut slabs = vec![];
+    for axis in 0..3 {
+        if bounds.min[axis] < grid.min[axis] {
+            let mut below = *bounds;
+            below.max[axis] = grid.min[axis].min(bounds.max[axis]);
+            slabs.push(below);
+        }
+        if bounds.max[axis] > grid.max[axis] {
+            let mut above = *bounds;
+            above.min[axis] = grid.max[axis].max(bounds.min[axis]);
+            slabs.push(above);
+        }
+    }
+    slabs
 }
 
 /// Which questions settle a part of a block first. Each cell's mark is its

@@ -20,8 +20,8 @@ use crate::geom::{Aabb, Support};
 use crate::mesh::{Lattice, Polygonizer, canonical_triangles, skeleton_seeds};
 use crate::scene::Scene;
 use crate::trace::{
-    ChangedSpace, PixelRect, PixelState, Refinement, RenderSettings, changed_space, merge_rects, refine, render_model,
-    screen_rect,
+    ChangedSpace, Coverage, PixelRect, PixelState, Refinement, RenderSettings, changed_space, merge_rects, refine,
+    render_model, screen_rect,
 };
 
 /// One frame's measurements.
@@ -109,6 +109,9 @@ struct Todo {
     field: Refinement,
     /// The change the field's pixels to retrace are traced against.
     changed: Option<ChangedSpace>,
+    /// Where the rays of the field's pixels to trace whole can first meet
+    /// the surface, since the last camera move (and edit).
+    coverage: Option<Coverage>,
     /// The edits' regions and support regions, not yet re-polygonized.
     remesh: Option<(Vec<Aabb>, Vec<Support>)>,
     mesh: Refinement,
@@ -159,6 +162,7 @@ impl EditSession {
         let todo = Todo {
             field: Refinement::new(size.0, size.1),
             changed: None,
+            coverage: None,
             remesh: None,
             mesh: Refinement::new(size.0, size.1),
             diff: vec![],
@@ -246,6 +250,7 @@ impl EditSession {
     /// mesh images; [`Self::refine`] does the rest.
     pub fn begin_camera(&mut self, camera: Camera) {
         self.settings.camera = camera;
+        self.todo.coverage = Some(self.coverage());
         let todo = &mut self.todo;
         todo.field.mark_all();
         todo.changed = None;
@@ -318,6 +323,10 @@ impl EditSession {
         row.dirty_fraction = rects.iter().map(PixelRect::area).sum::<u64>() as f64 / f64::from(w * h);
         self.todo.field.mark(&rects, PixelState::Retrace);
         self.todo.changed = Some(changed);
+        // Pixels to trace whole may be left from a camera move: the edit may have moved the surface nearer.
+        if self.todo.coverage.is_some() {
+            self.todo.coverage = Some(self.coverage());
+        }
         row.field_s = clock.elapsed().as_secs_f64();
         rects
     }
@@ -401,8 +410,8 @@ impl EditSession {
         let clock = Instant::now();
         let todo = &mut self.todo;
         let field = field.skipping(&self.empty);
-        let stats =
-            refine(&field, &self.settings, &mut self.field_frame, &mut todo.field, todo.changed.as_ref(), max_rays);
+        let known = (todo.changed.as_ref(), todo.coverage.as_ref());
+        let stats = refine(&field, &self.settings, &mut self.field_frame, &mut todo.field, known, max_rays);
         let seconds = clock.elapsed().as_secs_f64();
         todo.row.field_s += seconds;
         todo.row.field_evals += stats.field_evals;
@@ -411,8 +420,14 @@ impl EditSession {
             todo.rays_per_second = stats.rays as f64 / seconds.max(1e-6);
         }
         if todo.field.is_done() {
-            todo.changed = None;
+            (todo.changed, todo.coverage) = (None, None);
         }
+    }
+
+    /// The coverage of the model's possible surface, as the camera sees it now.
+    fn coverage(&self) -> Coverage {
+        let (w, h) = (self.settings.width, self.settings.height);
+        Coverage::of(&self.empty, &self.scene.model.bounds(), &self.settings.camera, w, h)
     }
 
     /// Casts a batch of the mesh image's stale pixels.

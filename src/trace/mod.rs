@@ -3,6 +3,7 @@
 //! or stale pixels refined progressively (`progressive`).
 
 mod changed_space;
+mod coverage;
 mod dirty_rects;
 pub mod progressive;
 mod render;
@@ -10,11 +11,12 @@ mod segment;
 mod shade;
 
 pub use changed_space::ChangedSpace;
+pub use coverage::Coverage;
 pub use dirty_rects::{PixelRect, merge_rects, screen_rect};
 pub use progressive::{PASS_STEPS, PixelState, Refinement};
 pub use render::{
     KeptPixel, PixelSample, RenderSettings, RenderStats, Rerendered, Retrace, assemble, changed_space, outward_normal,
-    refine, render, render_model, render_pixels, rerender, rerender_pixels, retrace_listed,
+    refine, render, render_covered, render_model, render_pixels, rerender, rerender_pixels, retrace_listed,
 };
-pub use segment::{Crossing, TraceOptions, TraceResult, march, trace_ray};
+pub use segment::{Crossing, TraceOptions, TraceResult, march, trace_ray, trace_ray_from};
 pub use shade::Lighting;

@@ -8,8 +8,9 @@ use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
 use super::changed_space::ChangedSpace;
+use super::coverage::Coverage;
 use super::progressive::{PixelState, Refinement};
-use super::segment::{Crossing, TraceOptions, march, snap_reach, trace_ray};
+use super::segment::{Crossing, TraceOptions, march, snap_reach, trace_ray_from};
 use super::shade::Lighting;
 use crate::camera::Camera;
 use crate::field::{EmptySpace, EvalMode, Field, Model, ModelField};
@@ -106,12 +107,24 @@ pub fn render<F: Field + ?Sized>(
     settings: &RenderSettings,
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Frame, RenderStats) {
-    let samples = render_pixels(settings, progress, |x, y| trace_pixel(field, settings, x, y));
+    render_covered(field, settings, None, progress)
+}
+
+/// [`render`], each ray's march starting where `coverage` says the surface
+/// can first be (the same image, for less work).
+pub fn render_covered<F: Field + ?Sized>(
+    field: &F,
+    settings: &RenderSettings,
+    coverage: Option<&Coverage>,
+    progress: &(dyn Fn(usize) + Sync),
+) -> (Frame, RenderStats) {
+    let samples = render_pixels(settings, progress, |x, y| trace_pixel(field, settings, x, y, coverage));
     (assemble(&samples, settings, FIELD_COUNTERS), RenderStats::of(&samples))
 }
 
-/// Renders `model` in `mode`, marking its empty space first to skip it;
-/// returns the marks too, to update after edits.
+/// Renders `model` in `mode`, marking its empty space first to skip it and
+/// to start each ray where it can first meet the surface; returns the marks
+/// too, to update after edits.
 pub fn render_model(
     model: &Model,
     mode: EvalMode,
@@ -120,7 +133,8 @@ pub fn render_model(
 ) -> (Frame, RenderStats, EmptySpace) {
     let field = ModelField::new(model, mode);
     let empty = EmptySpace::build(&field);
-    let (frame, stats) = render(&field.skipping(&empty), settings, progress);
+    let coverage = Coverage::of(&empty, &model.bounds(), &settings.camera, settings.width, settings.height);
+    let (frame, stats) = render_covered(&field.skipping(&empty), settings, Some(&coverage), progress);
     (frame, stats, empty)
 }
 
@@ -192,14 +206,14 @@ fn retrace_pixel<F: Field + ?Sized>(
         return Some(Retrace::Changed(PixelSample::miss(s.background, [0, 0])));
     };
     if t_in <= t_start {
-        return Some(Retrace::Changed(trace_pixel(field, s, x, y)));
+        return Some(Retrace::Changed(trace_pixel(field, s, x, y, None)));
     }
     let (found, inside) = march(field, &ray, &s.trace, (t_in, t_out.min(t_end)));
     let mut work = [inside.steps, inside.evals];
     let hit = match found {
         Crossing::At(t) => Some(t),
         // Entering the surface exactly where the stretch starts: trace it whole.
-        Crossing::InsideAtStart => return Some(Retrace::Changed(trace_pixel(field, s, x, y))),
+        Crossing::InsideAtStart => return Some(Retrace::Changed(trace_pixel(field, s, x, y, None))),
         Crossing::None if before > t_out => {
             return Some(Retrace::Kept(KeptPixel { hit: before.is_finite(), counts: work }));
         }
@@ -209,7 +223,7 @@ fn retrace_pixel<F: Field + ?Sized>(
             work = [work[0] + after.steps, work[1] + after.evals];
             match found {
                 Crossing::At(t) => Some(t),
-                Crossing::InsideAtStart => return Some(Retrace::Changed(trace_pixel(field, s, x, y))),
+                Crossing::InsideAtStart => return Some(Retrace::Changed(trace_pixel(field, s, x, y, None))),
                 Crossing::None => None,
             }
         }
@@ -239,20 +253,21 @@ pub fn rerender_pixels(
 /// Traces the next batch of about `max_rays` stale pixels of `refinement`
 /// into `frame`, a render of `field` with `settings` that was up to date
 /// before the field changed inside `changed` (for the pixels to retrace)
-/// or the camera moved (for those to trace whole). Once the refinement is
-/// done, `frame` equals a full render (see [`crate::trace::progressive`]).
+/// or the camera moved (for those to trace whole, from where `coverage`
+/// says). Once the refinement is done, `frame` equals a full render (see
+/// [`crate::trace::progressive`]).
 pub fn refine<F: Field + ?Sized>(
     field: &F,
     settings: &RenderSettings,
     frame: &mut Frame,
     refinement: &mut Refinement,
-    changed: Option<&ChangedSpace>,
+    (changed, coverage): (Option<&ChangedSpace>, Option<&Coverage>),
     max_rays: usize,
 ) -> RenderStats {
     let batch = refinement.next_batch(max_rays);
     let done = retrace_listed(frame, &batch, FIELD_COUNTERS, |x, y, state, before| match (state, changed) {
         (PixelState::Retrace, Some(changed)) => retrace_pixel(field, settings, x, y, before, changed),
-        _ => Some(Retrace::Changed(trace_pixel(field, settings, x, y))),
+        _ => Some(Retrace::Changed(trace_pixel(field, settings, x, y, coverage))),
     });
     refinement.finish(&batch);
     done.stats()
@@ -346,9 +361,20 @@ pub fn render_pixels(
         .collect()
 }
 
-fn trace_pixel<F: Field + ?Sized>(field: &F, s: &RenderSettings, x: u32, y: u32) -> PixelSample {
+/// Traces pixel (`x`, `y`), its march starting where `coverage` says.
+fn trace_pixel<F: Field + ?Sized>(
+    field: &F,
+    s: &RenderSettings,
+    x: u32,
+    y: u32,
+    coverage: Option<&Coverage>,
+) -> PixelSample {
+    let near = coverage.map_or(0.0, |c| c.near(x, y));
+    if near == f32::INFINITY {
+        return PixelSample::miss(s.background, [0, 0]);
+    }
     let ray = s.camera.ray(x, y, s.width, s.height);
-    let r = trace_ray(field, &ray, &s.trace);
+    let r = trace_ray_from(field, &ray, &s.trace, near);
     match r.hit {
         Some(t) => shade_hit(field, s, &ray, t, [r.steps, r.evals]),
         None => PixelSample::miss(s.background, [r.steps, r.evals]),

@@ -81,6 +81,29 @@ pub fn trace_ray<F: Field + ?Sized>(field: &F, ray: &Ray, opts: &TraceOptions) -
     out
 }
 
+/// [`trace_ray`], knowing the ray holds no crossing before distance `near`
+/// (see [`crate::trace::Coverage`]): the march starts there, and finds the
+/// same hit.
+pub fn trace_ray_from<F: Field + ?Sized>(field: &F, ray: &Ray, opts: &TraceOptions, near: f32) -> TraceResult {
+    let Some((t_enter, t_exit)) = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY) else {
+        return TraceResult::default();
+    };
+    if near <= t_enter {
+        return trace_ray(field, ray, opts);
+    }
+    let (found, mut out) = march(field, ray, opts, (near, t_exit));
+    out.hit = match found {
+        Crossing::At(t) => Some(t),
+        Crossing::None => None,
+        // Inside at the start, against the proof (within rounding): trace the ray whole.
+        Crossing::InsideAtStart => {
+            let whole = trace_ray(field, ray, opts);
+            return TraceResult { steps: out.steps + whole.steps, evals: out.evals + whole.evals, ..whole };
+        }
+    };
+    out
+}
+
 /// What marching a stretch of a ray found.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Crossing {
