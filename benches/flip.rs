@@ -17,10 +17,10 @@ fn medusa_pair() -> (Vec<u8>, Vec<u8>, u32, u32) {
     let scene =
         Scene::load(format!("{}/scenes/medusa.ron", env!("CARGO_MANIFEST_DIR"))).expect("the bundled scene loads");
     let size = Size(1280, 960);
-    let (field, _) = render_field(&scene, size, EvalMode::Indexed, &Silent);
+    let (field, _) = render_field(&scene, (size, 1), EvalMode::Indexed, &Silent);
     let settings = PolygonizeSettings { res: 128, ..PolygonizeSettings::default() };
     let (mesh, report) = polygonize(&scene.model, EvalMode::Indexed, &settings, &Silent).expect("Medusa polygonizes");
-    let (mesh_frame, _) = render_mesh(&scene, &mesh, report, size, &Silent);
+    let (mesh_frame, _) = render_mesh(&scene, &mesh, report, (size, 1), &Silent);
     (field.to_srgb8(), mesh_frame.to_srgb8(), size.0, size.1)
 }
 

@@ -2,6 +2,7 @@
 
 mod common;
 
+use blobtrace::frame::read_exr_channels;
 use common::{blobtrace, scratch};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -58,6 +59,38 @@ fn render_draws_where_the_time_went_and_refuses_it_for_a_mesh() {
     assert_eq!(out.status.code(), Some(64), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--cost-png"));
     assert!(!cost.exists(), "nothing written");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn render_spp_smooths_edges_the_same_for_any_thread_count() {
+    let dir = scratch("spp");
+    let render = |spp: &str, threads: &str, name: &str| {
+        let (png, exr) = (dir.join(format!("{name}.png")), dir.join(format!("{name}.exr")));
+        let args = ["render", "scenes/medusa.ron", "--size", "64x48", "--spp", spp, "--threads", threads];
+        let out = blobtrace(&[&args[..], &["-o", png.to_str().unwrap(), "--exr", exr.to_str().unwrap()]].concat());
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        (std::fs::read(png).unwrap(), read_exr_channels(&exr).unwrap().channels["A"].clone())
+    };
+    let (plain, plain_exr) = render("1", "2", "plain");
+    let (one, _) = render("1", "1", "one");
+    assert_eq!(plain, one, "--spp 1 is the plain render");
+    let (four, four_exr) = render("4", "2", "four");
+    let (four_alone, _) = render("4", "1", "four-alone");
+    assert_eq!(four, four_alone, "the same samples on any thread count");
+    assert_ne!(four, plain);
+    // Edges are part covered; inside and outside stay whole.
+    let partial = |alpha: &[f32]| alpha.iter().filter(|&&a| a > 0.0 && a < 1.0).count();
+    assert_eq!(partial(&plain_exr), 0);
+    assert!(partial(&four_exr) > 20, "{} edge pixels", partial(&four_exr));
+    assert!(plain_exr.iter().zip(&four_exr).filter(|(a, b)| a != b).count() < 64 * 48 / 4);
+    for bad in ["0", "1025", "x"] {
+        let out =
+            blobtrace(&["render", "scenes/medusa.ron", "--spp", bad, "-o", dir.join("bad.png").to_str().unwrap()]);
+        assert_eq!(out.status.code(), Some(64), "--spp {bad}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("--spp"));
+    }
+    assert!(!dir.join("bad.png").exists());
     std::fs::remove_dir_all(dir).unwrap();
 }
 

@@ -161,7 +161,7 @@ fn measure(a: &MeshBenchSettings, mut scene: Scene, progress: &dyn Progress) -> 
         .collect::<Result<_>>()?;
     let sphere = triangle_rate(&detail)?;
     let (mesh, mesh_report) = polygonize(&scene.model, EvalMode::Indexed, &detail, &Silent)?;
-    let (_, render) = render_mesh(&scene, &mesh, mesh_report, a.size, &Silent);
+    let (_, render) = render_mesh(&scene, &mesh, mesh_report, (a.size, 1), &Silent);
     let ray_casting = RayRate {
         res: detail.res,
         triangles: mesh.triangles.len(),

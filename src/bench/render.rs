@@ -78,8 +78,8 @@ pub fn bench_eval(settings: &RenderBenchSettings, progress: &dyn Progress) -> Re
     let (mut indexed, mut naive) = (Fastest::new(), Fastest::new());
     for round in 0..settings.repeat {
         progress.update("benchmark rounds", u64::from(round), u64::from(settings.repeat));
-        indexed.offer(with_threads(settings.threads, || render_field(&scene, size, EvalMode::Indexed, &Silent))?);
-        naive.offer(with_threads(settings.threads, || render_field(&scene, size, EvalMode::Naive, &Silent))?);
+        indexed.offer(with_threads(settings.threads, || render_field(&scene, (size, 1), EvalMode::Indexed, &Silent))?);
+        naive.offer(with_threads(settings.threads, || render_field(&scene, (size, 1), EvalMode::Naive, &Silent))?);
     }
     let ((indexed_frame, indexed, indexed_runs_s), (naive_frame, naive, naive_runs_s)) = (indexed.take(), naive.take());
     let mismatch_px = indexed_frame.alpha.iter().zip(&naive_frame.alpha).filter(|(a, b)| a != b).count();
@@ -176,7 +176,7 @@ pub fn bench_cache(settings: &RenderBenchSettings, progress: &dyn Progress) -> R
         progress.update("benchmark rounds", u64::from(round), u64::from(a.repeat));
         // Every round's cold render starts from empty caches.
         let scene = Scene::load(&a.scene)?;
-        let run = |mode| with_threads(a.threads, || render_field(&scene, size, mode, &Silent));
+        let run = |mode| with_threads(a.threads, || render_field(&scene, (size, 1), mode, &Silent));
         naive.offer(run(EvalMode::Naive)?);
         exact.offer(run(EvalMode::Indexed)?);
         cold.offer(run(EvalMode::Cached)?);

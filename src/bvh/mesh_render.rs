@@ -8,8 +8,8 @@ use super::RayTarget;
 use crate::field::DEFAULT_COLOR;
 use crate::frame::Frame;
 use crate::trace::{
-    PixelRect, PixelSample, Refinement, RenderSettings, Retrace, assemble, render_pixels, rerender_pixels,
-    retrace_listed,
+    CENTRE, PixelRect, PixelSample, Refinement, RenderSettings, Retrace, assemble, hits_of, render_pixels,
+    rerender_pixels, retrace_listed,
 };
 
 /// Totals over a mesh render.
@@ -24,11 +24,12 @@ pub struct MeshRenderStats {
 }
 
 impl MeshRenderStats {
-    /// The totals over cast `samples`, whose first counter is triangle tests.
-    fn of(samples: &[PixelSample]) -> Self {
-        let mut stats = MeshRenderStats { rays: samples.len() as u64, ..Default::default() };
-        for p in samples {
-            stats.hits += u64::from(p.depth.is_finite());
+    /// The totals over cast `pixels` of `samples` rays each, whose first
+    /// counter is triangle tests.
+    fn of(pixels: &[PixelSample], samples: u32) -> Self {
+        let mut stats = MeshRenderStats { rays: pixels.len() as u64 * u64::from(samples), ..Default::default() };
+        for p in pixels {
+            stats.hits += hits_of(p, samples);
             stats.triangle_tests += u64::from(p.counts[0]);
         }
         stats
@@ -45,8 +46,8 @@ pub fn render_mesh(
     settings: &RenderSettings,
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Frame, MeshRenderStats) {
-    let samples = render_pixels(settings, progress, |x, y| shade_pixel(target, settings, x, y));
-    (assemble(&samples, settings, MESH_COUNTERS), MeshRenderStats::of(&samples))
+    let samples = render_pixels(settings, progress, |x, y, at| shade_pixel(target, settings, (x, y, at)));
+    (assemble(&samples, settings, MESH_COUNTERS), MeshRenderStats::of(&samples, settings.samples.max(1)))
 }
 
 /// Re-casts the pixels inside `rects` (not overlapping) into `frame`, a render
@@ -58,9 +59,9 @@ pub fn rerender_mesh(
     rects: &[PixelRect],
 ) -> MeshRenderStats {
     let done = rerender_pixels(frame, rects, MESH_COUNTERS, |x, y, _| {
-        Some(Retrace::Changed(shade_pixel(target, settings, x, y)))
+        Some(Retrace::Changed(shade_pixel(target, settings, (x, y, CENTRE))))
     });
-    MeshRenderStats::of(&done.changed)
+    MeshRenderStats::of(&done.changed, 1)
 }
 
 /// Casts the next batch of about `max_rays` stale pixels of `refinement`
@@ -74,14 +75,15 @@ pub fn refine_mesh(
 ) -> MeshRenderStats {
     let batch = refinement.next_batch(max_rays);
     let done = retrace_listed(frame, &batch, MESH_COUNTERS, |x, y, _, _| {
-        Some(Retrace::Changed(shade_pixel(target, settings, x, y)))
+        Some(Retrace::Changed(shade_pixel(target, settings, (x, y, CENTRE))))
     });
     refinement.finish(&batch);
-    MeshRenderStats::of(&done.changed)
+    MeshRenderStats::of(&done.changed, 1)
 }
 
-fn shade_pixel(target: &impl RayTarget, s: &RenderSettings, x: u32, y: u32) -> PixelSample {
-    let ray = s.camera.ray(x, y, s.width, s.height);
+/// Casts the ray through point `at` of pixel (`x`, `y`).
+fn shade_pixel(target: &impl RayTarget, s: &RenderSettings, (x, y, at): (u32, u32, Vec2)) -> PixelSample {
+    let ray = s.camera.ray_at(x as f32 + at.x, y as f32 + at.y, s.width, s.height);
     let (hit, tests) = target.hit(&ray);
     let Some(hit) = hit else {
         return PixelSample::miss(s.background, [tests, 0]);
@@ -90,6 +92,7 @@ fn shade_pixel(target: &impl RayTarget, s: &RenderSettings, x: u32, y: u32) -> P
         color: s.lighting.shade(&s.camera, ray.dir, hit.normal, hit.albedo),
         depth: hit.t,
         normal: hit.normal.into(),
+        alpha: 1.0,
         counts: [tests, hit.triangle + 1],
     }
 }

@@ -235,18 +235,18 @@ pub fn compare(
     settings.scales.check()?;
     settings.tolerances.check()?;
     settings.polygonize.check(&scene.model)?;
-    let (ray, ray_report) = render_field(scene, settings.size, mode, progress);
+    let (ray, ray_report) = render_field(scene, (settings.size, 1), mode, progress);
     let (mesh_model, mut mesh_report) = polygonize_checked(&scene.model, mode, &settings.polygonize, progress);
     let by_error = match settings.error_scale {
         Some(scale) => {
             let mut by_error = mesh_model.clone();
             // A cold copy of the model: error_C asks every cache, whatever auto mode decided.
             color_by_cache_error(&mut scene.model.clone(), &mut by_error, scale, &mut mesh_report)?;
-            Some(render_mesh(scene, &by_error, mesh_report.clone(), settings.size, progress).0)
+            Some(render_mesh(scene, &by_error, mesh_report.clone(), (settings.size, 1), progress).0)
         }
         None => None,
     };
-    let (mesh, mesh_render) = render_mesh(scene, &mesh_model, mesh_report, settings.size, progress);
+    let (mesh, mesh_render) = render_mesh(scene, &mesh_model, mesh_report, (settings.size, 1), progress);
     let (errors, report) = measure(&ray, &mesh, ray_report, mesh_render, settings);
     Ok(Comparison { ray, mesh, by_error, error_scale: settings.error_scale, errors, report })
 }

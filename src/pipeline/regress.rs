@@ -220,11 +220,11 @@ pub fn render_entry(scenes: &Path, entry: &Entry) -> Result<Frame> {
     scene.model.set_cache_budget(None);
     let mode = if entry.cached { EvalMode::Cached } else { EvalMode::Indexed };
     Ok(match entry.kind {
-        Kind::Field => render_field(&scene, entry.size, mode, &Silent).0,
+        Kind::Field => render_field(&scene, (entry.size, 1), mode, &Silent).0,
         Kind::Mesh(res) => {
             let settings = PolygonizeSettings { res, ..Default::default() };
             let (mesh, report) = polygonize(&scene.model, mode, &settings, &Silent)?;
-            render_mesh(&scene, &mesh, report, entry.size, &Silent).0
+            render_mesh(&scene, &mesh, report, (entry.size, 1), &Silent).0
         }
     })
 }

@@ -35,7 +35,9 @@ pub struct RenderReport {
     pub width: u32,
     /// Image height.
     pub height: u32,
-    /// Rays, hits, evaluations and steps.
+    /// Rays per pixel.
+    pub samples: u32,
+    /// Rays, hits (pixels any ray of which hit), evaluations and steps.
     #[serde(flatten)]
     pub stats: RenderStats,
     /// Rays traced per second.
@@ -66,7 +68,9 @@ pub struct MeshRenderReport {
     pub width: u32,
     /// Image height.
     pub height: u32,
-    /// Rays, hits and triangle tests.
+    /// Rays per pixel.
+    pub samples: u32,
+    /// Rays, hits (pixels any ray of which hit) and triangle tests.
     #[serde(flatten)]
     pub stats: MeshRenderStats,
     /// Rays cast per second.
@@ -77,9 +81,15 @@ pub struct MeshRenderReport {
     pub mesh: MeshReport,
 }
 
-/// Renders `scene` at `size` by tracing its field in `mode`, timing it.
-pub fn render_field(scene: &Scene, size: Size, mode: EvalMode, progress: &dyn Progress) -> (Frame, RenderReport) {
-    let settings = scene.render_settings(size);
+/// Renders `scene` at `size` by tracing its field in `mode`, `samples` rays
+/// per pixel (see [`crate::trace::samples`]), timing it.
+pub fn render_field(
+    scene: &Scene,
+    (size, samples): (Size, u32),
+    mode: EvalMode,
+    progress: &dyn Progress,
+) -> (Frame, RenderReport) {
+    let settings = RenderSettings { samples, ..scene.render_settings(size) };
     let start = Instant::now();
     let (mut frame, stats, empty) = render_model(&scene.model, mode, &settings, &rows(progress, "tracing", size.1));
     let seconds = start.elapsed().as_secs_f64();
@@ -89,6 +99,7 @@ pub fn render_field(scene: &Scene, size: Size, mode: EvalMode, progress: &dyn Pr
         empty_fraction: empty.empty_fraction(),
         width: size.0,
         height: size.1,
+        samples,
         stats,
         rays_per_second: stats.rays as f64 / seconds.max(1e-9),
         evals_per_ray: stats.field_evals as f64 / stats.rays.max(1) as f64,
@@ -101,15 +112,16 @@ pub fn render_field(scene: &Scene, size: Size, mode: EvalMode, progress: &dyn Pr
     (frame, report)
 }
 
-/// Builds the BVH over `mesh` and ray casts it with `scene`'s camera at `size`, timing it.
+/// Builds the BVH over `mesh` and ray casts it with `scene`'s camera at
+/// `size`, `samples` rays per pixel, timing it.
 pub fn render_mesh(
     scene: &Scene,
     mesh: &Mesh,
     mesh_report: MeshReport,
-    size: Size,
+    (size, samples): (Size, u32),
     progress: &dyn Progress,
 ) -> (Frame, MeshRenderReport) {
-    let settings = scene.render_settings(size);
+    let settings = RenderSettings { samples, ..scene.render_settings(size) };
     let bvh = MeshBvh::build(mesh);
     let start = Instant::now();
     let (mut frame, stats) =
@@ -120,6 +132,7 @@ pub fn render_mesh(
         seconds,
         width: size.0,
         height: size.1,
+        samples,
         stats,
         rays_per_second: stats.rays as f64 / seconds.max(1e-9),
         bvh_build_seconds: bvh.build_seconds,

@@ -7,6 +7,7 @@ mod coverage;
 mod dirty_rects;
 pub mod progressive;
 mod render;
+pub mod samples;
 mod segment;
 mod shade;
 
@@ -15,8 +16,9 @@ pub use coverage::Coverage;
 pub use dirty_rects::{PixelRect, merge_rects, screen_rect};
 pub use progressive::{PASS_STEPS, PixelState, Refinement};
 pub use render::{
-    KeptPixel, PixelSample, RenderSettings, RenderStats, Rerendered, Retrace, assemble, changed_space, outward_normal,
-    refine, render, render_covered, render_model, render_pixels, rerender, rerender_pixels, retrace_listed,
+    CENTRE, KeptPixel, PixelSample, RenderSettings, RenderStats, Rerendered, Retrace, assemble, changed_space, hits_of,
+    outward_normal, refine, render, render_covered, render_model, render_pixels, rerender, rerender_pixels,
+    retrace_listed,
 };
 pub use segment::{Crossing, TraceOptions, TraceResult, march, trace_ray, trace_ray_from};
 pub use shade::Lighting;

@@ -4,12 +4,13 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use glam::{Vec3, Vec3A};
+use glam::{Vec2, Vec3, Vec3A};
 use rayon::prelude::*;
 
 use super::changed_space::ChangedSpace;
 use super::coverage::Coverage;
 use super::progressive::{PixelState, Refinement};
+use super::samples::{combine, sample_offset};
 use super::segment::{Crossing, TraceOptions, march, snap_reach, trace_ray_from};
 use super::shade::Lighting;
 use crate::camera::Camera;
@@ -32,6 +33,8 @@ pub struct RenderSettings {
     pub lighting: Lighting,
     /// Tracer knobs.
     pub trace: TraceOptions,
+    /// Rays per pixel (see [`super::samples`]); 1 is the pixel's centre alone.
+    pub samples: u32,
 }
 
 impl RenderSettings {
@@ -46,6 +49,7 @@ impl RenderSettings {
             background,
             lighting: Lighting::default(),
             trace: TraceOptions::for_bounds(&model.sizing_bounds()),
+            samples: 1,
         }
     }
 }
@@ -59,6 +63,9 @@ pub struct PixelSample {
     pub depth: f32,
     /// Unit world normal at the hit; zero on a miss.
     pub normal: Vec3,
+    /// Coverage: 1 on a hit, 0 on a miss, the fraction of rays that hit
+    /// for several samples.
+    pub alpha: f32,
     /// Work counters, written to the frame's extra channels.
     pub counts: [u32; 2],
 }
@@ -67,7 +74,7 @@ impl PixelSample {
     /// A missed pixel.
     #[must_use]
     pub fn miss(background: Vec3, counts: [u32; 2]) -> Self {
-        Self { color: background, depth: f32::INFINITY, normal: Vec3::ZERO, counts }
+        Self { color: background, depth: f32::INFINITY, normal: Vec3::ZERO, alpha: 0.0, counts }
     }
 }
 
@@ -85,16 +92,23 @@ pub struct RenderStats {
 }
 
 impl RenderStats {
-    /// The totals over traced `samples`, whose counters are steps and evaluations.
-    fn of(samples: &[PixelSample]) -> Self {
-        let mut stats = RenderStats { rays: samples.len() as u64, ..Default::default() };
-        for p in samples {
-            stats.hits += u64::from(p.depth.is_finite());
+    /// The totals over traced `pixels` of `samples` rays each, whose
+    /// counters are steps and evaluations.
+    fn of(pixels: &[PixelSample], samples: u32) -> Self {
+        let mut stats = RenderStats { rays: pixels.len() as u64 * u64::from(samples), ..Default::default() };
+        for p in pixels {
+            stats.hits += hits_of(p, samples);
             stats.steps += u64::from(p.counts[0]);
             stats.field_evals += u64::from(p.counts[1]);
         }
         stats
     }
+}
+
+/// The rays of a pixel of `samples` rays that hit: its coverage times the rays.
+#[must_use]
+pub fn hits_of(p: &PixelSample, samples: u32) -> u64 {
+    (p.alpha * samples as f32).round() as u64
 }
 
 /// Names of the frame channels holding the field tracer's counters.
@@ -118,8 +132,8 @@ pub fn render_covered<F: Field + ?Sized>(
     coverage: Option<&Coverage>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Frame, RenderStats) {
-    let samples = render_pixels(settings, progress, |x, y| trace_pixel(field, settings, x, y, coverage));
-    (assemble(&samples, settings, FIELD_COUNTERS), RenderStats::of(&samples))
+    let samples = render_pixels(settings, progress, |x, y, at| trace_pixel(field, settings, (x, y, at), coverage));
+    (assemble(&samples, settings, FIELD_COUNTERS), RenderStats::of(&samples, settings.samples.max(1)))
 }
 
 /// Renders `model` in `mode`, marking its empty space first to skip it and
@@ -206,14 +220,14 @@ fn retrace_pixel<F: Field + ?Sized>(
         return Some(Retrace::Changed(PixelSample::miss(s.background, [0, 0])));
     };
     if t_in <= t_start {
-        return Some(Retrace::Changed(trace_pixel(field, s, x, y, None)));
+        return Some(Retrace::Changed(trace_pixel(field, s, (x, y, CENTRE), None)));
     }
     let (found, inside) = march(field, &ray, &s.trace, (t_in, t_out.min(t_end)));
     let mut work = [inside.steps, inside.evals];
     let hit = match found {
         Crossing::At(t) => Some(t),
         // Entering the surface exactly where the stretch starts: trace it whole.
-        Crossing::InsideAtStart => return Some(Retrace::Changed(trace_pixel(field, s, x, y, None))),
+        Crossing::InsideAtStart => return Some(Retrace::Changed(trace_pixel(field, s, (x, y, CENTRE), None))),
         Crossing::None if before > t_out => {
             return Some(Retrace::Kept(KeptPixel { hit: before.is_finite(), counts: work }));
         }
@@ -223,7 +237,9 @@ fn retrace_pixel<F: Field + ?Sized>(
             work = [work[0] + after.steps, work[1] + after.evals];
             match found {
                 Crossing::At(t) => Some(t),
-                Crossing::InsideAtStart => return Some(Retrace::Changed(trace_pixel(field, s, x, y, None))),
+                Crossing::InsideAtStart => {
+                    return Some(Retrace::Changed(trace_pixel(field, s, (x, y, CENTRE), None)));
+                }
                 Crossing::None => None,
             }
         }
@@ -267,7 +283,7 @@ pub fn refine<F: Field + ?Sized>(
     let batch = refinement.next_batch(max_rays);
     let done = retrace_listed(frame, &batch, FIELD_COUNTERS, |x, y, state, before| match (state, changed) {
         (PixelState::Retrace, Some(changed)) => retrace_pixel(field, settings, x, y, before, changed),
-        _ => Some(Retrace::Changed(trace_pixel(field, settings, x, y, coverage))),
+        _ => Some(Retrace::Changed(trace_pixel(field, settings, (x, y, CENTRE), coverage))),
     });
     refinement.finish(&batch);
     done.stats()
@@ -324,7 +340,7 @@ pub struct Rerendered {
 impl Rerendered {
     /// The field tracer's totals over every pixel traced again.
     fn stats(&self) -> RenderStats {
-        let mut stats = RenderStats::of(&self.changed);
+        let mut stats = RenderStats::of(&self.changed, 1);
         for kept in &self.kept {
             stats.rays += 1;
             stats.hits += u64::from(kept.hit);
@@ -335,45 +351,56 @@ impl Rerendered {
     }
 }
 
-/// Stores what pixel `i` shows: colour, depth, normal, and coverage from the depth.
+/// Stores what pixel `i` shows: colour, depth, normal, coverage.
 fn write_sample(frame: &mut Frame, i: usize, p: &PixelSample) {
     frame.color[i] = p.color;
     frame.depth[i] = p.depth;
     frame.normal[i] = p.normal;
-    frame.alpha[i] = if p.depth.is_finite() { 1.0 } else { 0.0 };
+    frame.alpha[i] = p.alpha;
 }
 
-/// Calls `pixel` for every pixel, rows in parallel, in row-major order.
+/// A pixel's centre, in pixel units from its top-left corner: where its one ray goes.
+pub const CENTRE: Vec2 = Vec2::splat(0.5);
+
+/// Calls `pixel` for every pixel, rows in parallel, in row-major order, at
+/// each of the settings' samples in it (see [`super::samples`]), and
+/// combines each pixel's samples.
 pub fn render_pixels(
     settings: &RenderSettings,
     progress: &(dyn Fn(usize) + Sync),
-    pixel: impl Fn(u32, u32) -> PixelSample + Sync,
+    pixel: impl Fn(u32, u32, Vec2) -> PixelSample + Sync,
 ) -> Vec<PixelSample> {
     let (w, h) = (settings.width, settings.height);
     let done = AtomicUsize::new(0);
+    let samples = settings.samples.max(1);
     (0..h)
         .into_par_iter()
         .flat_map_iter(|y| {
-            let row: Vec<PixelSample> = (0..w).map(|x| pixel(x, y)).collect();
+            let row: Vec<PixelSample> = (0..w)
+                .map(|x| match samples {
+                    1 => pixel(x, y, CENTRE),
+                    n => combine(&(0..n).map(|k| pixel(x, y, sample_offset(x, y, k))).collect::<Vec<_>>()),
+                })
+                .collect();
             progress(done.fetch_add(1, Ordering::Relaxed) + 1);
             row
         })
         .collect()
 }
 
-/// Traces pixel (`x`, `y`), its march starting where `coverage` says.
+/// Traces the ray through point `at` of pixel (`x`, `y`), its march
+/// starting where `coverage` says (which holds for any point of the pixel).
 fn trace_pixel<F: Field + ?Sized>(
     field: &F,
     s: &RenderSettings,
-    x: u32,
-    y: u32,
+    (x, y, at): (u32, u32, Vec2),
     coverage: Option<&Coverage>,
 ) -> PixelSample {
     let near = coverage.map_or(0.0, |c| c.near(x, y));
     if near == f32::INFINITY {
         return PixelSample::miss(s.background, [0, 0]);
     }
-    let ray = s.camera.ray(x, y, s.width, s.height);
+    let ray = s.camera.ray_at(x as f32 + at.x, y as f32 + at.y, s.width, s.height);
     let r = trace_ray_from(field, &ray, &s.trace, near);
     match r.hit {
         Some(t) => shade_hit(field, s, &ray, t, [r.steps, r.evals]),
@@ -391,6 +418,7 @@ fn shade_hit<F: Field + ?Sized>(field: &F, s: &RenderSettings, ray: &Ray, t: f32
         color: s.lighting.shade(&s.camera, ray.dir, normal, albedo),
         depth: t,
         normal: normal.into(),
+        alpha: 1.0,
         counts: [work[0], work[1] + 2],
     }
 }

@@ -1,0 +1,112 @@
+//! Where in a pixel each of its rays goes, and how a pixel's samples make
+//! one. Sample 0 is the pixel's centre, so one sample per pixel is the plain
+//! render references are made of; sample k ≥ 1 is the k-th point of the
+//! Halton sequence in bases 2 and 3, shifted by a per-pixel offset taken
+//! from a hash of the pixel (a Cranley–Patterson rotation, so neighbouring
+//! pixels do not alias alike). Every prefix of the sequence is spread
+//! evenly over the pixel, so N samples are stratified for any N, and a
+//! previewer that adds one sample at a time ends where a render of N does.
+//! The offsets depend on the pixel and the sample index only: the image is
+//! the same for any number of threads.
+
+use glam::{Vec2, Vec3};
+
+use super::render::PixelSample;
+
+/// Most samples per pixel a render takes.
+pub const MAX_SAMPLES: u32 = 1024;
+
+/// The position in pixel (`x`, `y`) of its sample `k`, in pixel units from
+/// its top-left corner.
+#[must_use]
+pub fn sample_offset(x: u32, y: u32, k: u32) -> Vec2 {
+    if k == 0 {
+        return Vec2::splat(0.5);
+    }
+    let shift = pixel_shift(x, y);
+    let point = Vec2::new(radical_inverse(k, 2), radical_inverse(k, 3));
+    (point + shift).fract()
+}
+
+/// The pixel that `samples` of one pixel make: the mean colour (misses count
+/// as the background they show), the fraction that hit as alpha, the
+/// nearest hit's distance, the mean of the hits' normals, and the summed
+/// work counters.
+#[must_use]
+pub fn combine(samples: &[PixelSample]) -> PixelSample {
+    if let [one] = samples {
+        return *one;
+    }
+    let n = samples.len().max(1) as f32;
+    let hits: Vec<&PixelSample> = samples.iter().filter(|s| s.depth.is_finite()).collect();
+    let normal: Vec3 = hits.iter().map(|s| s.normal).sum();
+    PixelSample {
+        color: samples.iter().map(|s| s.color).sum::<Vec3>() / n,
+        depth: hits.iter().map(|s| s.depth).fold(f32::INFINITY, f32::min),
+        normal: normal.normalize_or_zero(),
+        alpha: hits.len() as f32 / n,
+        counts: samples.iter().fold([0, 0], |c, s| [c[0] + s.counts[0], c[1] + s.counts[1]]),
+    }
+}
+
+/// The point `k` of the van der Corput sequence in `base`: its digits mirrored about the point.
+fn radical_inverse(mut k: u32, base: u32) -> f32 {
+    let (mut value, mut scale) = (0.0_f64, 1.0_f64);
+    while k > 0 {
+        scale /= f64::from(base);
+        value += f64::from(k % base) * scale;
+        k /= base;
+    }
+    value as f32
+}
+
+/// A pixel's offset of the sequence, in `[0, 1)²`, from a hash of its coordinates.
+fn pixel_shift(x: u32, y: u32) -> Vec2 {
+    let h = mix(u64::from(x) << 32 | u64::from(y));
+    let unit = |bits: u64| (bits >> 40) as f32 / (1u64 << 24) as f32;
+    Vec2::new(unit(h), unit(h << 24))
+}
+
+/// SplitMix64's finaliser: every input bit moves every output bit.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_first_sample_is_the_centre_and_the_rest_fill_the_pixel_evenly() {
+        assert_eq!(sample_offset(3, 9, 0), Vec2::splat(0.5));
+        // Sixteen samples fall about four to each quarter of the pixel.
+        let points: Vec<Vec2> = (1..=16).map(|k| sample_offset(3, 9, k)).collect();
+        for p in &points {
+            assert!((0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y), "{p}");
+        }
+        for quarter in 0..4 {
+            let (qx, qy) = ((quarter % 2) as f32 * 0.5, (quarter / 2) as f32 * 0.5);
+            let inside = |p: &&Vec2| p.x >= qx && p.x < qx + 0.5 && p.y >= qy && p.y < qy + 0.5;
+            let count = points.iter().filter(inside).count();
+            assert!((2..=6).contains(&count), "quarter {quarter}: {count} of 16");
+        }
+        assert_ne!(sample_offset(3, 9, 1), sample_offset(4, 9, 1), "pixels are shifted apart");
+    }
+
+    #[test]
+    fn samples_combine_into_mean_colour_coverage_nearest_depth_and_summed_work() {
+        let hit = PixelSample { color: Vec3::ONE, depth: 2.0, normal: Vec3::Z, alpha: 1.0, counts: [3, 5] };
+        let near = PixelSample { depth: 1.5, normal: Vec3::X, ..hit };
+        let miss = PixelSample::miss(Vec3::ZERO, [1, 1]);
+        let p = combine(&[hit, miss, near, miss]);
+        assert_eq!(p.color, Vec3::splat(0.5));
+        assert_eq!((p.alpha, p.depth), (0.5, 1.5));
+        assert!((p.normal - Vec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-6);
+        assert_eq!(p.counts, [8, 12]);
+        assert_eq!(combine(&[hit]).depth, 2.0);
+        assert_eq!(combine(&[miss, miss]).alpha, 0.0);
+    }
+}
