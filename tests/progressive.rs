@@ -9,9 +9,9 @@ use std::time::Duration;
 use blobtrace::camera::{CameraMove, Orbit};
 use blobtrace::field::{EvalMode, ModelField};
 use blobtrace::frame::Frame;
-use blobtrace::pipeline::{EditSession, PolygonizeSettings};
+use blobtrace::pipeline::{EditSession, IDLE_SAMPLES, PolygonizeSettings};
 use blobtrace::scene::{Scene, Size};
-use blobtrace::trace::{PASS_STEPS, render};
+use blobtrace::trace::{PASS_STEPS, RenderSettings, render};
 use common::{Rng, bundled, random_edit};
 
 /// The field render of the session's model and camera from scratch.
@@ -92,4 +92,23 @@ fn once_the_coarse_pass_is_up_no_pixel_shows_the_field_before_the_edit() {
         }
         assert!(stale_seen > 50, "{mode:?}: the edits changed what the screen shows ({stale_seen} pixels)");
     }
+}
+
+#[test]
+fn samples_added_while_idle_converge_to_the_render_of_as_many_samples() {
+    let polygonize = PolygonizeSettings { res: 16, ..Default::default() };
+    let mut session = EditSession::new(bundled("medusa.ron"), EvalMode::Indexed, Size(40, 30), &polygonize).unwrap();
+    assert_eq!(session.samples_taken(), 1);
+    let plain = session.field_colors().into_owned();
+    while session.supersample(Duration::ZERO) {}
+    assert_eq!(session.samples_taken(), IDLE_SAMPLES);
+    let settings = RenderSettings { samples: IDLE_SAMPLES, ..*session.settings() };
+    let field = ModelField::new(&session.scene().model, session.mode());
+    let smooth = render(&field, &settings, &|_| {}).0;
+    assert!(session.field_colors().iter().zip(&smooth.color).all(|(a, b)| a == b), "the colours of render --spp 16");
+    assert_ne!(plain, smooth.color);
+    // A camera move starts again from one sample.
+    let camera = session.settings().camera;
+    session.begin_camera(camera);
+    assert_eq!(session.samples_taken(), 1);
 }

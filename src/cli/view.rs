@@ -84,6 +84,7 @@ pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
             anyhow::Ok(())
         })?;
     }
+    pool.install(|| viewer.converge());
     eprintln!("{}", viewer.title());
     let image = if a.hud { viewer.screen() } else { viewer.image() };
     Ok(image.save_png(&a.output)?)

@@ -7,6 +7,7 @@
 use std::borrow::Cow;
 use std::time::Instant;
 
+use glam::Vec3;
 use serde::Serialize;
 
 use super::error::{PipelineError, Result};
@@ -21,7 +22,7 @@ use crate::mesh::{Lattice, Polygonizer, canonical_triangles, skeleton_seeds};
 use crate::scene::Scene;
 use crate::trace::{
     ChangedSpace, Coverage, PixelRect, PixelState, Refinement, RenderSettings, changed_space, merge_rects, refine,
-    render_model, screen_rect,
+    render_model, screen_rect, trace_sample_rows,
 };
 
 /// One frame's measurements.
@@ -100,7 +101,25 @@ pub struct EditSession {
     frames: usize,
     /// What the last edits and camera moves left to do.
     todo: Todo,
+    /// The samples added to the field image since it was last refined.
+    samples: Option<Samples>,
 }
+
+/// Samples added to each pixel of a still, refined field image while the
+/// previewer is idle (see [`crate::trace::samples`]), so that it converges to
+/// the image of `render --spp`.
+struct Samples {
+    /// Per pixel, the sum of its samples' colours, in sample order.
+    sum: Vec<Vec3>,
+    /// Samples summed in every pixel.
+    count: u32,
+    /// The first row of sample `count` not yet summed.
+    row: u32,
+    coverage: Coverage,
+}
+
+/// Samples per pixel the previewer takes at most while idle.
+pub const IDLE_SAMPLES: u32 = 16;
 
 /// What the last edits and camera moves left to do, in the order
 /// [`EditSession::refine`] does it: the field image's stale pixels, the
@@ -182,6 +201,7 @@ impl EditSession {
             depth_diff,
             frames: 0,
             todo,
+            samples: None,
         })
     }
 
@@ -250,6 +270,7 @@ impl EditSession {
     /// mesh images; [`Self::refine`] does the rest.
     pub fn begin_camera(&mut self, camera: Camera) {
         self.settings.camera = camera;
+        self.samples = None;
         self.todo.coverage = Some(self.coverage());
         let todo = &mut self.todo;
         todo.field.mark_all();
@@ -295,6 +316,7 @@ impl EditSession {
         if let Some(e) = refused.take_if(|_| regions.is_empty()) {
             return Err(e.into());
         }
+        self.samples = None;
         check_edited_model(&self.scene.model, self.polygonizer.lattice())?;
         let dirty = self.mark_changed(&support_regions, &mut row);
         let remesh = self.todo.remesh.get_or_insert_default();
@@ -366,6 +388,72 @@ impl EditSession {
             if start.elapsed() >= budget {
                 return true;
             }
+        }
+    }
+
+    /// Adds samples to the pixels of the refined field image for about
+    /// `budget` (at least a batch of rows); returns whether it takes more
+    /// (up to [`IDLE_SAMPLES`] per pixel). Nothing while refinement is left.
+    pub fn supersample(&mut self, budget: std::time::Duration) -> bool {
+        if self.pending().is_some() {
+            return true;
+        }
+        let start = Instant::now();
+        while self.samples_taken() < IDLE_SAMPLES {
+            let left = budget.saturating_sub(start.elapsed()).as_secs_f64();
+            self.add_sample_rows((self.todo.rays_per_second * left) as usize);
+            if start.elapsed() >= budget {
+                break;
+            }
+        }
+        self.samples_taken() < IDLE_SAMPLES
+    }
+
+    /// Samples per pixel summed into the field image's colours (1: its own).
+    #[must_use]
+    pub fn samples_taken(&self) -> u32 {
+        self.samples.as_ref().map_or(1, |s| s.count)
+    }
+
+    /// Traces the next rows, about `max_rays` rays, of the next sample of every pixel.
+    fn add_sample_rows(&mut self, max_rays: usize) {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let samples = self.samples.get_or_insert_with(|| Samples {
+            sum: self.field_frame.color.clone(),
+            count: 1,
+            row: 0,
+            coverage: Coverage::of(&self.empty, &self.scene.model.bounds(), &self.settings.camera, w, h),
+        });
+        let rows = (max_rays.max(MIN_BATCH_RAYS) / w.max(1) as usize).max(1) as u32;
+        let (first, end) = (samples.row, (samples.row + rows).min(h));
+        let field = ModelField::new(&self.scene.model, self.mode);
+        let clock = Instant::now();
+        let traced = trace_sample_rows(
+            &field.skipping(&self.empty),
+            &self.settings,
+            Some(&samples.coverage),
+            samples.count,
+            first..end,
+        );
+        let seconds = clock.elapsed().as_secs_f64();
+        self.todo.rays_per_second = traced.len() as f64 / seconds.max(1e-6);
+        let offset = (first * w) as usize;
+        for (sum, p) in samples.sum[offset..offset + traced.len()].iter_mut().zip(&traced) {
+            *sum += p.color;
+        }
+        samples.row = end;
+        if end == h {
+            (samples.count, samples.row) = (samples.count + 1, 0);
+        }
+    }
+
+    /// The field image's colours as they stand: the preview's while it
+    /// refines, the mean of the samples taken since.
+    #[must_use]
+    pub fn field_colors(&self) -> Cow<'_, [Vec3]> {
+        match &self.samples {
+            Some(s) if s.count > 1 => Cow::Owned(s.sum.iter().map(|&c| c / s.count as f32).collect()),
+            _ => self.todo.field.preview_values(&self.field_frame.color),
         }
     }
 

@@ -63,7 +63,7 @@ pub use compare::{
     Tolerances, UsedScales, compare,
 };
 pub use cost_map::cost_map;
-pub use edit_session::{EditSession, FrameRow, FrameUpdate, Pending, Verification, outline_dirty};
+pub use edit_session::{EditSession, FrameRow, FrameUpdate, IDLE_SAMPLES, Pending, Verification, outline_dirty};
 pub use error::{PipelineError, Result};
 pub use eval::{EvalSettings, ExactLookup, FieldChoice, MB};
 pub use image_diff::{ImageDiffError, ImageDiffSettings, diff_images};

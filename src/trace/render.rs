@@ -388,6 +388,23 @@ pub fn render_pixels(
         .collect()
 }
 
+/// Traces sample `k` (see [`super::samples`]) of every pixel of `rows`,
+/// rows in parallel, each ray's march starting where `coverage` says;
+/// row-major.
+pub fn trace_sample_rows<F: Field + ?Sized>(
+    field: &F,
+    settings: &RenderSettings,
+    coverage: Option<&Coverage>,
+    k: u32,
+    rows: std::ops::Range<u32>,
+) -> Vec<PixelSample> {
+    rows.into_par_iter()
+        .flat_map_iter(|y| {
+            (0..settings.width).map(move |x| trace_pixel(field, settings, (x, y, sample_offset(x, y, k)), coverage))
+        })
+        .collect()
+}
+
 /// Traces the ray through point `at` of pixel (`x`, `y`), its march
 /// starting where `coverage` says (which holds for any point of the pixel).
 fn trace_pixel<F: Field + ?Sized>(

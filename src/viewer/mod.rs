@@ -25,7 +25,7 @@ use crate::camera::{CameraMove, Orbit};
 use crate::compare::{Metric, Rgb8Image, Scale, differences};
 use crate::field::Edit;
 use crate::frame::srgb8_of;
-use crate::pipeline::{EditSession, outline_dirty};
+use crate::pipeline::{EditSession, IDLE_SAMPLES, outline_dirty};
 use crate::scene::Script;
 use crate::trace::PixelRect;
 
@@ -325,15 +325,26 @@ impl Viewer {
         Ok(())
     }
 
-    /// Whether the last edits or camera moves left work to do.
+    /// Whether the viewer has work to do while idle: the refinement the
+    /// last edits or camera moves left, then samples to smooth the field view.
     #[must_use]
     pub fn is_refining(&self) -> bool {
-        !self.session.is_refined()
+        !self.session.is_refined() || self.samples_wanted()
     }
 
-    /// Refines the images for about `budget` (see [`EditSession::refine`]).
+    /// Whether the field view still takes samples to smooth its edges.
+    fn samples_wanted(&self) -> bool {
+        self.view == View::Field && self.session.samples_taken() < IDLE_SAMPLES
+    }
+
+    /// Refines the images for about `budget` (see [`EditSession::refine`]),
+    /// or once they are, adds samples to the field view.
     pub fn refine(&mut self, budget: std::time::Duration) {
-        self.session.refine(budget);
+        if !self.session.is_refined() {
+            self.session.refine(budget);
+        } else if self.samples_wanted() {
+            self.session.supersample(budget);
+        }
         self.note_refined();
     }
 
@@ -341,6 +352,15 @@ impl Viewer {
     pub fn settle(&mut self) {
         self.session.finish();
         self.note_refined();
+    }
+
+    /// Finishes every refinement, and the samples of the field view: what
+    /// the window shows once left alone.
+    pub fn converge(&mut self) {
+        self.settle();
+        while self.samples_wanted() {
+            self.session.supersample(std::time::Duration::from_secs(1));
+        }
     }
 
     /// Records when the last event's images became up to date.
@@ -460,6 +480,8 @@ impl Viewer {
         }
         if let Some(pending) = self.session.pending() {
             parts.push(pending.to_string());
+        } else if self.view == View::Field && self.session.samples_taken() > 1 {
+            parts.push(format!("{} samples per pixel", self.session.samples_taken()));
         }
         parts.push("H: help".into());
         parts
@@ -490,10 +512,7 @@ impl Viewer {
             }
             View::Cost => heat_map(&self.evaluations(), self.cost_scale()),
             // The colours alone: a preview of every channel would cost as much again.
-            View::Field => {
-                let colors = self.session.field_refinement().preview_values(&self.session.field_frame().color);
-                Rgb8Image { width: w, height: h, pixels: srgb8_of(&colors) }
-            }
+            View::Field => Rgb8Image { width: w, height: h, pixels: srgb8_of(&self.session.field_colors()) },
             View::Mesh => {
                 let colors = self.session.mesh_refinement().preview_values(&self.session.mesh_frame().color);
                 Rgb8Image { width: w, height: h, pixels: srgb8_of(&colors) }
