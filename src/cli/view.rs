@@ -29,13 +29,16 @@ pub struct ViewArgs {
     /// The named node the arrow keys move first (default: the first name).
     #[arg(long)]
     pub node: Option<String>,
-    /// Run without a window: apply `--keys` in order, then write the view to `--output`.
+    /// Run without a window: apply `--keys` in order, then write the view to
+    /// `--output` as the window shows it once left alone (refined, and the
+    /// field view smoothed by 16 samples per pixel).
     #[arg(long)]
     pub headless: bool,
     /// Keys for `--headless`, comma-separated: left, right, up, down, pageup,
     /// pagedown (move the node), tab (next node), v (next view), space (next
     /// script frame), r (outline the dirty rectangles), a, d, w, s (orbit),
-    /// z, x (zoom in, out), p (snapshot), h or f1 (help card); and mouse
+    /// z, x (zoom in, out), p (snapshot), h or f1 (help card), comma and
+    /// period (move the slice plane nearer, away), n (what the slice shows); and mouse
     /// gestures drag:DX:DY (orbit), pan:DX:DY, wheel:N (zoom), click:X:Y
     /// (select the named node under that pixel).
     #[arg(long, value_delimiter = ',', requires = "headless")]

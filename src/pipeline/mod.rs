@@ -78,6 +78,6 @@ pub use regress::{
 };
 pub use render::{MeshRenderReport, RenderReport, render_field, render_mesh};
 pub use replay::{EditReport, ScratchFrame, check_names, replay_from_scratch};
-pub use slice::{SliceSettings, SliceView, slice, slice_warnings};
+pub use slice::{PlaneView, SliceSettings, SliceView, plane_view, slice, slice_warnings};
 pub use threads::{MAX_THREADS, with_threads, worker_pool};
 pub use tune::{INSERT_RES, TuneReport, TuneRow, TuneSettings, Tuned, VertexError, error_slices, tune};

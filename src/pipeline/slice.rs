@@ -96,6 +96,75 @@ pub fn slice(
     }
 }
 
+/// One view of a plane through a model as its caches stand: the image at
+/// the plane's pixel size, and the scale its colours follow (none for the
+/// sharp view, whose colours are not a scale).
+pub struct PlaneView {
+    /// The picture, `plane.width × plane.height`.
+    pub image: Rgb8Image,
+    /// Its colour scale, metric and unit, for a colour bar.
+    pub scale: Option<(Scale, &'static str, &'static str)>,
+}
+
+/// `view` of `model` on `plane`, the caches as the model holds them
+/// (error_C and the gradient error compare its cached and exact fields),
+/// each heat map scaled to the 99th percentile of its values: the
+/// previewer's slice view.
+#[must_use]
+pub fn plane_view(model: &crate::field::Model, plane: &SlicePlane, view: SliceView) -> PlaneView {
+    let exact = ModelField::new(model, EvalMode::Indexed);
+    let (w, h) = (plane.width, plane.height);
+    let heat = |values: &[f32], scale: Scale| Rgb8Image {
+        width: w,
+        height: h,
+        pixels: values.iter().flat_map(|&v| scale.color(v)).collect(),
+    };
+    match view {
+        SliceView::Field => {
+            let values = sample(plane, |p| exact.value(p));
+            let scale = scale_of_nonzero(&values, 1.0);
+            let mut image = heat(&values, scale);
+            draw_contour(&mut image, &values, (w, h), exact.threshold());
+            PlaneView { image, scale: Some((scale, "f, the iso-contour in white", "")) }
+        }
+        SliceView::Sharp => {
+            PlaneView { image: sharp_image(&sample(plane, |p| exact.value(p)), w, h, exact.threshold()), scale: None }
+        }
+        SliceView::Error | SliceView::Gradient => {
+            let cached = ModelField::new(model, EvalMode::Cached);
+            let values = measure(view, plane, &cached, &exact);
+            let (errors, scale, title, unit) = match view {
+                SliceView::Error => {
+                    let exact_values = sample(plane, |p| exact.value(p));
+                    let errors = values.iter().zip(&exact_values).map(|(c, e)| (c - e).abs()).collect();
+                    (errors, 0.02, "error_C = |f_C - f|", "")
+                }
+                _ => (values, 10.0, "cached gradient angle error", "deg"),
+            };
+            let scale = scale_of_nonzero(&errors, scale);
+            PlaneView { image: heat(&errors, scale), scale: Some((scale, title, unit)) }
+        }
+    }
+}
+
+/// A scale for a plane's `values` from those not zero (most of a plane
+/// may lie outside the model, where f and its errors vanish): their 99th
+/// percentile, rounded up; `fallback` where all are zero.
+fn scale_of_nonzero(values: &[f32], fallback: f32) -> Scale {
+    let nonzero: Vec<f32> = values.iter().copied().filter(|&v| v != 0.0).collect();
+    Scale::from_data(&nonzero, false, fallback)
+}
+
+/// Draws the iso-contour of `values` (a plane's `w × h` samples, at the top
+/// left of `image`) in white.
+fn draw_contour(image: &mut Rgb8Image, values: &[f32], (w, h): (u32, u32), threshold: f32) {
+    for (i, on) in iso_contour(values, w, h, threshold).into_iter().enumerate() {
+        if on {
+            image.put(i as i64 % i64::from(w), i as i64 / i64::from(w), [255, 255, 255]);
+        }
+    }
+}
+
 /// The cache variants a view compares: each filter, at each resolution of the sweep.
 struct Variants<'a> {
     text: &'a str,
@@ -131,11 +200,7 @@ fn field_view(plane: &SlicePlane, exact: &ModelField, scale: f32) -> Rgb8Image {
     let (w, h) = (plane.width, plane.height);
     let values = sample(plane, |p| exact.value(p));
     let mut img = heat_map(&values, w, h, Scale::Magnitude { max: scale }, "f", "");
-    for (i, on) in iso_contour(&values, w, h, exact.threshold()).into_iter().enumerate() {
-        if on {
-            img.put(i as i64 % i64::from(w), i as i64 / i64::from(w), [255, 255, 255]);
-        }
-    }
+    draw_contour(&mut img, &values, (w, h), exact.threshold());
     img
 }
 

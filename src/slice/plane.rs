@@ -2,6 +2,7 @@
 
 use glam::Vec3A;
 
+use crate::camera::Camera;
 use crate::geom::Aabb;
 
 /// A rectangle of a plane sampled on a pixel grid, row 0 at the top.
@@ -88,6 +89,27 @@ impl SlicePlane {
         }
     }
 
+    /// The plane facing `camera` at `depth` in front of its eye (along its
+    /// view axis), each pixel of a `width × height` image where that
+    /// pixel's primary ray meets the plane: a cross-section seen head on,
+    /// lined up with the renders.
+    #[must_use]
+    pub fn facing(camera: &Camera, width: u32, height: u32, depth: f32) -> Self {
+        // A ray's direction is forward + right·sx + up·sy, sx and sy linear in the pixel:
+        // where it meets the plane is linear in the pixel too.
+        let (w, h) = (width.max(1) as f32, height.max(1) as f32);
+        let half_height = camera.tan_half_fov() * depth;
+        let half_width = half_height * w / h;
+        let at = |px: f32, py: f32| {
+            camera.eye
+                + camera.forward() * depth
+                + camera.right() * ((2.0 * px / w - 1.0) * half_width)
+                + camera.up() * ((1.0 - 2.0 * py / h) * half_height)
+        };
+        let origin = at(0.5, 0.5);
+        Self { origin, right: at(1.5, 0.5) - origin, down: at(0.5, 1.5) - origin, width, height }
+    }
+
     /// World position of the centre of pixel (`x`, `y`).
     #[must_use]
     pub fn point(&self, x: u32, y: u32) -> Vec3A {
@@ -104,6 +126,21 @@ fn vector(s: &str) -> Option<Vec3A> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_plane_facing_the_camera_meets_each_pixel_s_ray() {
+        let camera = Camera::look_at(glam::Vec3::new(1.0, 2.0, 9.0), glam::Vec3::ZERO, glam::Vec3::Y, 50.0);
+        let (w, h, depth) = (40, 30, 6.5);
+        let plane = SlicePlane::facing(&camera, w, h, depth);
+        for (x, y) in [(0, 0), (39, 0), (17, 11), (39, 29)] {
+            let ray = camera.ray(x, y, w, h);
+            let p = plane.point(x, y);
+            // On the ray, and at the plane's depth along the view axis.
+            let along = (p - ray.origin).dot(ray.dir);
+            assert!((ray.at(along) - p).length() < 1e-4, "({x}, {y}) off its ray");
+            assert!(((p - camera.eye).dot(camera.forward()) - depth).abs() < 1e-4);
+        }
+    }
 
     #[test]
     fn axis_planes_cover_the_bounds_with_square_pixels() {

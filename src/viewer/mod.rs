@@ -25,8 +25,9 @@ use crate::camera::{CameraMove, Orbit};
 use crate::compare::{Metric, Rgb8Image, Scale, differences};
 use crate::field::Edit;
 use crate::frame::srgb8_of;
-use crate::pipeline::{EditSession, IDLE_SAMPLES, outline_dirty};
+use crate::pipeline::{EditSession, IDLE_SAMPLES, PlaneView, SliceView, outline_dirty, plane_view};
 use crate::scene::Script;
+use crate::slice::SlicePlane;
 use crate::trace::PixelRect;
 
 pub use window::show;
@@ -58,6 +59,11 @@ pub enum Action {
     Pan(f32, f32),
     /// Select the named node strongest at the surface under this pixel.
     SelectAt(u32, u32),
+    /// Move the slice plane this many steps away from the viewer.
+    MoveSlice(f32),
+    /// Show the next thing on the slice plane: f, the sharp view, error_C,
+    /// the cached gradient's error.
+    NextSliceView,
 }
 
 /// The normal-error view's full scale: 30°, beyond which pixels are marked.
@@ -72,7 +78,7 @@ const ORBIT_DEGREES: f32 = 10.0;
 const ZOOM_FACTOR: f32 = 0.9;
 
 /// Every key: its name for `--keys`, the window's key, and what it does.
-const KEYS: [(&str, minifb::Key, Action); 19] = {
+const KEYS: [(&str, minifb::Key, Action); 22] = {
     use minifb::Key;
     [
         ("left", Key::Left, Action::Move(0, -1.0)),
@@ -94,6 +100,9 @@ const KEYS: [(&str, minifb::Key, Action); 19] = {
         ("p", Key::P, Action::Snapshot),
         ("h", Key::H, Action::ToggleHelp),
         ("f1", Key::F1, Action::ToggleHelp),
+        ("comma", Key::Comma, Action::MoveSlice(-1.0)),
+        ("period", Key::Period, Action::MoveSlice(1.0)),
+        ("n", Key::N, Action::NextSliceView),
     ]
 };
 
@@ -156,7 +165,7 @@ impl Action {
             Action::Move(1, _) => "move the node up or down the screen",
             Action::Move(..) => "move the node away or nearer",
             Action::NextNode => "move the next named node",
-            Action::NextView => "next view: field, mesh, depth and normal differences, cost",
+            Action::NextView => "next view: field, mesh, depth and normal differences, cost, slice",
             Action::NextScriptFrame => "apply the script's next frame",
             Action::ToggleRectangles => "outline the last frame's dirty rectangles",
             Action::Orbit(..) => "orbit the camera about the model",
@@ -166,6 +175,9 @@ impl Action {
             Action::ToggleHelp => "show or hide this card",
             Action::Pan(..) => "pan the camera",
             Action::SelectAt(..) => "select the named node under the pointer",
+            Action::MoveSlice(d) if d < 0.0 => "move the slice plane nearer",
+            Action::MoveSlice(_) => "move the slice plane away",
+            Action::NextSliceView => "slice shows: f, sharp view, error_C, gradient error",
         }
     }
 
@@ -206,6 +218,27 @@ enum View {
     NormalError,
     /// Field evaluations per pixel, on magma.
     Cost,
+    /// A plane facing the camera through the model: f, the sharp view,
+    /// error_C or the cached gradient's error on it.
+    Slice,
+}
+
+/// The slice view's plane and what it shows.
+struct Slice {
+    /// The plane's first distance in front of the eye, along the view axis:
+    /// through the model's centre.
+    first_depth: f32,
+    /// Steps moved since, away from the viewer (counted, so that moves and
+    /// their opposites come back to the same plane).
+    steps: i32,
+    /// What it shows.
+    shows: SliceView,
+    /// The picture, drawn when the plane, the camera or the model last changed.
+    drawn: Option<PlaneView>,
+    /// The model with every cache answering from its lattice, as of frame
+    /// number `.0`: error_C and the gradient error show what the caches
+    /// would answer, whether or not auto mode uses them.
+    lattices: Option<(usize, crate::field::Model)>,
 }
 
 /// Moves through a model's edits one key at a time, keeping every image up to date.
@@ -229,6 +262,7 @@ pub struct Viewer {
     snapshots: (PathBuf, usize),
     /// Whether the help card shows.
     help: bool,
+    slice: Slice,
 }
 
 /// How long the last edit or camera move took to show, coarse and refined.
@@ -264,7 +298,10 @@ impl Viewer {
         };
         let bounds = session.scene().model.bounds();
         let step_length = bounds.diagonal() / 50.0;
-        let orbit = Orbit::new(&session.settings().camera, bounds.center().into(), session.field_frame().height);
+        let camera = session.settings().camera;
+        let orbit = Orbit::new(&camera, bounds.center().into(), session.field_frame().height);
+        let depth = (bounds.center() - camera.eye).dot(camera.forward());
+        let slice = Slice { first_depth: depth, steps: 0, shows: SliceView::Field, drawn: None, lattices: None };
         Ok(Self {
             session,
             names,
@@ -279,6 +316,7 @@ impl Viewer {
             orbit,
             snapshots: (snapshot_path, 0),
             help: false,
+            slice,
         })
     }
 
@@ -294,7 +332,8 @@ impl Viewer {
                     View::Mesh => View::Difference,
                     View::Difference => View::NormalError,
                     View::NormalError => View::Cost,
-                    View::Cost => View::Field,
+                    View::Cost => View::Slice,
+                    View::Slice => View::Field,
                 }
             }
             Action::NextScriptFrame => {
@@ -313,6 +352,8 @@ impl Viewer {
                 eprintln!("wrote {}", path.display());
             }
             Action::SelectAt(x, y) => self.select_at(x, y),
+            Action::MoveSlice(steps) => self.slice.steps += steps as i32,
+            Action::NextSliceView => self.slice.shows = self.next_slice_view(),
             Action::Orbit(..) | Action::Zoom(_) | Action::Pan(..) => {
                 let camera = self.orbit.moved(action.camera_move().expect("a camera action"));
                 let start = Instant::now();
@@ -322,7 +363,48 @@ impl Viewer {
             }
         }
         self.note_refined();
+        self.draw_slice();
         Ok(())
+    }
+
+    /// What the slice shows after what it shows now: error_C and the
+    /// gradient error only where the model has caches to compare.
+    fn next_slice_view(&self) -> SliceView {
+        let caches = self.session.scene().model.counts().caches > 0;
+        match self.slice.shows {
+            SliceView::Field => SliceView::Sharp,
+            SliceView::Sharp if caches => SliceView::Error,
+            SliceView::Error => SliceView::Gradient,
+            SliceView::Sharp | SliceView::Gradient => SliceView::Field,
+        }
+    }
+
+    /// The slice plane's distance in front of the eye.
+    fn slice_depth(&self) -> f32 {
+        self.slice.first_depth + self.slice.steps as f32 * self.step_length
+    }
+
+    /// Draws the slice view again, when it shows.
+    fn draw_slice(&mut self) {
+        if self.view != View::Slice {
+            self.slice.drawn = None;
+            return;
+        }
+        let s = self.session.settings();
+        let plane = SlicePlane::facing(&s.camera, s.width, s.height, self.slice_depth());
+        let model = &self.session.scene().model;
+        let model = match self.slice.shows {
+            SliceView::Error | SliceView::Gradient => {
+                if self.slice.lattices.as_ref().is_none_or(|(frame, _)| *frame != self.frames) {
+                    let mut forced = model.clone();
+                    forced.use_lattices(false);
+                    self.slice.lattices = Some((self.frames, forced));
+                }
+                &self.slice.lattices.as_ref().expect("just made").1
+            }
+            SliceView::Field | SliceView::Sharp => model,
+        };
+        self.slice.drawn = Some(plane_view(model, &plane, self.slice.shows));
     }
 
     /// Whether the viewer has work to do while idle: the refinement the
@@ -454,6 +536,11 @@ impl Viewer {
                 hud::colour_bar(&mut image, NORMAL_ERROR_SCALE, "angle between mesh and field normals", "deg");
             }
             View::Cost => hud::colour_bar(&mut image, self.cost_scale(), "field evaluations per pixel", "evaluations"),
+            View::Slice => {
+                if let Some((scale, title, unit)) = self.slice.drawn.as_ref().and_then(|d| d.scale) {
+                    hud::colour_bar(&mut image, scale, title, unit);
+                }
+            }
             View::Field | View::Mesh => {}
         }
         if self.help {
@@ -471,10 +558,20 @@ impl Viewer {
             View::Difference => "depth difference",
             View::NormalError => "normal error",
             View::Cost => "cost",
+            View::Slice => "slice",
         };
         let mode = format!("{:?}", self.session.mode()).to_lowercase();
         let node = self.names.get(self.selected).map_or("no named node", String::as_str);
         let mut parts = vec![view.to_string(), mode, format!("moving {node}")];
+        if self.view == View::Slice {
+            let shows = match self.slice.shows {
+                SliceView::Field => "f",
+                SliceView::Sharp => "sharp: sin(11 pi f), red at the iso-value",
+                SliceView::Error => "error_C",
+                SliceView::Gradient => "gradient error",
+            };
+            parts.push(format!("{shows} at depth {:.3} (comma, period: move; n: next)", self.slice_depth()));
+        }
         if let Some(last) = &self.last {
             parts.push(last.describe());
         }
@@ -511,6 +608,10 @@ impl Viewer {
                 heat_map(&angles, NORMAL_ERROR_SCALE)
             }
             View::Cost => heat_map(&self.evaluations(), self.cost_scale()),
+            View::Slice => match &self.slice.drawn {
+                Some(drawn) => drawn.image.clone(),
+                None => Rgb8Image::filled(w, h, [0, 0, 0]),
+            },
             // The colours alone: a preview of every channel would cost as much again.
             View::Field => Rgb8Image { width: w, height: h, pixels: srgb8_of(&self.session.field_colors()) },
             View::Mesh => {
@@ -681,6 +782,40 @@ mod tests {
     }
 
     #[test]
+    fn the_slice_view_moves_its_plane_and_shows_f_sharp_error_and_gradient() {
+        let (mut v, _) = viewer(EvalMode::Indexed);
+        for _ in 0..5 {
+            v.act(Action::NextView).unwrap();
+        }
+        let shows = |v: &Viewer| v.status().iter().any(|p| p.contains(" at depth "));
+        assert!(shows(&v), "{:?}", v.status());
+        // Through the blobs' centres, f reaches its peak and the contour is drawn in white.
+        let through = v.image();
+        let white = |img: &Rgb8Image| img.pixels.chunks(3).filter(|p| p == &[255, 255, 255]).count();
+        assert!(white(&through) > 10, "the iso-contour");
+        // Far behind the model the plane shows nothing; back again, the same picture.
+        for _ in 0..60 {
+            v.act(Action::named("period").unwrap()).unwrap();
+        }
+        assert_eq!(white(&v.image()), 0, "no contour beyond the model");
+        for _ in 0..60 {
+            v.act(Action::named("comma").unwrap()).unwrap();
+        }
+        assert!(v.image().pixels == through.pixels, "the plane comes back");
+        // n: the sharp view, then (the model has a cache) error_C and the gradient error, then f.
+        let mut seen = vec![through.pixels.clone()];
+        for expected in ["sharp view", "error_C", "gradient error", "f at"] {
+            v.act(Action::named("n").unwrap()).unwrap();
+            assert!(v.status().iter().any(|p| p.starts_with(expected)), "{expected}: {:?}", v.status());
+            seen.push(v.image().pixels);
+        }
+        assert!(seen[1] != seen[0] && seen[2] != seen[1] && seen[3] != seen[2]);
+        assert!(seen[4] == seen[0], "n comes back to f");
+        // The heat maps carry a colour bar on screen.
+        assert!(v.screen().pixels != v.image().pixels);
+    }
+
+    #[test]
     fn mouse_gestures_orbit_zoom_pan_and_select() {
         assert_eq!(Action::named("drag:10:-5").unwrap(), Action::Orbit(-4.0, -2.0));
         assert_eq!(Action::named("wheel:1").unwrap(), Action::Zoom(ZOOM_FACTOR));
@@ -735,12 +870,15 @@ mod tests {
         let cost = v.image();
         assert!(v.status()[0] == "cost", "{:?}", v.status());
         v.act(Action::NextView).unwrap();
-        assert_eq!(v.image().pixels, field.pixels, "five presses come back to the field");
-        assert_ne!(normals.pixels, cost.pixels);
-        assert_ne!(mesh.pixels, field.pixels);
-        assert_ne!(difference.pixels, field.pixels);
-        assert_ne!(cost.pixels, field.pixels);
-        for image in [&field, &mesh, &difference, &normals, &cost] {
+        let slice = v.image();
+        assert!(v.status()[0] == "slice", "{:?}", v.status());
+        v.act(Action::NextView).unwrap();
+        assert!(v.image().pixels == field.pixels, "six presses come back to the field");
+        assert!(normals.pixels != cost.pixels && slice.pixels != cost.pixels);
+        for other in [&mesh, &difference, &cost, &slice] {
+            assert!(other.pixels != field.pixels);
+        }
+        for image in [&field, &mesh, &difference, &normals, &cost, &slice] {
             assert_eq!((image.width, image.height), (48, 36));
         }
         v.act(Action::Move(0, 1.0)).unwrap();
