@@ -71,8 +71,11 @@ pub struct ViewBenchReport {
     pub scene: String,
     /// Image size.
     pub size: Size,
-    /// Seconds from loading to the first frame (the session's renders, mesh and BVH).
+    /// Seconds from loading to the first frame shown: the scene loaded, the
+    /// mesh and its BVH built, the coarse passes of the field and mesh images.
     pub launch_seconds: f64,
+    /// Seconds from loading until those images are refined whole.
+    pub launch_refined_seconds: f64,
     /// Per event kind.
     pub events: Vec<EventLatency>,
     /// Threads used.
@@ -88,8 +91,10 @@ pub fn bench_view(a: &ViewBenchSettings) -> Result<ViewBenchReport> {
     with_threads(a.threads, || {
         let start = Instant::now();
         let scene = Scene::load(&a.scene)?;
-        let mut session = EditSession::new(scene, EvalMode::Indexed, a.size, &PolygonizeSettings::default())?;
+        let mut session = EditSession::begin(scene, EvalMode::Indexed, a.size, &PolygonizeSettings::default())?;
         let launch_seconds = start.elapsed().as_secs_f64();
+        session.finish();
+        let launch_refined_seconds = start.elapsed().as_secs_f64();
         let mut events = vec![camera_events(&mut session, "orbit", a.events, orbit_step)?];
         events.push(camera_events(&mut session, "zoom", a.events, zoom_step)?);
         if let Some(moves) = node_moves(&mut session, a.events)? {
@@ -102,6 +107,7 @@ pub fn bench_view(a: &ViewBenchSettings) -> Result<ViewBenchReport> {
             scene: a.scene.display().to_string(),
             size: a.size,
             launch_seconds,
+            launch_refined_seconds,
             events,
             threads: rayon::current_num_threads(),
         })

@@ -8,7 +8,7 @@ use super::RayTarget;
 use crate::field::DEFAULT_COLOR;
 use crate::frame::Frame;
 use crate::trace::{
-    CENTRE, PixelRect, PixelSample, Refinement, RenderSettings, Retrace, assemble, hits_of, render_pixels,
+    CENTRE, PixelRect, PixelSample, Refinement, RenderSettings, Retrace, assemble, blank_frame, hits_of, render_pixels,
     rerender_pixels, retrace_listed,
 };
 
@@ -48,6 +48,14 @@ pub fn render_mesh(
 ) -> (Frame, MeshRenderStats) {
     let samples = render_pixels(settings, progress, |x, y, at| shade_pixel(target, settings, (x, y, at)));
     (assemble(&samples, settings, MESH_COUNTERS), MeshRenderStats::of(&samples, settings.samples.max(1)))
+}
+
+/// A frame of `settings`' size showing the background, with the mesh
+/// caster's counter channels at zero: the start of a progressive render
+/// (see [`refine_mesh`]).
+#[must_use]
+pub fn blank_mesh_frame(settings: &RenderSettings) -> Frame {
+    blank_frame(settings, MESH_COUNTERS)
 }
 
 /// Re-casts the pixels inside `rects` (not overlapping) into `frame`, a render

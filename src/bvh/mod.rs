@@ -15,7 +15,7 @@ use obvhs::ray::RayHit;
 use obvhs::triangle::Triangle;
 
 pub use dynamic::{BvhUpdate, DynamicMesh};
-pub use mesh_render::{MeshRenderStats, refine_mesh, render_mesh, rerender_mesh, surface_at};
+pub use mesh_render::{MeshRenderStats, blank_mesh_frame, refine_mesh, render_mesh, rerender_mesh, surface_at};
 
 use crate::geom::Ray;
 use crate::mesh::Mesh;

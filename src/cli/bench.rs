@@ -169,8 +169,8 @@ pub fn run(c: &BenchCommand) -> anyhow::Result<()> {
 
 fn print_view(r: &ViewBenchReport) {
     println!(
-        "{}: the previewer at {}, {} threads; first frame after {:.3} s; ms from each event (median / slowest)",
-        r.scene, r.size, r.threads, r.launch_seconds
+        "{}: the previewer at {}, {} threads; first frame after {:.3} s, refined after {:.3} s; ms from each event (median / slowest)",
+        r.scene, r.size, r.threads, r.launch_seconds, r.launch_refined_seconds
     );
     println!(
         "  {:<20} {:>6} {:>15} {:>15} {:>15} {:>9}",

@@ -75,7 +75,8 @@ pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
     // The window stays on this thread (some systems draw windows from the
     // main thread alone); the frames' work runs on the pool.
     let pool = worker_pool(None)?;
-    let session = pool.install(|| EditSession::new(scene, mode, size, &a.polygonize.settings()))?;
+    // The window opens on the coarse pass and refines the rest while idle.
+    let session = pool.install(|| EditSession::begin(scene, mode, size, &a.polygonize.settings()))?;
     let mut viewer = Viewer::new(session, script, a.node.as_deref(), a.output.clone())?;
     if !a.headless {
         return show(&mut viewer, &pool);

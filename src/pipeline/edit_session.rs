@@ -12,7 +12,7 @@ use serde::Serialize;
 
 use super::error::{PipelineError, Result};
 use super::polygonize::{MAX_RES, PolygonizeSettings, polygonizer_on};
-use crate::bvh::{BvhUpdate, DynamicMesh, refine_mesh, render_mesh};
+use crate::bvh::{BvhUpdate, DynamicMesh, blank_mesh_frame, refine_mesh};
 use crate::camera::Camera;
 use crate::compare::{Metric, Rgb8Image, difference_at, differences};
 use crate::field::{Edit, EmptySpace, EvalMode, Model, ModelField};
@@ -21,8 +21,8 @@ use crate::geom::{Aabb, Support};
 use crate::mesh::{Lattice, Polygonizer, canonical_triangles, skeleton_seeds};
 use crate::scene::Scene;
 use crate::trace::{
-    ChangedSpace, Coverage, PixelRect, PixelState, Refinement, RenderSettings, changed_space, merge_rects, refine,
-    render_model, screen_rect, trace_sample_rows,
+    ChangedSpace, Coverage, PixelRect, PixelState, Refinement, RenderSettings, blank_field_frame, changed_space,
+    merge_rects, refine, render_model, screen_rect, trace_sample_rows,
 };
 
 /// One frame's measurements.
@@ -170,14 +170,20 @@ impl EditSession {
     /// Renders `scene` at `size` by field and by mesh, evaluating in `mode`,
     /// and polygonizes it on the lattice of `polygonize.res`.
     pub fn new(scene: Scene, mode: EvalMode, size: Size, polygonize: &PolygonizeSettings) -> Result<Self> {
+        let mut session = Self::begin(scene, mode, size, polygonize)?;
+        session.finish();
+        Ok(session)
+    }
+
+    /// [`Self::new`] up to the first, coarse pass over the field and mesh
+    /// images (the mesh and its BVH whole); [`Self::refine`] does the rest.
+    pub fn begin(scene: Scene, mode: EvalMode, size: Size, polygonize: &PolygonizeSettings) -> Result<Self> {
         polygonize.check_unrefined(&scene.model)?;
         let settings = scene.render_settings(size);
-        let (field_frame, _, empty) = render_model(&scene.model, mode, &settings, &|_| {});
+        let empty = EmptySpace::build(&ModelField::new(&scene.model, mode));
         let lattice = Lattice::for_model(&scene.model, polygonize.res);
         let polygonizer = polygonizer_on(&scene.model, mode, lattice, polygonize.options());
         let dynamic = DynamicMesh::build(&polygonizer);
-        let mesh_frame = render_mesh(&dynamic, &settings, &|_| {}).0;
-        let depth_diff = differences(&mesh_frame, &field_frame, Metric::Depth);
         let todo = Todo {
             field: Refinement::new(size.0, size.1),
             changed: None,
@@ -188,21 +194,23 @@ impl EditSession {
             row: FrameRow::default(),
             rays_per_second: 1e6,
         };
-        Ok(Self {
+        let mut session = Self {
+            field_frame: blank_field_frame(&settings),
+            mesh_frame: blank_mesh_frame(&settings),
+            depth_diff: vec![f32::NAN; (size.0 as usize) * (size.1 as usize)],
             scene,
             mode,
             settings,
             polygonize: *polygonize,
             polygonizer,
             dynamic,
-            field_frame,
             empty,
-            mesh_frame,
-            depth_diff,
             frames: 0,
             todo,
             samples: None,
-        })
+        };
+        session.begin_camera(session.settings.camera);
+        Ok(session)
     }
 
     /// The scene as edited so far.

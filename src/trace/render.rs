@@ -447,6 +447,24 @@ pub fn outward_normal(gradient: Vec3A, dir: Vec3A) -> Vec3A {
     (-gradient).try_normalize().unwrap_or(-dir)
 }
 
+/// A frame of `settings`' size showing the background, with the field
+/// tracer's counter channels at zero: the start of a progressive render
+/// (see [`refine`]).
+#[must_use]
+pub fn blank_field_frame(settings: &RenderSettings) -> Frame {
+    blank_frame(settings, FIELD_COUNTERS)
+}
+
+/// A frame of `settings`' size showing the background, with the extra
+/// channels named `counters` at zero.
+#[must_use]
+pub fn blank_frame(settings: &RenderSettings, counters: [&str; 2]) -> Frame {
+    let mut frame = Frame::new(settings.width, settings.height, settings.background);
+    let pixels = frame.len();
+    frame.extra = counters.into_iter().map(|name| (name.into(), vec![0.0; pixels])).collect();
+    frame
+}
+
 /// The frame of `samples` (row-major), with the two counters as the extra
 /// channels named `counters`.
 #[must_use]
