@@ -140,6 +140,8 @@ struct Todo {
     row: FrameRow,
     /// Field rays traced per second in the last batch, to size the next.
     rays_per_second: f64,
+    /// Field rays traced and seconds tracing them since the last event began.
+    traced: (u64, f64),
 }
 
 /// The work a session has left, as the previewer's status says it.
@@ -193,6 +195,7 @@ impl EditSession {
             diff: vec![],
             row: FrameRow::default(),
             rays_per_second: 1e6,
+            traced: (0, 0.0),
         };
         let mut session = Self {
             field_frame: blank_field_frame(&settings),
@@ -279,6 +282,7 @@ impl EditSession {
     pub fn begin_camera(&mut self, camera: Camera) {
         self.settings.camera = camera;
         self.samples = None;
+        self.todo.traced = (0, 0.0);
         self.todo.coverage = Some(self.coverage());
         let todo = &mut self.todo;
         todo.field.mark_all();
@@ -332,6 +336,7 @@ impl EditSession {
         remesh.1.extend(support_regions);
         self.todo.diff.extend(&dirty);
         self.todo.row = row;
+        self.todo.traced = (0, 0.0);
         self.frames += 1;
         self.coarse_passes();
         match refused {
@@ -415,6 +420,13 @@ impl EditSession {
             }
         }
         self.samples_taken() < IDLE_SAMPLES
+    }
+
+    /// Field rays traced, whole or in part, per second of tracing since the
+    /// last edit or camera move began.
+    #[must_use]
+    pub fn rays_per_second(&self) -> f64 {
+        self.todo.traced.0 as f64 / self.todo.traced.1.max(1e-9)
     }
 
     /// Samples per pixel summed into the field image's colours (1: its own).
@@ -510,6 +522,7 @@ impl EditSession {
         let stats = refine(&field, &self.settings, &mut self.field_frame, &mut todo.field, known, max_rays);
         let seconds = clock.elapsed().as_secs_f64();
         todo.row.field_s += seconds;
+        todo.traced = (todo.traced.0 + stats.rays, todo.traced.1 + seconds);
         todo.row.field_evals += stats.field_evals;
         todo.row.retraced_fraction += stats.rays as f64 / f64::from(self.settings.width * self.settings.height);
         if stats.rays >= MIN_BATCH_RAYS as u64 {

@@ -273,10 +273,12 @@ struct EventTiming {
     start: Instant,
     /// Seconds until its first, coarse pass showed.
     first_pass_s: f64,
-    /// Seconds until everything was up to date.
-    refined_s: Option<f64>,
-    /// The fraction of the image its dirty rectangles cover (edits only).
-    dirty: Option<f64>,
+    /// Seconds until everything was up to date, with the rays traced per
+    /// second then and the field evaluations per ray of the image.
+    refined_s: Option<(f64, f64, f64)>,
+    /// The fraction of the image its dirty rectangles cover, and how many
+    /// there are (edits only).
+    dirty: Option<(f64, usize)>,
 }
 
 impl Viewer {
@@ -450,7 +452,9 @@ impl Viewer {
         if let Some(last) = self.last.as_mut().filter(|l| l.refined_s.is_none())
             && self.session.is_refined()
         {
-            last.refined_s = Some(last.start.elapsed().as_secs_f64());
+            let evaluations = self.session.field_frame().aov("evals.Y").unwrap_or(&[]);
+            let per_ray = evaluations.iter().map(|&e| f64::from(e)).sum::<f64>() / evaluations.len().max(1) as f64;
+            last.refined_s = Some((last.start.elapsed().as_secs_f64(), self.session.rays_per_second(), per_ray));
         }
     }
 
@@ -509,7 +513,8 @@ impl Viewer {
         let update = self.session.begin_apply(edits)?;
         self.dirty.0 = update.dirty;
         self.frames += 1;
-        self.last = Some(EventTiming::new(&format!("frame {}", self.frames), start, Some(update.row.dirty_fraction)));
+        let dirty = Some((update.row.dirty_fraction, self.dirty.0.len()));
+        self.last = Some(EventTiming::new(&format!("frame {}", self.frames), start, dirty));
         Ok(())
     }
 
@@ -633,7 +638,7 @@ impl Viewer {
 
 impl EventTiming {
     /// An event that started at `start` and has just shown its coarse pass.
-    fn new(what: &str, start: Instant, dirty: Option<f64>) -> Self {
+    fn new(what: &str, start: Instant, dirty: Option<(f64, usize)>) -> Self {
         let first_pass_s = start.elapsed().as_secs_f64();
         Self { what: what.into(), start, first_pass_s, refined_s: None, dirty }
     }
@@ -641,11 +646,13 @@ impl EventTiming {
     /// As the status line says it.
     fn describe(&self) -> String {
         let mut text = format!("{}: first pass {:.0} ms", self.what, 1e3 * self.first_pass_s);
-        if let Some(s) = self.refined_s {
-            text += &format!(", refined {:.0} ms", 1e3 * s);
+        if let Some((s, rays_per_second, per_ray)) = self.refined_s {
+            text += &format!(", refined {:.0} ms ({:.1} M rays/s", 1e3 * s, rays_per_second / 1e6);
+            text += &format!(", {per_ray:.1} evaluations per ray)");
         }
-        if let Some(dirty) = self.dirty {
-            text += &format!(", {:.1}% dirty", 100.0 * dirty);
+        if let Some((dirty, rects)) = self.dirty {
+            let s = if rects == 1 { "" } else { "s" };
+            text += &format!(", {rects} dirty rectangle{s} ({:.1}%)", 100.0 * dirty);
         }
         text
     }
