@@ -80,9 +80,10 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Preview a scene in a window: arrow keys move its named nodes along the
     /// screen (Space steps an edit script), each move updating only what it
-    /// changed; V switches between the field render, the mesh render and their
-    /// depth difference, R outlines the dirty rectangles, P snapshots, A/D/W/S orbit, Z/X
-    /// zoom. --headless takes the keys from --keys and writes the last view.
+    /// changed, a coarse pass at once and the rest refined while idle; the
+    /// mouse orbits, pans, zooms and selects; V cycles the field, mesh, depth
+    /// and normal differences, cost and slice views; H shows every key.
+    /// --headless takes the keys from --keys and writes the last view.
     #[cfg(feature = "viewer")]
     #[command(after_help = EXIT_CODES)]
     View(view::ViewArgs),
