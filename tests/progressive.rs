@@ -112,3 +112,40 @@ fn samples_added_while_idle_converge_to_the_render_of_as_many_samples() {
     session.begin_camera(camera);
     assert_eq!(session.samples_taken(), 1);
 }
+
+#[test]
+fn an_edit_before_the_last_one_is_refined_leaves_no_pixel_of_either_behind() {
+    let mut rng = Rng(38);
+    for mode in [EvalMode::Indexed, EvalMode::Cached] {
+        let polygonize = PolygonizeSettings { res: 16, ..Default::default() };
+        let mut session = EditSession::new(bundled("medusa.ron"), mode, Size(80, 60), &polygonize).unwrap();
+        for (refines, names) in [(0, ["head", "left_hand"]), (1, ["left_hand", "head"]), (2, ["head", "head"])] {
+            session.begin_apply(&[random_edit(&mut rng, names[0], false)]).unwrap();
+            for _ in 0..refines {
+                session.refine(Duration::ZERO);
+            }
+            session.begin_apply(&[random_edit(&mut rng, names[1], false)]).unwrap();
+            session.finish();
+            assert!(session.field_frame().same_image(&from_scratch(&session)), "{mode:?}, {refines} passes between");
+        }
+        assert_eq!(session.verify().mismatch, None);
+    }
+}
+
+#[test]
+fn a_sample_part_way_through_weighs_only_the_rows_it_reached() {
+    let polygonize = PolygonizeSettings { res: 16, ..Default::default() };
+    let mut session = EditSession::new(bundled("medusa.ron"), EvalMode::Indexed, Size(200, 150), &polygonize).unwrap();
+    let field = ModelField::new(&session.scene().model, session.mode());
+    let two = render(&field, &RenderSettings { samples: 2, ..*session.settings() }, &|_| {}).0;
+    let one = session.field_frame().color.clone();
+    // Sampling stops on its budget within the second sample's rows.
+    while session.samples_taken() < 2 {
+        session.supersample(Duration::ZERO);
+        let shown = session.field_colors();
+        let from_two = shown.iter().zip(&two.color).take_while(|(a, b)| a == b).count();
+        let from_one = shown.iter().zip(&one).rev().take_while(|(a, b)| a == b).count();
+        assert!(from_two + from_one >= shown.len(), "each row shows one sample or both: {from_two} + {from_one}");
+    }
+    assert!(session.field_colors().iter().zip(&two.color).all(|(a, b)| a == b));
+}

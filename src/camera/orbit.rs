@@ -43,6 +43,12 @@ impl Orbit {
         Self { centre, eye, up: camera.up().into(), fov_y, height: height.max(1) as f32, first_distance }
     }
 
+    /// The point the camera orbits and looks at.
+    #[must_use]
+    pub fn centre(&self) -> Vec3 {
+        self.centre
+    }
+
     /// Applies `step` and returns the camera looking at the centre.
     pub fn moved(&mut self, step: CameraMove) -> Camera {
         let offset = self.eye - self.centre;

@@ -138,8 +138,10 @@ struct Todo {
     diff: Vec<PixelRect>,
     /// The measurements of the frame under way.
     row: FrameRow,
-    /// Field rays traced per second in the last batch, to size the next.
+    /// Field rays traced per second in the last batch of refinement, to size the next.
     rays_per_second: f64,
+    /// The same for the idle samples, most of which coverage settles at once.
+    sample_rays_per_second: f64,
     /// Field rays traced and seconds tracing them since the last event began.
     traced: (u64, f64),
 }
@@ -195,6 +197,7 @@ impl EditSession {
             diff: vec![],
             row: FrameRow::default(),
             rays_per_second: 1e6,
+            sample_rays_per_second: 1e6,
             traced: (0, 0.0),
         };
         let mut session = Self {
@@ -282,7 +285,8 @@ impl EditSession {
     pub fn begin_camera(&mut self, camera: Camera) {
         self.settings.camera = camera;
         self.samples = None;
-        self.todo.traced = (0, 0.0);
+        // The camera's work is its own, not the last edit's.
+        (self.todo.traced, self.todo.row) = ((0, 0.0), FrameRow { frame: self.frames, ..Default::default() });
         self.todo.coverage = Some(self.coverage());
         let todo = &mut self.todo;
         todo.field.mark_all();
@@ -329,6 +333,9 @@ impl EditSession {
             return Err(e.into());
         }
         self.samples = None;
+        // The empty space follows the model even where the frame's work is refused.
+        let supports: Vec<Aabb> = support_regions.iter().map(Support::bounds).collect();
+        self.empty.update(&supports);
         check_edited_model(&self.scene.model, self.polygonizer.lattice())?;
         let dirty = self.mark_changed(&support_regions, &mut row);
         let remesh = self.todo.remesh.get_or_insert_default();
@@ -349,10 +356,8 @@ impl EditSession {
     /// the dirty rectangles.
     fn mark_changed(&mut self, support_regions: &[Support], row: &mut FrameRow) -> Vec<PixelRect> {
         let (w, h) = (self.settings.width, self.settings.height);
-        let supports: Vec<Aabb> = support_regions.iter().map(Support::bounds).collect();
         let field = ModelField::new(&self.scene.model, self.mode);
         let clock = Instant::now();
-        self.empty.update(&supports);
         let changed = changed_space(&field, &self.settings, support_regions);
         let rects: Vec<PixelRect> = changed.screen_rect(&self.settings.camera, w, h).into_iter().collect();
         row.dirty_fraction = rects.iter().map(PixelRect::area).sum::<u64>() as f64 / f64::from(w * h);
@@ -394,11 +399,13 @@ impl EditSession {
         loop {
             let left = budget.saturating_sub(start.elapsed()).as_secs_f64();
             let rays = (self.todo.rays_per_second * left) as usize;
+            let field_stale = self.todo.field.pending() > 0;
             if !self.step(rays.max(MIN_BATCH_RAYS)) {
                 self.finish();
                 return false;
             }
-            if start.elapsed() >= budget {
+            // A field image just refined is worth showing before the mesh's work.
+            if start.elapsed() >= budget || (field_stale && self.todo.field.is_done()) {
                 return true;
             }
         }
@@ -414,7 +421,7 @@ impl EditSession {
         let start = Instant::now();
         while self.samples_taken() < IDLE_SAMPLES {
             let left = budget.saturating_sub(start.elapsed()).as_secs_f64();
-            self.add_sample_rows((self.todo.rays_per_second * left) as usize);
+            self.add_sample_rows((self.todo.sample_rays_per_second * left) as usize);
             if start.elapsed() >= budget {
                 break;
             }
@@ -456,7 +463,7 @@ impl EditSession {
             first..end,
         );
         let seconds = clock.elapsed().as_secs_f64();
-        self.todo.rays_per_second = traced.len() as f64 / seconds.max(1e-6);
+        self.todo.sample_rays_per_second = traced.len() as f64 / seconds.max(1e-6);
         let offset = (first * w) as usize;
         for (sum, p) in samples.sum[offset..offset + traced.len()].iter_mut().zip(&traced) {
             *sum += p.color;
@@ -472,7 +479,12 @@ impl EditSession {
     #[must_use]
     pub fn field_colors(&self) -> Cow<'_, [Vec3]> {
         match &self.samples {
-            Some(s) if s.count > 1 => Cow::Owned(s.sum.iter().map(|&c| c / s.count as f32).collect()),
+            // Rows before `row` hold one sample more: the one under way.
+            Some(s) if s.count > 1 || s.row > 0 => {
+                let done_rows = (s.row * self.settings.width) as usize;
+                let mean = |(i, &c): (usize, &Vec3)| c / (s.count + u32::from(i < done_rows)) as f32;
+                Cow::Owned(s.sum.iter().enumerate().map(mean).collect())
+            }
             _ => self.todo.field.preview_values(&self.field_frame.color),
         }
     }

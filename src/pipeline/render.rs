@@ -37,7 +37,7 @@ pub struct RenderReport {
     pub height: u32,
     /// Rays per pixel.
     pub samples: u32,
-    /// Rays, hits (pixels any ray of which hit), evaluations and steps.
+    /// Rays, hits (rays that hit), evaluations and steps.
     #[serde(flatten)]
     pub stats: RenderStats,
     /// Rays traced per second.
@@ -70,7 +70,7 @@ pub struct MeshRenderReport {
     pub height: u32,
     /// Rays per pixel.
     pub samples: u32,
-    /// Rays, hits (pixels any ray of which hit) and triangle tests.
+    /// Rays, hits (rays that hit) and triangle tests.
     #[serde(flatten)]
     pub stats: MeshRenderStats,
     /// Rays cast per second.

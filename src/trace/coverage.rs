@@ -45,13 +45,23 @@ impl Coverage {
     #[must_use]
     pub fn of_boxes(boxes: &[Aabb], camera: &Camera, width: u32, height: u32) -> Self {
         let eye = camera.eye;
-        let projected: Vec<(PixelRect, f32)> = boxes
-            .iter()
-            .filter_map(|b| {
-                let rect = screen_rect(camera, width, height, b)?;
-                Some((rect, b.distance_squared(eye).sqrt() * (1.0 - DISTANCE_SLACK)))
-            })
-            .collect();
+        let whole = PixelRect::full(width, height);
+        // Boxes reaching the eye plane cover the whole image: one minimum
+        // serves them all (from inside a model there can be thousands).
+        let mut nearest_whole = f32::INFINITY;
+        let mut projected: Vec<(PixelRect, f32)> = vec![];
+        for b in boxes {
+            let Some(rect) = screen_rect(camera, width, height, b) else { continue };
+            let distance = b.distance_squared(eye).sqrt() * (1.0 - DISTANCE_SLACK);
+            if rect == whole {
+                nearest_whole = nearest_whole.min(distance);
+            } else {
+                projected.push((rect, distance));
+            }
+        }
+        if nearest_whole.is_finite() {
+            projected.push((whole, nearest_whole));
+        }
         let mut near = vec![f32::INFINITY; (width as usize) * (height as usize)];
         let band_len = (BAND_ROWS * width) as usize;
         near.par_chunks_mut(band_len.max(1)).enumerate().for_each(|(band, pixels)| {

@@ -27,7 +27,7 @@ pub enum PixelState {
     /// its old hit (only over the stretch the edit can have changed).
     Retrace,
     /// Stale: its ray is traced whole (after a camera move, or when it was
-    /// still pending as another edit came).
+    /// still stale as another edit came).
     Trace,
 }
 
@@ -79,9 +79,19 @@ impl Refinement {
         self.state[self.index(x, y)]
     }
 
-    /// Marks the pixels inside `rects` stale as `how`: a pixel already stale
-    /// needs its ray traced whole. The passes start again from the coarsest.
+    /// Marks the pixels inside `rects` stale as `how`. A pixel already stale,
+    /// inside the rectangles or not, needs its ray traced whole from now on:
+    /// it was to be retraced against the change before, which is no longer
+    /// the only one since it was up to date. The passes start again from the
+    /// coarsest.
     pub fn mark(&mut self, rects: &[PixelRect], how: PixelState) {
+        if self.pending > 0 {
+            for state in &mut self.state {
+                if *state == PixelState::Retrace {
+                    *state = PixelState::Trace;
+                }
+            }
+        }
         for r in rects {
             for y in r.y0..r.y1.min(self.height) {
                 for x in r.x0..r.x1.min(self.width) {
@@ -251,6 +261,7 @@ mod tests {
         assert_eq!(first, vec![(0, 0, PixelState::Retrace)]);
         r.mark(&[PixelRect { x0: 4, y0: 4, x1: 12, y1: 12 }], PixelState::Retrace);
         assert_eq!(r.state(5, 5), PixelState::Trace, "stale before the second edit");
+        assert_eq!(r.state(1, 1), PixelState::Trace, "stale before, outside the second edit's rectangle");
         assert_eq!(r.state(0, 0), PixelState::Done);
         assert_eq!(r.state(10, 10), PixelState::Retrace);
         assert_eq!(r.level(), Some(8));

@@ -225,11 +225,9 @@ enum View {
 
 /// The slice view's plane and what it shows.
 struct Slice {
-    /// The plane's first distance in front of the eye, along the view axis:
-    /// through the model's centre.
-    first_depth: f32,
-    /// Steps moved since, away from the viewer (counted, so that moves and
-    /// their opposites come back to the same plane).
+    /// Steps the plane lies beyond the point the camera orbits, away from
+    /// the viewer (counted, so that moves and their opposites come back to
+    /// the same plane).
     steps: i32,
     /// What it shows.
     shows: SliceView,
@@ -302,8 +300,7 @@ impl Viewer {
         let step_length = bounds.diagonal() / 50.0;
         let camera = session.settings().camera;
         let orbit = Orbit::new(&camera, bounds.center().into(), session.field_frame().height);
-        let depth = (bounds.center() - camera.eye).dot(camera.forward());
-        let slice = Slice { first_depth: depth, steps: 0, shows: SliceView::Field, drawn: None, lattices: None };
+        let slice = Slice { steps: 0, shows: SliceView::Field, drawn: None, lattices: None };
         Ok(Self {
             session,
             names,
@@ -354,7 +351,7 @@ impl Viewer {
                 eprintln!("wrote {}", path.display());
             }
             Action::SelectAt(x, y) => self.select_at(x, y),
-            Action::MoveSlice(steps) => self.slice.steps += steps as i32,
+            Action::MoveSlice(steps) => self.move_slice(steps as i32),
             Action::NextSliceView => self.slice.shows = self.next_slice_view(),
             Action::Orbit(..) | Action::Zoom(_) | Action::Pan(..) => {
                 let camera = self.orbit.moved(action.camera_move().expect("a camera action"));
@@ -365,7 +362,13 @@ impl Viewer {
             }
         }
         self.note_refined();
-        self.draw_slice();
+        // Only what moves the plane, the camera or the model, or switches views, draws the slice again.
+        if !matches!(
+            action,
+            Action::ToggleHelp | Action::ToggleRectangles | Action::Snapshot | Action::NextNode | Action::SelectAt(..)
+        ) {
+            self.draw_slice();
+        }
         Ok(())
     }
 
@@ -381,9 +384,21 @@ impl Viewer {
         }
     }
 
-    /// The slice plane's distance in front of the eye.
+    /// Moves the slice plane `steps` away from the viewer, but not to or past the eye.
+    fn move_slice(&mut self, steps: i32) {
+        self.slice.steps += steps;
+        if self.slice_depth() <= 0.01 * self.step_length {
+            self.slice.steps -= steps;
+        }
+    }
+
+    /// The slice plane's distance in front of the eye: through the point
+    /// the camera orbits, moved by its steps, and never behind the eye.
     fn slice_depth(&self) -> f32 {
-        self.slice.first_depth + self.slice.steps as f32 * self.step_length
+        let camera = &self.session.settings().camera;
+        let centre = glam::Vec3A::from(self.orbit.centre());
+        let depth = (centre - camera.eye).dot(camera.forward()) + self.slice.steps as f32 * self.step_length;
+        depth.max(0.01 * self.step_length)
     }
 
     /// Draws the slice view again, when it shows.

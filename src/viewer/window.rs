@@ -1,9 +1,9 @@
 //! The previewer's window (minifb): keys and mouse in, the current view
 //! out, the frames' work on the worker pool while the window stays on its
 //! thread. Each event shows its coarse pass at once; while no input comes,
-//! the passes refine about a frame's time at a time. A left drag orbits, a right or shift drag pans, the wheel zooms,
-//! and a click (a press and release without moving) selects the named node
-//! under the pointer.
+//! the passes refine about a frame's time at a time. A left drag orbits, a
+//! right or shift drag pans, the wheel zooms, and a click (a press and
+//! release without moving) selects the named node under the pointer.
 
 use std::time::{Duration, Instant};
 
