@@ -4,7 +4,7 @@
 //! Drawn into the frame itself, so it shows without a window manager's title
 //! bar and in screenshots.
 
-use crate::compare::{CHAR_WIDTH, LINE_HEIGHT, Rgb8Image, Scale};
+use crate::compare::{CHAR_WIDTH, LINE_HEIGHT, OVER_RANGE, Rgb8Image, Scale};
 
 /// Space around text, in pixels.
 const PAD: u32 = 4;
@@ -61,7 +61,8 @@ pub fn help(image: &mut Rgb8Image, keys: &[(String, &str)]) {
 }
 
 /// A colour bar along the bottom left of a heat-map view: `title`, the
-/// colours of `scale` and its ends and middle in `unit`.
+/// colours of `scale` and its ends and middle in `unit`, and the colour
+/// of values beyond the scale.
 pub fn colour_bar(image: &mut Rgb8Image, scale: Scale, title: &str, unit: &str) {
     let bar_width = (image.width / 3).max(120).min(image.width.saturating_sub(2 * PAD));
     let (lo, hi, signed) = match scale {
@@ -76,7 +77,7 @@ pub fn colour_bar(image: &mut Rgb8Image, scale: Scale, title: &str, unit: &str) 
     let labels = [label(lo), label(0.5 * (lo + hi)), format!("{} {unit}", label(hi))];
     let label_width = Rgb8Image::text_width(&labels[2]);
     let width = bar_width.max(Rgb8Image::text_width(title)) + label_width + 2 * PAD;
-    let height = 3 * LINE_HEIGHT + 4 * PAD + 8;
+    let height = 4 * LINE_HEIGHT + 5 * PAD + 8;
     let top = image.height.saturating_sub(height);
     shade(image, 0, top, width, height);
     image.text(i64::from(PAD), i64::from(top + PAD), title, TEXT);
@@ -90,6 +91,9 @@ pub fn colour_bar(image: &mut Rgb8Image, scale: Scale, title: &str, unit: &str) 
     let middle = i64::from(PAD + bar_width / 2) - i64::from(Rgb8Image::text_width(&labels[1]) / 2);
     image.text(middle, label_top, &labels[1], TEXT);
     image.text(i64::from(PAD + bar_width) - i64::from(CHAR_WIDTH) * 6, label_top, &labels[2], TEXT);
+    let beyond_top = label_top + i64::from(LINE_HEIGHT + PAD);
+    image.fill_rect(i64::from(PAD), beyond_top + 2, 8, 8, OVER_RANGE);
+    image.text(i64::from(PAD + 12), beyond_top, "beyond the scale", TEXT);
 }
 
 #[cfg(test)]
@@ -148,5 +152,6 @@ mod tests {
         colour_bar(&mut image, scale, "depth", "cells");
         let has = |c: [u8; 3]| image.pixels.chunks_exact(3).any(|p| p == c);
         assert!(has(scale.color(-0.5)) && has(scale.color(0.5)), "both ends of the bar");
+        assert!(has(OVER_RANGE), "the colour beyond the scale, labelled");
     }
 }
