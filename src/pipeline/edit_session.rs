@@ -100,7 +100,7 @@ pub struct EditSession {
     depth_diff: Vec<f32>,
     frames: usize,
     /// What the last edits and camera moves left to do.
-    todo: Todo,
+    work: WorkLeft,
     /// The samples added to the field image since it was last refined.
     samples: Option<Samples>,
 }
@@ -124,7 +124,7 @@ pub const IDLE_SAMPLES: u32 = 16;
 /// What the last edits and camera moves left to do, in the order
 /// [`EditSession::refine`] does it: the field image's stale pixels, the
 /// mesh near the edits, the mesh image's stale pixels, the depth difference.
-struct Todo {
+struct WorkLeft {
     field: Refinement,
     /// The change the field's pixels to retrace are traced against.
     changed: Option<ChangedSpace>,
@@ -188,7 +188,7 @@ impl EditSession {
         let lattice = Lattice::for_model(&scene.model, polygonize.res);
         let polygonizer = polygonizer_on(&scene.model, mode, lattice, polygonize.options());
         let dynamic = DynamicMesh::build(&polygonizer);
-        let todo = Todo {
+        let work = WorkLeft {
             field: Refinement::new(size.0, size.1),
             changed: None,
             coverage: None,
@@ -212,7 +212,7 @@ impl EditSession {
             dynamic,
             empty,
             frames: 0,
-            todo,
+            work,
             samples: None,
         };
         session.begin_camera(session.settings.camera);
@@ -286,13 +286,13 @@ impl EditSession {
         self.settings.camera = camera;
         self.samples = None;
         // The camera's work is its own, not the last edit's.
-        (self.todo.traced, self.todo.row) = ((0, 0.0), FrameRow { frame: self.frames, ..Default::default() });
-        self.todo.coverage = Some(self.coverage());
-        let todo = &mut self.todo;
-        todo.field.mark_all();
-        todo.changed = None;
-        todo.mesh.mark_all();
-        todo.diff = vec![PixelRect::full(self.settings.width, self.settings.height)];
+        (self.work.traced, self.work.row) = ((0, 0.0), FrameRow { frame: self.frames, ..Default::default() });
+        self.work.coverage = Some(self.coverage());
+        let work = &mut self.work;
+        work.field.mark_all();
+        work.changed = None;
+        work.mesh.mark_all();
+        work.diff = vec![PixelRect::full(self.settings.width, self.settings.height)];
         self.coarse_passes();
     }
 
@@ -338,17 +338,17 @@ impl EditSession {
         self.empty.update(&supports);
         check_edited_model(&self.scene.model, self.polygonizer.lattice())?;
         let dirty = self.mark_changed(&support_regions, &mut row);
-        let remesh = self.todo.remesh.get_or_insert_default();
+        let remesh = self.work.remesh.get_or_insert_default();
         remesh.0.extend(regions);
         remesh.1.extend(support_regions);
-        self.todo.diff.extend(&dirty);
-        self.todo.row = row;
-        self.todo.traced = (0, 0.0);
+        self.work.diff.extend(&dirty);
+        self.work.row = row;
+        self.work.traced = (0, 0.0);
         self.frames += 1;
         self.coarse_passes();
         match refused {
             Some(e) => Err(e.into()),
-            None => Ok(FrameUpdate { row: self.todo.row.clone(), dirty }),
+            None => Ok(FrameUpdate { row: self.work.row.clone(), dirty }),
         }
     }
 
@@ -361,11 +361,11 @@ impl EditSession {
         let changed = changed_space(&field, &self.settings, support_regions);
         let rects: Vec<PixelRect> = changed.screen_rect(&self.settings.camera, w, h).into_iter().collect();
         row.dirty_fraction = rects.iter().map(PixelRect::area).sum::<u64>() as f64 / f64::from(w * h);
-        self.todo.field.mark(&rects, PixelState::Retrace);
-        self.todo.changed = Some(changed);
+        self.work.field.mark(&rects, PixelState::Retrace);
+        self.work.changed = Some(changed);
         // Pixels to trace whole may be left from a camera move: the edit may have moved the surface nearer.
-        if self.todo.coverage.is_some() {
-            self.todo.coverage = Some(self.coverage());
+        if self.work.coverage.is_some() {
+            self.work.coverage = Some(self.coverage());
         }
         row.field_s = clock.elapsed().as_secs_f64();
         rects
@@ -374,10 +374,10 @@ impl EditSession {
     /// The coarse passes over the images' stale pixels: after them no pixel
     /// of the previews is stale.
     fn coarse_passes(&mut self) {
-        while !self.todo.field.coarse_pass_done() {
+        while !self.work.field.coarse_pass_done() {
             self.refine_field(usize::MAX);
         }
-        while !self.todo.mesh.coarse_pass_done() {
+        while !self.work.mesh.coarse_pass_done() {
             self.refine_mesh(usize::MAX);
         }
     }
@@ -386,7 +386,7 @@ impl EditSession {
     /// measurements of the last edit's frame, whole.
     pub fn finish(&mut self) -> FrameRow {
         while self.step(usize::MAX) {}
-        let row = &mut self.todo.row;
+        let row = &mut self.work.row;
         row.incremental_s = row.apply_s + row.field_s + row.polygonize_s + row.bvh_s + row.mesh_render_s + row.diff_s;
         row.triangles = self.dynamic.triangle_count();
         row.clone()
@@ -398,14 +398,14 @@ impl EditSession {
         let start = Instant::now();
         loop {
             let left = budget.saturating_sub(start.elapsed()).as_secs_f64();
-            let rays = (self.todo.rays_per_second * left) as usize;
-            let field_stale = self.todo.field.pending() > 0;
+            let rays = (self.work.rays_per_second * left) as usize;
+            let field_stale = self.work.field.pending() > 0;
             if !self.step(rays.max(MIN_BATCH_RAYS)) {
                 self.finish();
                 return false;
             }
             // A field image just refined is worth showing before the mesh's work.
-            if start.elapsed() >= budget || (field_stale && self.todo.field.is_done()) {
+            if start.elapsed() >= budget || (field_stale && self.work.field.is_done()) {
                 return true;
             }
         }
@@ -421,7 +421,7 @@ impl EditSession {
         let start = Instant::now();
         while self.samples_taken() < IDLE_SAMPLES {
             let left = budget.saturating_sub(start.elapsed()).as_secs_f64();
-            self.add_sample_rows((self.todo.sample_rays_per_second * left) as usize);
+            self.add_sample_rows((self.work.sample_rays_per_second * left) as usize);
             if start.elapsed() >= budget {
                 break;
             }
@@ -433,7 +433,7 @@ impl EditSession {
     /// last edit or camera move began.
     #[must_use]
     pub fn rays_per_second(&self) -> f64 {
-        self.todo.traced.0 as f64 / self.todo.traced.1.max(1e-9)
+        self.work.traced.0 as f64 / self.work.traced.1.max(1e-9)
     }
 
     /// Samples per pixel summed into the field image's colours (1: its own).
@@ -463,7 +463,7 @@ impl EditSession {
             first..end,
         );
         let seconds = clock.elapsed().as_secs_f64();
-        self.todo.sample_rays_per_second = traced.len() as f64 / seconds.max(1e-6);
+        self.work.sample_rays_per_second = traced.len() as f64 / seconds.max(1e-6);
         let offset = (first * w) as usize;
         for (sum, p) in samples.sum[offset..offset + traced.len()].iter_mut().zip(&traced) {
             *sum += p.color;
@@ -485,22 +485,22 @@ impl EditSession {
                 let mean = |(i, &c): (usize, &Vec3)| c / (s.count + u32::from(i < done_rows)) as f32;
                 Cow::Owned(s.sum.iter().enumerate().map(mean).collect())
             }
-            _ => self.todo.field.preview_values(&self.field_frame.color),
+            _ => self.work.field.preview_values(&self.field_frame.color),
         }
     }
 
     /// The work left, `None` once everything is up to date.
     #[must_use]
     pub fn pending(&self) -> Option<Pending> {
-        let todo = &self.todo;
-        if let Some(step) = todo.field.level() {
+        let work = &self.work;
+        if let Some(step) = work.field.level() {
             Some(Pending::Field(step))
-        } else if todo.remesh.is_some() {
+        } else if work.remesh.is_some() {
             Some(Pending::Remesh)
-        } else if let Some(step) = todo.mesh.level() {
+        } else if let Some(step) = work.mesh.level() {
             Some(Pending::Mesh(step))
         } else {
-            (!todo.diff.is_empty()).then_some(Pending::Difference)
+            (!work.diff.is_empty()).then_some(Pending::Difference)
         }
     }
 
@@ -509,15 +509,15 @@ impl EditSession {
         match self.pending() {
             Some(Pending::Field(_)) => self.refine_field(max_rays),
             Some(Pending::Remesh) => {
-                let (regions, support_regions) = self.todo.remesh.take().unwrap_or_default();
+                let (regions, support_regions) = self.work.remesh.take().unwrap_or_default();
                 self.remesh(&regions, &support_regions);
             }
             Some(Pending::Mesh(_)) => self.refine_mesh(max_rays),
             Some(Pending::Difference) => {
                 let clock = Instant::now();
-                let rects = merge_rects(std::mem::take(&mut self.todo.diff));
+                let rects = merge_rects(std::mem::take(&mut self.work.diff));
                 update_depth_diff(&mut self.depth_diff, &self.mesh_frame, &self.field_frame, &rects);
-                self.todo.row.diff_s += clock.elapsed().as_secs_f64();
+                self.work.row.diff_s += clock.elapsed().as_secs_f64();
             }
             None => return false,
         }
@@ -528,20 +528,20 @@ impl EditSession {
     fn refine_field(&mut self, max_rays: usize) {
         let field = ModelField::new(&self.scene.model, self.mode);
         let clock = Instant::now();
-        let todo = &mut self.todo;
+        let work = &mut self.work;
         let field = field.skipping(&self.empty);
-        let known = (todo.changed.as_ref(), todo.coverage.as_ref());
-        let stats = refine(&field, &self.settings, &mut self.field_frame, &mut todo.field, known, max_rays);
+        let known = (work.changed.as_ref(), work.coverage.as_ref());
+        let stats = refine(&field, &self.settings, &mut self.field_frame, &mut work.field, known, max_rays);
         let seconds = clock.elapsed().as_secs_f64();
-        todo.row.field_s += seconds;
-        todo.traced = (todo.traced.0 + stats.rays, todo.traced.1 + seconds);
-        todo.row.field_evals += stats.field_evals;
-        todo.row.retraced_fraction += stats.rays as f64 / f64::from(self.settings.width * self.settings.height);
+        work.row.field_s += seconds;
+        work.traced = (work.traced.0 + stats.rays, work.traced.1 + seconds);
+        work.row.field_evals += stats.field_evals;
+        work.row.retraced_fraction += stats.rays as f64 / f64::from(self.settings.width * self.settings.height);
         if stats.rays >= MIN_BATCH_RAYS as u64 {
-            todo.rays_per_second = stats.rays as f64 / seconds.max(1e-6);
+            work.rays_per_second = stats.rays as f64 / seconds.max(1e-6);
         }
-        if todo.field.is_done() {
-            (todo.changed, todo.coverage) = (None, None);
+        if work.field.is_done() {
+            (work.changed, work.coverage) = (None, None);
         }
     }
 
@@ -554,32 +554,32 @@ impl EditSession {
     /// Casts a batch of the mesh image's stale pixels.
     fn refine_mesh(&mut self, max_rays: usize) {
         let clock = Instant::now();
-        refine_mesh(&self.dynamic, &self.settings, &mut self.mesh_frame, &mut self.todo.mesh, max_rays);
-        self.todo.row.mesh_render_s += clock.elapsed().as_secs_f64();
+        refine_mesh(&self.dynamic, &self.settings, &mut self.mesh_frame, &mut self.work.mesh, max_rays);
+        self.work.row.mesh_render_s += clock.elapsed().as_secs_f64();
     }
 
     /// The field image as it stands: stale pixels show the nearest traced one.
     #[must_use]
     pub fn field_preview(&self) -> Cow<'_, Frame> {
-        self.todo.field.preview(&self.field_frame)
+        self.work.field.preview(&self.field_frame)
     }
 
     /// The mesh image as it stands: stale pixels show the nearest cast one.
     #[must_use]
     pub fn mesh_preview(&self) -> Cow<'_, Frame> {
-        self.todo.mesh.preview(&self.mesh_frame)
+        self.work.mesh.preview(&self.mesh_frame)
     }
 
     /// The field image's stale pixels, to preview a channel of it alone.
     #[must_use]
     pub fn field_refinement(&self) -> &Refinement {
-        &self.todo.field
+        &self.work.field
     }
 
     /// The mesh image's stale pixels.
     #[must_use]
     pub fn mesh_refinement(&self) -> &Refinement {
-        &self.todo.mesh
+        &self.work.mesh
     }
 
     /// The depth difference of the two previews.
@@ -597,7 +597,7 @@ impl EditSession {
     fn remesh(&mut self, regions: &[Aabb], support_regions: &[Support]) {
         let (w, h) = (self.settings.width, self.settings.height);
         let field = ModelField::new(&self.scene.model, self.mode);
-        let row = &mut self.todo.row;
+        let row = &mut self.work.row;
         let clock = Instant::now();
         let seeds = skeleton_seeds(&self.scene.model, self.scene.model.root());
         let remeshed = self.polygonizer.repolygonize_within(&field, support_regions, &seeds);
@@ -610,8 +610,8 @@ impl EditSession {
         let camera = &self.settings.camera;
         let mesh_rects =
             merge_rects(regions.iter().filter_map(|r| screen_rect(camera, w, h, &r.padded(margin))).collect());
-        self.todo.mesh.mark(&mesh_rects, PixelState::Trace);
-        self.todo.diff.extend(mesh_rects);
+        self.work.mesh.mark(&mesh_rects, PixelState::Trace);
+        self.work.diff.extend(mesh_rects);
     }
 
     /// Whether the images, the mesh and the difference are up to date.
