@@ -1,6 +1,7 @@
 //! The mesh of the crossed cells, and the triangles of one of them, cut from
 //! the cells' polygons and the vertices on their edges in a canonical order.
 
+use glam::Vec3;
 use rayon::prelude::*;
 
 use super::{CellShape, Polygonizer, crossed};
@@ -61,22 +62,31 @@ impl Polygonizer {
                 *n
             })
             .collect();
-        let vertices: Vec<EdgeVertex> = used.par_iter().map(|&slot| self.vertices.at(slot)).collect();
+        let channel = |of: fn(&EdgeVertex) -> Vec3| -> Vec<Vec3> {
+            used.par_iter().map(|&slot| of(&self.vertices.at(slot))).collect()
+        };
+        // Linear placement takes its normals from the faces: the vertices' are not read.
+        let linear = self.options.vertex == VertexPlacement::Linear;
         let mut mesh = Mesh {
-            positions: vertices.iter().map(|v| v.position).collect(),
-            normals: vertices.iter().map(|v| v.normal).collect(),
-            colors: (self.with_colors && !vertices.is_empty()).then(|| vertices.iter().map(|v| v.color).collect()),
+            positions: channel(|v| v.position),
+            normals: if linear { vec![] } else { channel(|v| v.normal) },
+            colors: (self.with_colors && !used.is_empty()).then(|| channel(|v| v.color)),
             ..Mesh::default()
         };
-        let triangles = loops.lengths.iter().map(|&len| usize::from(len).saturating_sub(2)).sum();
-        mesh.triangles.reserve_exact(triangles);
-        let mut first = 0;
-        for &len in &loops.lengths {
-            let end = first + usize::from(len);
-            mesh.push_polygon(&ids[first..end]);
-            first = end;
+        if loops.lengths.iter().all(|&len| len == 3) {
+            // Cubes make triangles alone: the loops are the triangles.
+            mesh.triangles = ids.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+        } else {
+            let triangles = loops.lengths.iter().map(|&len| usize::from(len).saturating_sub(2)).sum();
+            mesh.triangles.reserve_exact(triangles);
+            let mut first = 0;
+            for &len in &loops.lengths {
+                let end = first + usize::from(len);
+                mesh.push_polygon(&ids[first..end]);
+                first = end;
+            }
         }
-        if self.options.vertex == VertexPlacement::Linear {
+        if linear {
             mesh.set_normals_from_faces();
         }
         mesh
