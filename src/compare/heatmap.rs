@@ -38,6 +38,13 @@ const STRIP: u32 = 6 * LINE_HEIGHT + 20;
 const MIN_WIDTH: u32 = 280;
 
 impl Scale {
+    /// `values` (row-major, `width × height`) in the scale's colours, with
+    /// no legend: for views that draw their colour bar elsewhere.
+    #[must_use]
+    pub fn paint(&self, values: &[f32], width: u32, height: u32) -> Rgb8Image {
+        Rgb8Image { width, height, pixels: values.iter().flat_map(|&v| self.color(v)).collect() }
+    }
+
     /// The colour of `v`.
     #[must_use]
     pub fn color(&self, v: f32) -> [u8; 3] {

@@ -237,19 +237,20 @@ impl EditSession {
         &self.settings
     }
 
-    /// The traced field, up to date.
+    /// The traced field as it stands: up to date once [`Self::is_refined`]
+    /// (meanwhile, [`Self::field_preview`] is what to show).
     #[must_use]
     pub fn field_frame(&self) -> &Frame {
         &self.field_frame
     }
 
-    /// The ray-cast mesh, up to date.
+    /// The ray-cast mesh as it stands: up to date once [`Self::is_refined`].
     #[must_use]
     pub fn mesh_frame(&self) -> &Frame {
         &self.mesh_frame
     }
 
-    /// Mesh depth less field depth per pixel, up to date.
+    /// Mesh depth less field depth per pixel: up to date once [`Self::is_refined`].
     #[must_use]
     pub fn depth_diff(&self) -> &[f32] {
         &self.depth_diff
@@ -445,12 +446,11 @@ impl EditSession {
     /// Traces the next rows, about `max_rays` rays, of the next sample of every pixel.
     fn add_sample_rows(&mut self, max_rays: usize) {
         let (w, h) = (self.settings.width, self.settings.height);
-        let samples = self.samples.get_or_insert_with(|| Samples {
-            sum: self.field_frame.color.clone(),
-            count: 1,
-            row: 0,
-            coverage: Coverage::of(&self.empty, &self.scene.model.bounds(), &self.settings.camera, w, h),
-        });
+        if self.samples.is_none() {
+            let coverage = self.coverage();
+            self.samples = Some(Samples { sum: self.field_frame.color.clone(), count: 1, row: 0, coverage });
+        }
+        let samples = self.samples.as_mut().expect("just made");
         let rows = (max_rays.max(MIN_BATCH_RAYS) / w.max(1) as usize).max(1) as u32;
         let (first, end) = (samples.row, (samples.row + rows).min(h));
         let field = ModelField::new(&self.scene.model, self.mode);

@@ -114,16 +114,11 @@ pub struct PlaneView {
 pub fn plane_view(model: &crate::field::Model, plane: &SlicePlane, view: SliceView) -> PlaneView {
     let exact = ModelField::new(model, EvalMode::Indexed);
     let (w, h) = (plane.width, plane.height);
-    let heat = |values: &[f32], scale: Scale| Rgb8Image {
-        width: w,
-        height: h,
-        pixels: values.iter().flat_map(|&v| scale.color(v)).collect(),
-    };
     match view {
         SliceView::Field => {
             let values = sample(plane, |p| exact.value(p));
             let scale = scale_of_nonzero(&values, 1.0);
-            let mut image = heat(&values, scale);
+            let mut image = scale.paint(&values, w, h);
             draw_contour(&mut image, &values, (w, h), exact.threshold());
             PlaneView { image, scale: Some((scale, "f, the iso-contour in white", "")) }
         }
@@ -142,7 +137,7 @@ pub fn plane_view(model: &crate::field::Model, plane: &SlicePlane, view: SliceVi
                 _ => (values, 10.0, "cached gradient angle error", "deg"),
             };
             let scale = scale_of_nonzero(&errors, scale);
-            PlaneView { image: heat(&errors, scale), scale: Some((scale, title, unit)) }
+            PlaneView { image: scale.paint(&errors, w, h), scale: Some((scale, title, unit)) }
         }
     }
 }

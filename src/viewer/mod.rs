@@ -66,6 +66,9 @@ pub enum Action {
     NextSliceView,
 }
 
+/// A heat-map view's colour bar: its scale, metric and unit.
+type ColourBar = (Scale, &'static str, &'static str);
+
 /// The normal-error view's full scale: 30°, beyond which pixels are marked.
 const NORMAL_ERROR_SCALE: Scale = Scale::Magnitude { max: 30.0 };
 
@@ -535,33 +538,25 @@ impl Viewer {
 
     /// The current view, as an image of the render's size.
     pub fn image(&self) -> Rgb8Image {
-        let mut image = self.view_image();
+        self.outlined(self.view().0)
+    }
+
+    /// `image` with the last frame's dirty rectangles outlined, when asked for.
+    fn outlined(&self, mut image: Rgb8Image) -> Rgb8Image {
         if self.dirty.1 {
             outline_dirty(&mut image, &self.dirty.0);
         }
         image
     }
 
-    /// What the window shows: the view, a status line, a colour bar over the
-    /// depth difference, and the help card when asked for.
+    /// What the window shows: the view, a status line, the colour bar of a
+    /// heat-map view, and the help card when asked for.
     pub fn screen(&self) -> Rgb8Image {
-        let mut image = self.image();
+        let (image, bar) = self.view();
+        let mut image = self.outlined(image);
         hud::status(&mut image, &self.status());
-        match self.view {
-            View::Difference => {
-                let scale = Scale::Signed { max: self.session.lattice().cell };
-                hud::colour_bar(&mut image, scale, "mesh depth - field depth, 1 cell full scale", "scene units");
-            }
-            View::NormalError => {
-                hud::colour_bar(&mut image, NORMAL_ERROR_SCALE, "angle between mesh and field normals", "deg");
-            }
-            View::Cost => hud::colour_bar(&mut image, self.cost_scale(), "field evaluations per pixel", "evaluations"),
-            View::Slice => {
-                if let Some((scale, title, unit)) = self.slice.drawn.as_ref().and_then(|d| d.scale) {
-                    hud::colour_bar(&mut image, scale, title, unit);
-                }
-            }
-            View::Field | View::Mesh => {}
+        if let Some((scale, title, unit)) = bar {
+            hud::colour_bar(&mut image, scale, title, unit);
         }
         if self.help {
             hud::help(&mut image, &Action::help());
@@ -604,44 +599,42 @@ impl Viewer {
         parts
     }
 
-    /// The field evaluations per pixel of the field render, as it stands.
-    fn evaluations(&self) -> Vec<f32> {
-        let evaluations = self.session.field_frame().aov("evals.Y").unwrap_or(&[]);
-        self.session.field_refinement().preview_values(evaluations).into_owned()
-    }
-
-    /// The cost view's scale: the evaluations' 99th percentile, rounded up.
-    fn cost_scale(&self) -> Scale {
-        Scale::from_data(&self.evaluations(), false, 1.0)
-    }
-
-    fn view_image(&self) -> Rgb8Image {
+    /// The current view at the render's size, and the colour bar (scale,
+    /// metric, unit) of a heat-map view.
+    fn view(&self) -> (Rgb8Image, Option<ColourBar>) {
         let (w, h) = (self.session.settings().width, self.session.settings().height);
-        let heat_map = |values: &[f32], scale: Scale| Rgb8Image {
-            width: w,
-            height: h,
-            pixels: values.iter().flat_map(|&v| scale.color(v)).collect(),
-        };
+        let heat_map = |values: &[f32], bar: ColourBar| (bar.0.paint(values, w, h), Some(bar));
         match self.view {
             View::NormalError => {
                 let angles = differences(&self.session.mesh_preview(), &self.session.field_preview(), Metric::Normal);
-                heat_map(&angles, NORMAL_ERROR_SCALE)
+                heat_map(&angles, (NORMAL_ERROR_SCALE, "angle between mesh and field normals", "deg"))
             }
-            View::Cost => heat_map(&self.evaluations(), self.cost_scale()),
+            View::Cost => {
+                let evaluations = self.session.field_frame().aov("evals.Y").unwrap_or(&[]);
+                let evaluations = self.session.field_refinement().preview_values(evaluations);
+                // The evaluations' 99th percentile, rounded up.
+                let scale = Scale::from_data(&evaluations, false, 1.0);
+                heat_map(&evaluations, (scale, "field evaluations per pixel", "evaluations"))
+            }
             View::Slice => match &self.slice.drawn {
-                Some(drawn) => drawn.image.clone(),
-                None => Rgb8Image::filled(w, h, [0, 0, 0]),
+                Some(drawn) => (drawn.image.clone(), drawn.scale),
+                None => (Rgb8Image::filled(w, h, [0, 0, 0]), None),
             },
             // The colours alone: a preview of every channel would cost as much again.
-            View::Field => Rgb8Image { width: w, height: h, pixels: srgb8_of(&self.session.field_colors()) },
+            View::Field => (Rgb8Image { width: w, height: h, pixels: srgb8_of(&self.session.field_colors()) }, None),
             View::Mesh => {
                 let colors = self.session.mesh_refinement().preview_values(&self.session.mesh_frame().color);
-                Rgb8Image { width: w, height: h, pixels: srgb8_of(&colors) }
+                (Rgb8Image { width: w, height: h, pixels: srgb8_of(&colors) }, None)
             }
             // A lattice cell either way is the strongest colour.
-            View::Difference => {
-                heat_map(&self.session.depth_diff_preview(), Scale::Signed { max: self.session.lattice().cell })
-            }
+            View::Difference => heat_map(
+                &self.session.depth_diff_preview(),
+                (
+                    Scale::Signed { max: self.session.lattice().cell },
+                    "mesh depth - field depth, 1 cell full scale",
+                    "scene units",
+                ),
+            ),
         }
     }
 
