@@ -10,9 +10,14 @@ use blobtrace::camera::{CameraMove, Orbit};
 use blobtrace::field::{EvalMode, ModelField};
 use blobtrace::frame::Frame;
 use blobtrace::pipeline::{EditSession, IDLE_SAMPLES, PolygonizeSettings};
-use blobtrace::scene::{Scene, Size};
+use blobtrace::scene::Size;
 use blobtrace::trace::{PASS_STEPS, RenderSettings, render};
 use common::{Rng, bundled, random_edit};
+
+/// An edit session on Medusa at `size`, its mesh on the lattice of `res`.
+fn medusa(mode: EvalMode, size: Size, res: u32) -> EditSession {
+    EditSession::new(bundled("medusa.ron"), mode, size, &PolygonizeSettings { res, ..Default::default() }).unwrap()
+}
 
 /// The field render of the session's model and camera from scratch.
 fn from_scratch(session: &EditSession) -> Frame {
@@ -37,9 +42,7 @@ fn events_taken_mid_refinement_end_in_images_equal_to_work_from_scratch() {
     let names: [(&str, bool); 2] = [("head", false), ("left_hand", false)];
     let mut rng = Rng(35);
     for mode in [EvalMode::Indexed, EvalMode::Cached] {
-        let scene: Scene = bundled("medusa.ron");
-        let polygonize = PolygonizeSettings { res: 24, ..Default::default() };
-        let mut session = EditSession::new(scene, mode, Size(72, 56), &polygonize).unwrap();
+        let mut session = medusa(mode, Size(72, 56), 24);
         let centre = session.scene().model.bounds().center().into();
         let mut orbit = Orbit::new(&session.settings().camera, centre, 56);
         for event in 0..9 {
@@ -73,8 +76,7 @@ fn events_taken_mid_refinement_end_in_images_equal_to_work_from_scratch() {
 fn once_the_coarse_pass_is_up_no_pixel_shows_the_field_before_the_edit() {
     let mut rng = Rng(7);
     for mode in [EvalMode::Indexed, EvalMode::Cached] {
-        let polygonize = PolygonizeSettings { res: 16, ..Default::default() };
-        let mut session = EditSession::new(bundled("medusa.ron"), mode, Size(80, 60), &polygonize).unwrap();
+        let mut session = medusa(mode, Size(80, 60), 16);
         let mut stale_seen = 0;
         for event in 0..4 {
             let before = session.field_frame().clone();
@@ -96,8 +98,7 @@ fn once_the_coarse_pass_is_up_no_pixel_shows_the_field_before_the_edit() {
 
 #[test]
 fn samples_added_while_idle_converge_to_the_render_of_as_many_samples() {
-    let polygonize = PolygonizeSettings { res: 16, ..Default::default() };
-    let mut session = EditSession::new(bundled("medusa.ron"), EvalMode::Indexed, Size(40, 30), &polygonize).unwrap();
+    let mut session = medusa(EvalMode::Indexed, Size(40, 30), 16);
     assert_eq!(session.samples_taken(), 1);
     let plain = session.field_colors().into_owned();
     while session.supersample(Duration::ZERO) {}
@@ -117,8 +118,7 @@ fn samples_added_while_idle_converge_to_the_render_of_as_many_samples() {
 fn an_edit_before_the_last_one_is_refined_leaves_no_pixel_of_either_behind() {
     let mut rng = Rng(38);
     for mode in [EvalMode::Indexed, EvalMode::Cached] {
-        let polygonize = PolygonizeSettings { res: 16, ..Default::default() };
-        let mut session = EditSession::new(bundled("medusa.ron"), mode, Size(80, 60), &polygonize).unwrap();
+        let mut session = medusa(mode, Size(80, 60), 16);
         for (refines, names) in [(0, ["head", "left_hand"]), (1, ["left_hand", "head"]), (2, ["head", "head"])] {
             session.begin_apply(&[random_edit(&mut rng, names[0], false)]).unwrap();
             for _ in 0..refines {
@@ -134,8 +134,7 @@ fn an_edit_before_the_last_one_is_refined_leaves_no_pixel_of_either_behind() {
 
 #[test]
 fn a_sample_part_way_through_weighs_only_the_rows_it_reached() {
-    let polygonize = PolygonizeSettings { res: 16, ..Default::default() };
-    let mut session = EditSession::new(bundled("medusa.ron"), EvalMode::Indexed, Size(200, 150), &polygonize).unwrap();
+    let mut session = medusa(EvalMode::Indexed, Size(200, 150), 16);
     let field = ModelField::new(&session.scene().model, session.mode());
     let two = render(&field, &RenderSettings { samples: 2, ..*session.settings() }, &|_| {}).0;
     let one = session.field_frame().color.clone();
