@@ -89,13 +89,6 @@ impl CornerValues {
         self.bricks.get(&key).and_then(|b| b.get(slot))
     }
 
-    /// The value at `q`, which must be known.
-    #[inline]
-    #[must_use]
-    pub fn value(&self, q: LatticePoint) -> f32 {
-        self.get(q).unwrap_or_else(|| panic!("no value at lattice point {q}"))
-    }
-
     /// Keeps `value` at `q`.
     pub fn insert(&mut self, q: LatticePoint, value: f32) {
         let (key, slot) = locate(q);
@@ -129,6 +122,37 @@ impl CornerValues {
             }
             !brick.is_empty()
         });
+    }
+}
+
+/// Reads values through the bricks read last, one per parity of the
+/// brick's coordinates and of the points: edges taken cell by cell read
+/// their ends from the bricks the edges before them read.
+pub struct CornerCursor<'a> {
+    store: &'a CornerValues,
+    recent: [(BrickKey, Option<&'a Brick>); 16],
+}
+
+impl CornerValues {
+    /// A cursor over these values.
+    #[must_use]
+    pub fn cursor(&self) -> CornerCursor<'_> {
+        CornerCursor { store: self, recent: [((IVec3::splat(i32::MIN), false), None); 16] }
+    }
+}
+
+impl CornerCursor<'_> {
+    /// The value at `q`, which must be known.
+    #[inline]
+    #[must_use]
+    pub fn value(&mut self, q: LatticePoint) -> f32 {
+        let (key, slot) = locate(q);
+        let (brick, odd) = key;
+        let way = (brick.x & 1 | (brick.y & 1) << 1 | (brick.z & 1) << 2) as usize | usize::from(odd) << 3;
+        if self.recent[way].0 != key {
+            self.recent[way] = (key, self.store.bricks.get(&key).map(|b| &**b));
+        }
+        self.recent[way].1.and_then(|b| b.get(slot)).unwrap_or_else(|| panic!("no value at lattice point {q}"))
     }
 }
 

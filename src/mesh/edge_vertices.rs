@@ -80,6 +80,18 @@ const KIND_OF_PATTERN: [u8; 64] = {
     table
 };
 
+/// The brick of edge `key` and its index there, with `kinds` edges per cube.
+#[inline]
+fn locate(kinds: usize, key: EdgeKey) -> (IVec3, usize) {
+    let rest = key & IVec3::splat(3);
+    let kind = KIND_OF_PATTERN[(rest.x + 4 * rest.y + 16 * rest.z) as usize];
+    assert!(usize::from(kind) < kinds, "{key} is no edge key of this lattice");
+    let cube: IVec3 = key >> 2;
+    let within = cube & IVec3::splat((1 << BRICK_SHIFT) - 1);
+    let index = (within.x | within.y << BRICK_SHIFT | within.z << (2 * BRICK_SHIFT)) as usize;
+    (cube >> BRICK_SHIFT, index * kinds + usize::from(kind))
+}
+
 impl EdgeVertices {
     /// An empty store for the edges of cubes, or with `centres` of a body-centred lattice too.
     pub fn new(centres: bool) -> Self {
@@ -95,13 +107,7 @@ impl EdgeVertices {
     /// The brick of edge `key` and its index there.
     #[inline]
     fn locate(&self, key: EdgeKey) -> (IVec3, usize) {
-        let rest = key & IVec3::splat(3);
-        let kind = KIND_OF_PATTERN[(rest.x + 4 * rest.y + 16 * rest.z) as usize];
-        assert!(usize::from(kind) < self.kinds, "{key} is no edge key of this lattice");
-        let cube: IVec3 = key >> 2;
-        let within = cube & IVec3::splat((1 << BRICK_SHIFT) - 1);
-        let index = (within.x | within.y << BRICK_SHIFT | within.z << (2 * BRICK_SHIFT)) as usize;
-        (cube >> BRICK_SHIFT, index * self.kinds + usize::from(kind))
+        locate(self.kinds, key)
     }
 
     /// The key of the edge at `index` of brick `brick`, with `kinds` edges per cube.
@@ -145,25 +151,28 @@ impl EdgeVertices {
         self.slot(key).map(|s| self.at(s))
     }
 
-    /// Makes room for `more` vertices beyond the free slots.
-    pub fn reserve(&mut self, more: usize) {
-        self.placed.reserve(more.saturating_sub(self.free.len()));
-    }
-
-    /// Gives edge `key` the vertex `vertex`, in place of any it had.
-    pub fn insert(&mut self, key: EdgeKey, vertex: EdgeVertex) {
-        let (brick, index) = self.locate(key);
-        let slots_per_brick = BRICK_CUBES * self.kinds;
-        let Self { bricks, placed, free, held, .. } = self;
-        let slot = &mut bricks.entry(brick).or_insert_with(|| vec![NONE; slots_per_brick].into_boxed_slice())[index];
-        if *slot == NONE {
-            *held += 1;
-            *slot = free.pop().unwrap_or_else(|| {
-                placed.push(vertex);
-                (placed.len() - 1) as u32
-            });
+    /// Gives each edge of `keys`, none of which has a vertex yet, the vertex
+    /// at its index in `vertices`: the free slots first, then new ones (the
+    /// vertices are moved in whole when the store is empty).
+    pub fn insert_new(&mut self, keys: impl ExactSizeIterator<Item = EdgeKey>, mut vertices: Vec<EdgeVertex>) {
+        assert_eq!(keys.len(), vertices.len(), "one vertex per edge");
+        let reused = self.free.len().min(vertices.len());
+        let taken: Vec<u32> = self.free.drain(self.free.len() - reused..).rev().collect();
+        for (&slot, vertex) in taken.iter().zip(&vertices) {
+            self.placed[slot as usize] = *vertex;
         }
-        placed[*slot as usize] = vertex;
+        let first_new = self.placed.len();
+        if self.placed.is_empty() {
+            self.placed = vertices;
+        } else {
+            self.placed.extend(vertices.drain(reused..));
+        }
+        self.held += keys.len();
+        let slot_of = |i: usize| taken.get(i).copied().unwrap_or_else(|| (first_new + i - reused) as u32);
+        for_each_slot(self.kinds, &mut self.bricks, keys.enumerate().map(|(i, key)| (key, i)), |i, slot| {
+            assert_eq!(*slot, NONE, "an edge given a new vertex had one");
+            *slot = slot_of(i);
+        });
     }
 
     /// Keeps only the vertices of the edges for which `keep` holds.
@@ -185,6 +194,28 @@ impl EdgeVertices {
             }
             any
         });
+    }
+}
+
+/// Calls `visit` with each item's payload and the slot of its edge (in a
+/// brick made for it if it had none). Edges listed cell by cell fall in the
+/// brick of the edge before them, which is then found again without a lookup.
+fn for_each_slot<T>(
+    kinds: usize,
+    bricks: &mut FxHashMap<IVec3, Box<[u32]>>,
+    items: impl IntoIterator<Item = (EdgeKey, T)>,
+    mut visit: impl FnMut(T, &mut u32),
+) {
+    let slots_per_brick = BRICK_CUBES * kinds;
+    let mut current: Option<(IVec3, &mut Box<[u32]>)> = None;
+    for (key, item) in items {
+        let (brick, index) = locate(kinds, key);
+        if current.as_ref().is_none_or(|(b, _)| *b != brick) {
+            let slots = bricks.entry(brick).or_insert_with(|| vec![NONE; slots_per_brick].into_boxed_slice());
+            current = Some((brick, slots));
+        }
+        let Some((_, slots)) = current.as_mut() else { unreachable!("the brick was found above") };
+        visit(item, &mut slots[index]);
     }
 }
 
@@ -232,18 +263,14 @@ mod tests {
     #[test]
     fn vertices_are_found_by_edge_and_dropped_slots_are_taken_again() {
         let mut v = EdgeVertices::new(false);
-        for k in 0..10 {
-            v.insert(key(k), vertex(k as f32));
-        }
-        v.insert(key(3), vertex(30.0));
+        // Ten edges over three bricks, in one call.
+        v.insert_new((0..10).map(key), (0..10).map(|k| vertex(k as f32)).collect());
         assert_eq!((v.len(), v.slot_count()), (10, 10));
-        assert_eq!(v.get(key(3)), Some(vertex(30.0)));
+        assert_eq!(v.get(key(3)), Some(vertex(3.0)));
         v.retain(|key| (key.x - 2) / 4 % 2 == 0);
         assert_eq!(v.len(), 5);
         assert!(!v.contains(key(3)) && v.contains(key(4)));
-        for k in 10..15 {
-            v.insert(key(k), vertex(k as f32));
-        }
+        v.insert_new((10..15).map(key), (10..15).map(|k| vertex(k as f32)).collect());
         assert_eq!((v.len(), v.slot_count()), (10, 10), "the five dropped slots were taken again");
         for k in (0..10).step_by(2).chain(10..15) {
             assert_eq!(v.get(key(k)), Some(vertex(k as f32)), "edge {k}");
@@ -266,9 +293,8 @@ mod tests {
                 keys.push(corner + offset + centre);
             }
         }
-        for (i, &k) in keys.iter().enumerate() {
-            v.insert(k, vertex(i as f32));
-        }
+        // Edges of three cubes in three bricks, the bricks taken in turn.
+        v.insert_new(keys.iter().copied(), (0..keys.len()).map(|i| vertex(i as f32)).collect());
         assert_eq!(v.len(), keys.len());
         for (i, &k) in keys.iter().enumerate() {
             assert_eq!(v.get(k), Some(vertex(i as f32)), "{k}");

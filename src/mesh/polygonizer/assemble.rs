@@ -45,23 +45,34 @@ impl Polygonizer {
     #[must_use]
     pub fn mesh(&self) -> Mesh {
         let crossed_cells = self.crossed_with_masks();
-        let loops = self.polygon_loops(&crossed_cells);
+        let parts = self.polygon_loops(&crossed_cells);
         // Numbering by first use is the one serial pass, over dense slot numbers.
         const UNNUMBERED: u32 = u32::MAX;
         let mut number = vec![UNNUMBERED; self.vertices.slot_count()];
         let mut used = Vec::with_capacity(self.vertices.len());
-        let ids: Vec<u32> = loops
-            .slots
-            .iter()
-            .map(|&slot| {
-                let n = &mut number[slot as usize];
-                if *n == UNNUMBERED {
-                    *n = used.len() as u32;
-                    used.push(slot);
-                }
-                *n
-            })
-            .collect();
+        let mut id = |slot: u32| {
+            let n = &mut number[slot as usize];
+            if *n == UNNUMBERED {
+                *n = used.len() as u32;
+                used.push(slot);
+            }
+            *n
+        };
+        // Cubes make triangles alone: their loops are the triangles, numbered as they come.
+        let only_triangles = parts.iter().all(|part| part.lengths.iter().all(|&len| len == 3));
+        let (triangles, ids) = if only_triangles {
+            let mut triangles = Vec::with_capacity(parts.iter().map(|part| part.lengths.len()).sum());
+            for part in &parts {
+                triangles.extend(part.slots.chunks_exact(3).map(|t| [id(t[0]), id(t[1]), id(t[2])]));
+            }
+            (triangles, vec![])
+        } else {
+            let mut ids = Vec::with_capacity(parts.iter().map(|part| part.slots.len()).sum());
+            for part in &parts {
+                ids.extend(part.slots.iter().map(|&slot| id(slot)));
+            }
+            (vec![], ids)
+        };
         let channel = |of: fn(&EdgeVertex) -> Vec3| -> Vec<Vec3> {
             used.par_iter().map(|&slot| of(&self.vertices.at(slot))).collect()
         };
@@ -71,19 +82,16 @@ impl Polygonizer {
             positions: channel(|v| v.position),
             normals: if linear { vec![] } else { channel(|v| v.normal) },
             colors: (self.with_colors && !used.is_empty()).then(|| channel(|v| v.color)),
+            triangles,
             ..Mesh::default()
         };
-        if loops.lengths.iter().all(|&len| len == 3) {
-            // Cubes make triangles alone: the loops are the triangles.
-            mesh.triangles = ids.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-        } else {
-            let triangles = loops.lengths.iter().map(|&len| usize::from(len).saturating_sub(2)).sum();
-            mesh.triangles.reserve_exact(triangles);
+        if !only_triangles {
+            let lengths = parts.iter().flat_map(|part| part.lengths.iter().map(|&len| usize::from(len)));
+            mesh.triangles.reserve_exact(lengths.clone().map(|len| len.saturating_sub(2)).sum());
             let mut first = 0;
-            for &len in &loops.lengths {
-                let end = first + usize::from(len);
-                mesh.push_polygon(&ids[first..end]);
-                first = end;
+            for len in lengths {
+                mesh.push_polygon(&ids[first..first + len]);
+                first += len;
             }
         }
         if linear {
@@ -97,11 +105,12 @@ impl Polygonizer {
         self.vertices.get(key).unwrap_or_else(|| panic!("no vertex on the edge with key {key}"))
     }
 
-    /// The polygons of `cells`, in order, as loops of their vertices' slots; in parallel.
-    fn polygon_loops(&self, cells: &[(Cell, u8)]) -> PolygonLoops {
+    /// The polygons of `cells` as loops of their vertices' slots, in parallel:
+    /// in order, part after part.
+    fn polygon_loops(&self, cells: &[(Cell, u8)]) -> Vec<PolygonLoops> {
         const CELLS_PER_TASK: usize = 4096;
         let shape = self.options.cells;
-        let parts: Vec<PolygonLoops> = cells
+        cells
             .par_chunks(CELLS_PER_TASK)
             .map(|chunk| {
                 let mut part = PolygonLoops::default();
@@ -120,16 +129,7 @@ impl Polygonizer {
                 }
                 part
             })
-            .collect();
-        let mut loops = PolygonLoops {
-            slots: Vec::with_capacity(parts.iter().map(|p| p.slots.len()).sum()),
-            lengths: Vec::with_capacity(parts.iter().map(|p| p.lengths.len()).sum()),
-        };
-        for part in parts {
-            loops.slots.extend(part.slots);
-            loops.lengths.extend(part.lengths);
-        }
-        loops
+            .collect()
     }
 }
 

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use super::{MIN_PARALLEL_ITEMS, Polygonizer};
 use crate::field::{DEFAULT_COLOR, Field};
 use crate::mesh::edge_vertices::EdgeVertex;
-use crate::mesh::lattice::{Cell, EdgeKey, LatticePoint, edge_key, sort_key};
+use crate::mesh::lattice::{Cell, LatticePoint, edge_key, sort_key};
 use crate::mesh::vertex::{VertexPlacement, place_on_edge};
 
 impl Polygonizer {
@@ -16,6 +16,8 @@ impl Polygonizer {
     pub(super) fn place_vertices<F: Field + ?Sized>(&mut self, field: &F, crossed_cells: &[(Cell, u8)]) {
         let shape = self.options.cells;
         let known = &self.vertices;
+        // A first polygonization has no vertex to look up.
+        let none_known = known.len() == 0;
         const CELLS_PER_TASK: usize = 1024;
         let parts: Vec<Vec<[LatticePoint; 2]>> = crossed_cells
             .par_chunks(CELLS_PER_TASK)
@@ -24,7 +26,9 @@ impl Polygonizer {
                 for &(cell, mask) in chunk {
                     shape.crossed_edges(cell, mask, &mut crossed);
                 }
-                crossed.retain(|&[a, b]| !known.contains(edge_key(a, b)));
+                if !none_known {
+                    crossed.retain(|&[a, b]| !known.contains(edge_key(a, b)));
+                }
                 crossed
             })
             .collect();
@@ -39,33 +43,34 @@ impl Polygonizer {
         }
         let (lattice, placement, with_colors) = (self.lattice, self.options.vertex, self.with_colors);
         let corners = &self.corners;
-        let placed: Vec<(EdgeKey, EdgeVertex, u32)> = edges
+        let (placed, evals): (Vec<EdgeVertex>, Vec<u32>) = edges
             .par_iter()
             .with_min_len(MIN_PARALLEL_ITEMS)
-            .map(|&[a, b]| {
-                let ends = |q: LatticePoint| (lattice.position(q), corners.value(q));
-                let (p, evals) = place_on_edge(field, ends(a), ends(b), placement);
-                let (gradient, color) = match (placement, with_colors) {
-                    // A preview spends nothing on normals: the mesh's face normals stand in.
-                    (VertexPlacement::Linear, true) => (Vec3A::ZERO, field.color(p)),
-                    (VertexPlacement::Linear, false) => (Vec3A::ZERO, DEFAULT_COLOR),
-                    (VertexPlacement::Root { .. }, true) => field.gradient_and_color(p),
-                    (VertexPlacement::Root { .. }, false) => (field.gradient(p), DEFAULT_COLOR),
-                };
-                let normal = Vec3::from(-gradient).normalize_or_zero();
-                (edge_key(a, b), EdgeVertex { position: p.into(), normal, color }, evals)
-            })
-            .collect();
+            .map_init(
+                || corners.cursor(),
+                |cursor, &[a, b]| {
+                    let mut ends = |q: LatticePoint| (lattice.position(q), cursor.value(q));
+                    let (a, b) = (ends(a), ends(b));
+                    let (p, evals) = place_on_edge(field, a, b, placement);
+                    let (gradient, color) = match (placement, with_colors) {
+                        // A preview spends nothing on normals: the mesh's face normals stand in.
+                        (VertexPlacement::Linear, true) => (Vec3A::ZERO, field.color(p)),
+                        (VertexPlacement::Linear, false) => (Vec3A::ZERO, DEFAULT_COLOR),
+                        (VertexPlacement::Root { .. }, true) => field.gradient_and_color(p),
+                        (VertexPlacement::Root { .. }, false) => (field.gradient(p), DEFAULT_COLOR),
+                    };
+                    let normal = Vec3::from(-gradient).normalize_or_zero();
+                    (EdgeVertex { position: p.into(), normal, color }, evals)
+                },
+            )
+            .unzip();
         if placement != VertexPlacement::Linear {
             self.stats.gradient_evals += placed.len() as u64;
         }
         if with_colors {
             self.stats.color_evals += placed.len() as u64;
         }
-        self.vertices.reserve(placed.len());
-        for (key, vertex, evals) in placed {
-            self.stats.root_evals += u64::from(evals);
-            self.vertices.insert(key, vertex);
-        }
+        self.stats.root_evals += evals.iter().map(|&e| u64::from(e)).sum::<u64>();
+        self.vertices.insert_new(edges.iter().map(|&[a, b]| edge_key(a, b)), placed);
     }
 }
