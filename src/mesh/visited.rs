@@ -59,12 +59,15 @@ impl Brick {
 pub(super) struct VisitedCells {
     cells_per_cube: usize,
     bricks: FxHashMap<IVec3, Brick>,
+    /// Counts the calls that may have changed the cells, so that what was
+    /// read from them can be known to hold still.
+    changes: u64,
 }
 
 impl VisitedCells {
     /// No cell visited, for cubes holding `cells_per_cube` cells each.
     pub fn new(cells_per_cube: usize) -> Self {
-        Self { cells_per_cube, bricks: FxHashMap::default() }
+        Self { cells_per_cube, bricks: FxHashMap::default(), changes: 0 }
     }
 
     /// Where cell `c` lives: its brick and its slot there.
@@ -93,6 +96,7 @@ impl VisitedCells {
     /// Marks `c` visited with `mask` if it was not; true if it was not.
     #[inline]
     pub fn insert_new(&mut self, c: Cell, mask: u8) -> bool {
+        self.changes += 1;
         let (b, slot) = self.brick_for(c);
         let new = b.get(slot).is_none();
         if new {
@@ -109,14 +113,21 @@ impl VisitedCells {
 
     /// Takes out the brick `b` (an empty one where none was) for one thread to own.
     pub fn take(&mut self, b: IVec3) -> Brick {
+        self.changes += 1;
         self.bricks.remove(&b).unwrap_or_else(|| Brick::new(BRICK_CUBES * self.cells_per_cube))
     }
 
     /// Puts a brick taken out back (nothing, if it is empty).
     pub fn put(&mut self, b: IVec3, brick: Brick) {
+        self.changes += 1;
         if !brick.is_empty() {
             self.bricks.insert(b, brick);
         }
+    }
+
+    /// A count that grows whenever the cells may have changed.
+    pub fn changes(&self) -> u64 {
+        self.changes
     }
 
     /// The visited cells whose masks pass `keep`, with their masks, in a
@@ -149,6 +160,7 @@ impl VisitedCells {
     /// meeting the cubes `lo..=hi` (it sees each of them once); every other
     /// cell is kept unread, as a local update's hole leaves most of them.
     pub fn retain_near(&mut self, (lo, hi): (IVec3, IVec3), mut keep: impl FnMut(Cell, u8) -> bool) {
+        self.changes += 1;
         let per_cube = self.cells_per_cube;
         let (first, last) = (lo >> BRICK_SHIFT, hi >> BRICK_SHIFT);
         self.bricks.retain(|&brick, b| {

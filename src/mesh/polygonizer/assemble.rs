@@ -15,7 +15,7 @@ impl Polygonizer {
     /// The crossed cells, sorted by lattice position.
     #[must_use]
     pub fn crossed_cell_list(&self) -> Vec<Cell> {
-        let mut cells: Vec<Cell> = self.crossed_with_masks().into_iter().map(|(c, _)| c).collect();
+        let mut cells: Vec<Cell> = self.crossed_now().iter().map(|&(c, _)| c).collect();
         cells.sort_unstable_by_key(Cell::order_key);
         cells
     }
@@ -44,7 +44,7 @@ impl Polygonizer {
     /// polygonizations give equal meshes.
     #[must_use]
     pub fn mesh(&self) -> Mesh {
-        let crossed_cells = self.crossed_with_masks();
+        let crossed_cells = self.crossed_now();
         let parts = self.polygon_loops(&crossed_cells);
         // Numbering by first use is the one serial pass, over dense slot numbers.
         const UNNUMBERED: u32 = u32::MAX;

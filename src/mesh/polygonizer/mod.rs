@@ -35,7 +35,7 @@ use rustc_hash::FxHashMap;
 
 use super::corners::CornerValues;
 use super::edge_vertices::EdgeVertices;
-use super::lattice::{Lattice, LatticePoint, sort_key};
+use super::lattice::{Cell, Lattice, LatticePoint, sort_key};
 use super::seeds::{Evaluated, Seed, SeedStarts};
 use super::vertex::VertexPlacement;
 use super::visited::VisitedCells;
@@ -73,6 +73,10 @@ pub struct Polygonizer {
     corners: CornerValues,
     /// Visited cells and their inside masks.
     cells: VisitedCells,
+    /// The crossed cells with their masks, as the vertices were placed on
+    /// them, and the visited cells' change count then: while it holds, the
+    /// mesh is assembled from them without gathering them again.
+    crossed: Option<(u64, Vec<(Cell, u8)>)>,
     vertices: EdgeVertices,
     /// For each lattice row seeds marched along (by `y` and `z`), the spans
     /// of `x` whose values decided what its marches found (see [`SeedMarch::row`]).
@@ -93,6 +97,7 @@ impl Polygonizer {
             options,
             corners: CornerValues::default(),
             cells: VisitedCells::new(options.cells.cells_per_cube()),
+            crossed: None,
             vertices: EdgeVertices::new(options.cells == CellShape::Bcc),
             row_spans: FxHashMap::default(),
             starts: SeedStarts::default(),
@@ -135,6 +140,7 @@ impl Polygonizer {
         stage(progress, "growing the mesh", || self.grow(field, frontier));
         let crossed = self.crossed_with_masks();
         stage(progress, "placing vertices", || self.place_vertices(field, &crossed));
+        self.crossed = Some((self.cells.changes(), crossed));
     }
 
     /// Polygonizes on this polygonizer's lattice, which must be `coarse`'s refined
@@ -165,7 +171,9 @@ impl Polygonizer {
         }
         let frontier = self.claim(around);
         self.grow(field, frontier);
-        self.place_vertices(field, &self.crossed_with_masks());
+        let crossed = self.crossed_with_masks();
+        self.place_vertices(field, &crossed);
+        self.crossed = Some((self.cells.changes(), crossed));
     }
 
     /// For each coarse edge (in fine coordinates, `scale` fine steps long), the
