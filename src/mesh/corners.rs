@@ -219,6 +219,59 @@ impl CornerPatch {
     }
 }
 
+/// The slots of a cube's eight corners, in [`super::cubes::vertices`]'
+/// order, from its lowest corner's, when all lie in one brick.
+const CUBE_CORNER_SLOTS: [usize; 8] = {
+    let mut slots = [0; 8];
+    let mut i = 0;
+    while i < 8 {
+        slots[i] = (i & 1) | (i >> 1 & 1) << BRICK_SHIFT | (i >> 2 & 1) << (2 * BRICK_SHIFT);
+        i += 1;
+    }
+    slots
+};
+
+impl CornerPatch {
+    /// The values at the corners of the cube whose lowest corner is
+    /// `lowest`, in [`super::cubes::vertices`]' order, those not known yet
+    /// taken from `evaluate` and kept; with how many were evaluated. A cube
+    /// off its brick's far faces (most cubes) finds its brick once.
+    #[inline]
+    pub fn cube_values(
+        &mut self,
+        lowest: LatticePoint,
+        mut evaluate: impl FnMut(LatticePoint) -> f32,
+    ) -> ([f32; 8], u64) {
+        let mut values = [0.0; 8];
+        let mut evaluated = 0;
+        let within: IVec3 = (lowest >> 1) & IVec3::splat(BRICK_SIDE - 1);
+        if within.cmplt(IVec3::splat(BRICK_SIDE - 1)).all() {
+            let (brick, first) = self.locate(lowest);
+            let brick = self.bricks[brick].get_or_insert_with(|| Box::new(Brick::EMPTY));
+            for (i, value) in values.iter_mut().enumerate() {
+                let slot = first + CUBE_CORNER_SLOTS[i];
+                *value = brick.get(slot).unwrap_or_else(|| {
+                    let v = evaluate(lowest + super::cubes::corner_offset(i) * 2);
+                    brick.set(slot, v);
+                    evaluated += 1;
+                    v
+                });
+            }
+        } else {
+            for (i, value) in values.iter_mut().enumerate() {
+                let q = lowest + super::cubes::corner_offset(i) * 2;
+                *value = self.get(q).unwrap_or_else(|| {
+                    let v = evaluate(q);
+                    self.set(q, v);
+                    evaluated += 1;
+                    v
+                });
+            }
+        }
+        (values, evaluated)
+    }
+}
+
 impl Extend<(LatticePoint, f32)> for CornerValues {
     fn extend<I: IntoIterator<Item = (LatticePoint, f32)>>(&mut self, points: I) {
         for (q, v) in points {
@@ -282,6 +335,40 @@ mod tests {
         for (i, &q) in points.iter().enumerate().skip(1) {
             assert_eq!(values.get(q), Some(i as f32), "at {q}");
         }
+    }
+
+    #[test]
+    fn a_cube_reads_its_corners_in_vertex_order_and_evaluates_each_once() {
+        let mut values = CornerValues::default();
+        let base = IVec3::new(3, -2, 1);
+        let value = |q: IVec3| (q.x * 10_000 + q.y * 100 + q.z) as f32;
+        // One corner known before: it is read, not evaluated.
+        let first = (base * 8) * 2;
+        values.insert(first, value(first));
+        let mut patch = values.take_patch(base);
+        let (mut evaluated, mut counted) = (vec![], 0);
+        // Every cube of the block, inside its first brick or on its far faces.
+        for z in 0..8 {
+            for y in 0..8 {
+                for x in 0..8 {
+                    let cube = base * 8 + IVec3::new(x, y, z);
+                    let (got, count) = patch.cube_values(cube * 2, |q| {
+                        evaluated.push(q);
+                        value(q)
+                    });
+                    let corners = crate::mesh::cubes::vertices(crate::mesh::lattice::Cell { cube, sub: 0 });
+                    assert_eq!(got, corners.map(value), "cube {cube}");
+                    counted += count;
+                }
+            }
+        }
+        let mut unique = evaluated.clone();
+        unique.sort_by_key(|q| q.to_array());
+        unique.dedup();
+        assert_eq!(unique.len(), evaluated.len(), "a corner was evaluated twice");
+        assert_eq!(evaluated.len(), 9 * 9 * 9 - 1, "every corner of the block but the known one");
+        assert_eq!(counted, evaluated.len() as u64);
+        assert!(!evaluated.contains(&first));
     }
 
     #[test]

@@ -194,6 +194,11 @@ impl Block {
 impl Grown {
     /// Bit `i` set when vertex `i` of `cell` is inside; vertices not known yet evaluated.
     fn mask<F: Field + ?Sized>(&mut self, field: &F, c: &BlockContext, cell: Cell) -> u8 {
+        if c.shape == CellShape::Cubes {
+            let (values, evaluated) = self.corners.cube_values(cell.cube * 2, |q| field.value(c.lattice.position(q)));
+            self.evaluated += evaluated;
+            return values.iter().enumerate().fold(0, |mask, (i, &v)| mask | u8::from(v > c.threshold) << i);
+        }
         let (v, n) = c.shape.vertices(cell);
         let mut mask = 0;
         for (i, &q) in v[..n].iter().enumerate() {
