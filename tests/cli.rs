@@ -1256,9 +1256,12 @@ fn regress_tolerates_four_wide_sums_against_eight_wide_references_and_back_but_n
     };
     // The switch takes effect: the two paths sum in different orders.
     let (z8, z4) = (dir.join("8.exr"), dir.join("4.exr"));
-    let render = ["render", "scenes/medusa.ron", "--size", "96x72", "--mode", "exact", "--json", "--exr"];
-    assert_eq!(json(&with_sums("8", &[&render[..], &[z8.to_str().unwrap()]].concat()))["point_sum_lanes"], 8);
-    assert_eq!(json(&with_sums("4", &[&render[..], &[z4.to_str().unwrap()]].concat()))["point_sum_lanes"], 4);
+    let png = dir.join("medusa.png");
+    let render =
+        ["render", "scenes/medusa.ron", "--size", "96x72", "--mode", "exact", "--json", "-o", png.to_str().unwrap()];
+    let (exr8, exr4) = (["--exr", z8.to_str().unwrap()], ["--exr", z4.to_str().unwrap()]);
+    assert_eq!(json(&with_sums("8", &[&render[..], &exr8].concat()))["point_sum_lanes"], 8);
+    assert_eq!(json(&with_sums("4", &[&render[..], &exr4].concat()))["point_sum_lanes"], 4);
     let out = blobtrace(&[
         "diff",
         z8.to_str().unwrap(),
@@ -1351,6 +1354,7 @@ fn a_full_disk_leaves_every_old_output_as_it_was_and_no_temporaries() {
 
 #[test]
 fn warp_edit_scripts_verify_and_bad_warp_edits_name_their_line() {
+    let dir = scratch("warp-scripts");
     let out = blobtrace(&[
         "edit",
         "scenes/warps.ron",
@@ -1361,9 +1365,10 @@ fn warp_edit_scripts_verify_and_bad_warp_edits_name_their_line() {
         "--res",
         "32",
         "--verify",
+        "--out-dir",
+        dir.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let dir = scratch("warp-scripts");
     let cases = [
         (
             "(edits: [Warp(node: \"tail\", rate: 0.5)]),\n  (edits: [Warp(node: \"tail\", rate: 5.0)]),",
@@ -1376,10 +1381,13 @@ fn warp_edit_scripts_verify_and_bad_warp_edits_name_their_line() {
     for (frames, place, words) in cases {
         let script = dir.join("bad.ron");
         std::fs::write(&script, format!("EditScript(frames: [\n  {frames}\n])\n")).unwrap();
-        let out = blobtrace(&["edit", "scenes/warps.ron", "--script", script.to_str().unwrap(), "--size", "32x24"]);
+        let never = dir.join("never");
+        let args = ["--size", "32x24", "--out-dir", never.to_str().unwrap()];
+        let out = blobtrace(&[&["edit", "scenes/warps.ron", "--script", script.to_str().unwrap()][..], &args].concat());
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{err}");
         assert!(err.contains(place) && err.contains(words), "{frames}: {err}");
+        assert!(!never.exists(), "a script that fails writes nothing, not even its folder");
     }
     std::fs::remove_dir_all(dir).unwrap();
 }

@@ -66,7 +66,11 @@ pub fn run(a: &EditArgs) -> anyhow::Result<()> {
     let bars = Bars::new();
     let report = with_threads(a.threads, || -> anyhow::Result<EditReport> {
         let mut session = EditSession::new(scene, mode, size, &a.polygonize.settings())?;
-        create_dir(&a.out_dir)?;
+        // Frames are saved as they come; otherwise nothing is written (not
+        // even the folder) unless the whole script plays.
+        if a.save_frames {
+            create_dir(&a.out_dir)?;
+        }
         let save = |i: usize, frame: &Frame, rects: &[PixelRect]| match a.save_frames {
             true => save_frame(&a.out_dir, i, frame, rects),
             false => Ok(()),
@@ -113,6 +117,7 @@ fn write_outputs(dir: &Path, r: &EditReport) -> anyhow::Result<()> {
     if r.full_s.is_some() {
         series.push(("from scratch", &full));
     }
+    create_dir(dir)?;
     let title = format!("seconds per frame ({})", r.eval);
     let timing = dir.join("timing.png");
     let mut files = FileSet::new();
