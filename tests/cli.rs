@@ -1365,10 +1365,17 @@ fn warp_edit_scripts_verify_and_bad_warp_edits_name_their_line() {
         "--res",
         "32",
         "--verify",
+        "--save-frames",
         "--out-dir",
         dir.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let rows = std::fs::read_to_string(dir.join("frames.csv")).unwrap().lines().count() - 1;
+    let saved = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().starts_with("frame-"))
+        .count();
+    assert!(rows > 1 && saved == rows, "{saved} frames saved for {rows} rows");
     let cases = [
         (
             "(edits: [Warp(node: \"tail\", rate: 0.5)]),\n  (edits: [Warp(node: \"tail\", rate: 5.0)]),",
@@ -1382,7 +1389,8 @@ fn warp_edit_scripts_verify_and_bad_warp_edits_name_their_line() {
         let script = dir.join("bad.ron");
         std::fs::write(&script, format!("EditScript(frames: [\n  {frames}\n])\n")).unwrap();
         let never = dir.join("never");
-        let args = ["--size", "32x24", "--out-dir", never.to_str().unwrap()];
+        // The first case fails on its second frame, after the first was made.
+        let args = ["--size", "32x24", "--save-frames", "--out-dir", never.to_str().unwrap()];
         let out = blobtrace(&[&["edit", "scenes/warps.ron", "--script", script.to_str().unwrap()][..], &args].concat());
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{err}");

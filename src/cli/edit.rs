@@ -45,7 +45,8 @@ pub struct EditArgs {
     /// incremental field image is bit-identical and the mesh has the same triangles.
     #[arg(long)]
     pub verify: bool,
-    /// Write every frame's field image with its dirty rectangles outlined.
+    /// Also write every frame's field image with its dirty rectangles
+    /// outlined (frame-NNNN.png), with the rest once the whole script has played.
     #[arg(long)]
     pub save_frames: bool,
     /// Worker threads (default: all cores).
@@ -64,21 +65,20 @@ pub fn run(a: &EditArgs) -> anyhow::Result<()> {
     check_names(&scene.model, &script)?;
     let size = a.size.unwrap_or(scene.size);
     let bars = Bars::new();
-    let report = with_threads(a.threads, || -> anyhow::Result<EditReport> {
+    let (report, frames) = with_threads(a.threads, || -> anyhow::Result<(EditReport, FileSet)> {
         let mut session = EditSession::new(scene, mode, size, &a.polygonize.settings())?;
-        // Frames are saved as they come; otherwise nothing is written (not
-        // even the folder) unless the whole script plays.
-        if a.save_frames {
-            create_dir(&a.out_dir)?;
-        }
+        // Frames are kept as they come and written with the rest, once the
+        // whole script has played: a script that fails writes nothing.
+        let mut frames = FileSet::new();
         let save = |i: usize, frame: &Frame, rects: &[PixelRect]| match a.save_frames {
-            true => save_frame(&a.out_dir, i, frame, rects),
+            true => keep_frame(&mut frames, &a.out_dir, i, frame, rects),
             false => Ok(()),
         };
-        Ok(session.replay(&script, a.verify, &bars, save)?)
+        let report = session.replay(&script, a.verify, &bars, save)?;
+        Ok((report, frames))
     })??;
     bars.finish();
-    write_outputs(&a.out_dir, &report)?;
+    write_outputs(&a.out_dir, &report, frames)?;
     if a.json {
         return print_json(&report);
     }
@@ -100,15 +100,24 @@ fn print_summary(dir: &Path, report: &EditReport) {
     );
 }
 
-fn save_frame(dir: &Path, i: usize, frame: &Frame, rects: &[PixelRect]) -> Result<(), PipelineError> {
+/// Adds frame `i`, its dirty rectangles outlined, to the files to write.
+fn keep_frame(
+    files: &mut FileSet,
+    dir: &Path,
+    i: usize,
+    frame: &Frame,
+    rects: &[PixelRect],
+) -> Result<(), PipelineError> {
     let mut img = frame_image(frame);
     outline_dirty(&mut img, rects);
     let path = dir.join(format!("frame-{i:04}.png"));
-    Ok(img.save_png(&path)?)
+    let bytes = img.png_bytes_for(&path)?;
+    files.add(path, bytes);
+    Ok(())
 }
 
-/// frames.csv and timing.png, both or neither.
-fn write_outputs(dir: &Path, r: &EditReport) -> anyhow::Result<()> {
+/// frames.csv and timing.png, with the frames kept in `files`: all or none.
+fn write_outputs(dir: &Path, r: &EditReport, mut files: FileSet) -> anyhow::Result<()> {
     let incremental: Vec<f64> = r.per_frame.iter().map(|f| f.incremental_s).collect();
     let field: Vec<f64> = r.per_frame.iter().map(|f| f.field_s).collect();
     let mesh: Vec<f64> = r.per_frame.iter().map(|f| f.polygonize_s + f.bvh_s + f.mesh_render_s).collect();
@@ -120,7 +129,6 @@ fn write_outputs(dir: &Path, r: &EditReport) -> anyhow::Result<()> {
     create_dir(dir)?;
     let title = format!("seconds per frame ({})", r.eval);
     let timing = dir.join("timing.png");
-    let mut files = FileSet::new();
     files.add(dir.join("frames.csv"), frames_csv(r).into_bytes());
     files.add(&timing, line_plot(&title, "s", &series, 720, 360).png_bytes_for(&timing)?);
     Ok(files.commit()?)
