@@ -147,6 +147,35 @@ pub fn heat_map_labelled(
     img
 }
 
+/// What a heat map's colours mean, for a colour bar drawn beside it: its
+/// scale, metric and unit, and the special colours its image shows.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ColourKey {
+    /// The scale the colours follow.
+    pub scale: Scale,
+    /// The metric.
+    pub title: &'static str,
+    /// Its unit.
+    pub unit: &'static str,
+    /// Each special colour the image uses, with what it means there, and
+    /// the share of values beyond the scale when there are any.
+    pub specials: Vec<([u8; 3], String)>,
+}
+
+impl ColourKey {
+    /// The key of the heat map of `values` on `scale`, of the metric and
+    /// unit `title_unit`, its special colours meaning what `labels` say.
+    #[must_use]
+    pub fn of(
+        values: &[f32],
+        scale: Scale,
+        (title, unit): (&'static str, &'static str),
+        labels: &SpecialLabels,
+    ) -> Self {
+        Self { scale, title, unit, specials: legend(values, scale, labels) }
+    }
+}
+
 /// The legend entries an image needs: only the special colours it uses, and
 /// the share of its values beyond the scale.
 fn legend(values: &[f32], scale: Scale, labels: &SpecialLabels) -> Vec<([u8; 3], String)> {

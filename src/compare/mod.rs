@@ -21,7 +21,7 @@ pub use diff::{
 };
 pub use flip::{FLIP_BUCKETS, FlipStats, default_pixels_per_degree, flip_errors, flip_stats, flip_whole};
 pub use heatmap::{
-    MISMATCH, NO_VALUE, OVER_RANGE, SILHOUETTE_COLORS, Scale, SpecialLabels, heat_map, heat_map_labelled,
+    ColourKey, MISMATCH, NO_VALUE, OVER_RANGE, SILHOUETTE_COLORS, Scale, SpecialLabels, heat_map, heat_map_labelled,
     silhouette_map,
 };
 pub use histogram::histogram_plot;

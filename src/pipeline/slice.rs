@@ -7,7 +7,7 @@ use glam::Vec3A;
 
 use super::error::{PipelineError, Result};
 use crate::cache::Filter;
-use crate::compare::{Rgb8Image, Scale, SpecialLabels, heat_map, heat_map_labelled, panel};
+use crate::compare::{ColourKey, Rgb8Image, Scale, SpecialLabels, heat_map, heat_map_labelled, panel};
 use crate::field::{EvalMode, Field, ModelField};
 use crate::progress::Progress;
 use crate::scene::{Scene, parse_desc};
@@ -97,13 +97,13 @@ pub fn slice(
 }
 
 /// One view of a plane through a model as its caches stand: the image at
-/// the plane's pixel size, and the scale its colours follow (none for the
+/// the plane's pixel size, and what its colours mean (nothing for the
 /// sharp view, whose colours are not a scale).
 pub struct PlaneView {
     /// The picture, `plane.width × plane.height`.
     pub image: Rgb8Image,
-    /// Its colour scale, metric and unit, for a colour bar.
-    pub scale: Option<(Scale, &'static str, &'static str)>,
+    /// Its colour scale, metric, unit and special colours, for a colour bar.
+    pub key: Option<ColourKey>,
 }
 
 /// `view` of `model` on `plane`, the caches as the model holds them
@@ -120,10 +120,11 @@ pub fn plane_view(model: &crate::field::Model, plane: &SlicePlane, view: SliceVi
             let scale = scale_of_nonzero(&values, 1.0);
             let mut image = scale.paint(&values, w, h);
             draw_contour(&mut image, &values, (w, h), exact.threshold());
-            PlaneView { image, scale: Some((scale, "f, the iso-contour in white", "")) }
+            let title = ("f, the iso-contour in white", "");
+            PlaneView { image, key: Some(ColourKey::of(&values, scale, title, &SpecialLabels::default())) }
         }
         SliceView::Sharp => {
-            PlaneView { image: sharp_image(&sample(plane, |p| exact.value(p)), w, h, exact.threshold()), scale: None }
+            PlaneView { image: sharp_image(&sample(plane, |p| exact.value(p)), w, h, exact.threshold()), key: None }
         }
         SliceView::Error | SliceView::Gradient => {
             let cached = ModelField::new(model, EvalMode::Cached);
@@ -137,7 +138,8 @@ pub fn plane_view(model: &crate::field::Model, plane: &SlicePlane, view: SliceVi
                 _ => (values, 10.0, "cached gradient angle error", "deg"),
             };
             let scale = scale_of_nonzero(&errors, scale);
-            PlaneView { image: scale.paint(&errors, w, h), scale: Some((scale, title, unit)) }
+            let key = ColourKey::of(&errors, scale, (title, unit), &ERROR_MAP_LABELS);
+            PlaneView { image: scale.paint(&errors, w, h), key: Some(key) }
         }
     }
 }
@@ -252,10 +254,14 @@ fn error_map(errors: &[f32], plane: &SlicePlane, view: SliceView, scale: Option<
         _ => (scale.unwrap_or(10.0), "gradient angle error", "deg"),
     };
     let title = format!("{title}, mean {:.2e}", mean_finite(errors));
-    // A pixel without a value is one where a gradient vanishes.
-    let labels = SpecialLabels { no_value: "a gradient vanishes", infinite: "infinite" };
-    heat_map_labelled(errors, (plane.width, plane.height), Scale::Magnitude { max: scale }, (&title, unit), &labels)
+    let scale = Scale::Magnitude { max: scale };
+    heat_map_labelled(errors, (plane.width, plane.height), scale, (&title, unit), &ERROR_MAP_LABELS)
 }
+
+/// The special colours of error and gradient-error maps: a pixel without a
+/// value is one where a gradient vanishes.
+const ERROR_MAP_LABELS: SpecialLabels<'static> =
+    SpecialLabels { no_value: "a gradient vanishes", infinite: "infinite" };
 
 /// Per pixel: the value of `field` (for error), or the angle in degrees
 /// between its gradient and the exact one (for gradient; `NaN` where the exact

@@ -4,7 +4,7 @@
 //! Drawn into the frame itself, so it shows without a window manager's title
 //! bar and in screenshots.
 
-use crate::compare::{CHAR_WIDTH, LINE_HEIGHT, OVER_RANGE, Rgb8Image, Scale};
+use crate::compare::{CHAR_WIDTH, ColourKey, LINE_HEIGHT, OVER_RANGE, Rgb8Image, Scale};
 
 /// Space around text, in pixels.
 const PAD: u32 = 4;
@@ -77,12 +77,13 @@ pub fn help(image: &mut Rgb8Image, keys: &[(String, &str)]) {
     panel(image, image.width.saturating_sub(width) / 2, image.height.saturating_sub(height) / 2, &lines);
 }
 
-/// A colour bar along the bottom left of a heat-map view: `title`, the
-/// colours of `scale` and its ends and middle in `unit`, and the colour
-/// of values beyond the scale.
-pub fn colour_bar(image: &mut Rgb8Image, scale: Scale, title: &str, unit: &str) {
+/// A colour bar along the bottom left of a heat-map view: the key's title,
+/// the colours of its scale with its ends and middle in its unit, and a
+/// line for each special colour the view shows (values beyond the scale
+/// always have one).
+pub fn colour_bar(image: &mut Rgb8Image, key: &ColourKey) {
     let bar_width = (image.width / 3).max(120).min(image.width.saturating_sub(2 * PAD));
-    let (lo, hi, signed) = match scale {
+    let (lo, hi, signed) = match key.scale {
         Scale::Signed { max } => (-max, max, true),
         Scale::Magnitude { max } => (0.0, max, false),
     };
@@ -91,31 +92,41 @@ pub fn colour_bar(image: &mut Rgb8Image, scale: Scale, title: &str, unit: &str) 
         (false, true) => format!("{v:.0}"),
         (false, false) => format!("{v:.3}"),
     };
-    let labels = [label(lo), label(0.5 * (lo + hi)), format!("{} {unit}", label(hi))];
+    let labels = [label(lo), label(0.5 * (lo + hi)), format!("{} {}", label(hi), key.unit)];
+    let mut specials = key.specials.clone();
+    if !specials.iter().any(|&(colour, _)| colour == OVER_RANGE) {
+        specials.push((OVER_RANGE, "beyond the scale".into()));
+    }
+    let widest = specials.iter().map(|(_, text)| Rgb8Image::text_width(text) + 12).max().unwrap_or(0);
     let label_width = Rgb8Image::text_width(&labels[2]);
-    let width = bar_width.max(Rgb8Image::text_width(title)) + label_width + 2 * PAD;
-    let height = 4 * LINE_HEIGHT + 5 * PAD + 8;
+    let width = bar_width.max(Rgb8Image::text_width(key.title)).max(widest) + label_width + 2 * PAD;
+    // The title, the bar and its labels, then a line per special colour.
+    let n = specials.len() as u32;
+    let height = (3 + n) * LINE_HEIGHT + (4 + n) * PAD + 8;
     let top = image.height.saturating_sub(height);
     shade(image, 0, top, width, height);
-    image.text(i64::from(PAD), i64::from(top + PAD), title, TEXT);
+    image.text(i64::from(PAD), i64::from(top + PAD), key.title, TEXT);
     let bar_top = top + 2 * PAD + LINE_HEIGHT;
     for i in 0..bar_width {
         let v = lo + (hi - lo) * i as f32 / (bar_width - 1).max(1) as f32;
-        image.fill_rect(i64::from(PAD + i), i64::from(bar_top), 1, 8, scale.color(v));
+        image.fill_rect(i64::from(PAD + i), i64::from(bar_top), 1, 8, key.scale.color(v));
     }
     let label_top = i64::from(bar_top + 8 + PAD);
     image.text(i64::from(PAD), label_top, &labels[0], TEXT);
     let middle = i64::from(PAD + bar_width / 2) - i64::from(Rgb8Image::text_width(&labels[1]) / 2);
     image.text(middle, label_top, &labels[1], TEXT);
     image.text(i64::from(PAD + bar_width) - i64::from(CHAR_WIDTH) * 6, label_top, &labels[2], TEXT);
-    let beyond_top = label_top + i64::from(LINE_HEIGHT + PAD);
-    image.fill_rect(i64::from(PAD), beyond_top + 2, 8, 8, OVER_RANGE);
-    image.text(i64::from(PAD + 12), beyond_top, "beyond the scale", TEXT);
+    for (row, (colour, text)) in specials.iter().enumerate() {
+        let line_top = label_top + (row as i64 + 1) * i64::from(LINE_HEIGHT + PAD);
+        image.fill_rect(i64::from(PAD), line_top + 2, 8, 8, *colour);
+        image.text(i64::from(PAD + 12), line_top, text, TEXT);
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::compare::NO_VALUE;
 
     fn grey(w: u32, h: u32) -> Rgb8Image {
         Rgb8Image::filled(w, h, [128, 128, 128])
@@ -164,7 +175,7 @@ mod tests {
     #[test]
     fn a_colour_bar_on_a_narrow_view_stays_inside_it() {
         let mut image = grey(40, 30);
-        colour_bar(&mut image, Scale::Signed { max: 1.0 }, "depth", "cells");
+        colour_bar(&mut image, &key(Scale::Signed { max: 1.0 }, vec![]));
         assert_eq!(image.pixels.len(), 40 * 30 * 3);
     }
 
@@ -172,9 +183,30 @@ mod tests {
     fn the_colour_bar_draws_the_scale_ends() {
         let mut image = grey(300, 200);
         let scale = Scale::Signed { max: 0.5 };
-        colour_bar(&mut image, scale, "depth", "cells");
+        colour_bar(&mut image, &key(scale, vec![]));
         let has = |c: [u8; 3]| image.pixels.chunks_exact(3).any(|p| p == c);
         assert!(has(scale.color(-0.5)) && has(scale.color(0.5)), "both ends of the bar");
         assert!(has(OVER_RANGE), "the colour beyond the scale, labelled");
+    }
+
+    #[test]
+    fn the_colour_bar_labels_the_special_colours_its_view_shows() {
+        let scale = Scale::Magnitude { max: 10.0 };
+        let labels = crate::compare::SpecialLabels { no_value: "a gradient vanishes", infinite: "infinite" };
+        let shown = ColourKey::of(&[1.0, f32::NAN, 20.0], scale, ("angle", "deg"), &labels);
+        assert_eq!(shown.specials.len(), 2, "no value and beyond the scale: {:?}", shown.specials);
+        let (mut with, mut without) = (grey(300, 200), grey(300, 200));
+        colour_bar(&mut with, &shown);
+        colour_bar(&mut without, &ColourKey::of(&[1.0], scale, ("angle", "deg"), &labels));
+        let has = |image: &Rgb8Image, c: [u8; 3]| image.pixels.chunks_exact(3).any(|p| p == c);
+        assert!(has(&with, NO_VALUE) && has(&with, OVER_RANGE), "both specials drawn");
+        assert!(!has(&without, NO_VALUE) && has(&without, OVER_RANGE), "only what the view shows, and the scale's end");
+        let shaded = |image: &Rgb8Image| image.pixels.chunks_exact(3).filter(|p| *p != [128, 128, 128]).count();
+        assert!(shaded(&with) > shaded(&without), "a line more for the value that vanishes");
+    }
+
+    /// A key of `scale` for the depth difference, with `specials`.
+    fn key(scale: Scale, specials: Vec<([u8; 3], String)>) -> ColourKey {
+        ColourKey { scale, title: "depth", unit: "cells", specials }
     }
 }

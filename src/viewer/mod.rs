@@ -22,7 +22,7 @@ use anyhow::Context;
 use glam::Vec3;
 
 use crate::camera::{CameraMove, Orbit};
-use crate::compare::{Metric, Rgb8Image, Scale, differences};
+use crate::compare::{ColourKey, Metric, Rgb8Image, Scale, SpecialLabels, differences};
 use crate::field::Edit;
 use crate::frame::srgb8_of;
 use crate::pipeline::{EditSession, IDLE_SAMPLES, PlaneView, SliceView, outline_dirty, plane_view};
@@ -67,7 +67,7 @@ pub enum Action {
 }
 
 /// A heat-map view's colour bar: its scale, metric and unit.
-type ColourBar = (Scale, &'static str, &'static str);
+type ColourBar = ColourKey;
 
 /// The normal-error view's full scale: 30°, beyond which pixels are marked.
 const NORMAL_ERROR_SCALE: Scale = Scale::Magnitude { max: 30.0 };
@@ -555,8 +555,8 @@ impl Viewer {
         let (image, bar) = self.view();
         let mut image = self.outlined(image);
         hud::status(&mut image, &self.status());
-        if let Some((scale, title, unit)) = bar {
-            hud::colour_bar(&mut image, scale, title, unit);
+        if let Some(key) = bar {
+            hud::colour_bar(&mut image, &key);
         }
         if self.help {
             hud::help(&mut image, &Action::help());
@@ -600,10 +600,15 @@ impl Viewer {
     }
 
     /// The current view at the render's size, and the colour bar (scale,
-    /// metric, unit) of a heat-map view.
+    /// metric, unit, special colours) of a heat-map view.
     fn view(&self) -> (Rgb8Image, Option<ColourBar>) {
         let (w, h) = (self.session.settings().width, self.session.settings().height);
-        let heat_map = |values: &[f32], bar: ColourBar| (bar.0.paint(values, w, h), Some(bar));
+        // The special colours mean what they mean in `compare`'s maps:
+        // missed by both renders, hit by one only.
+        let heat_map = |values: &[f32], (scale, title, unit): (Scale, &'static str, &'static str)| {
+            let key = ColourKey::of(values, scale, (title, unit), &SpecialLabels::default());
+            (scale.paint(values, w, h), Some(key))
+        };
         match self.view {
             View::NormalError => {
                 let angles = differences(&self.session.mesh_preview(), &self.session.field_preview(), Metric::Normal);
@@ -617,7 +622,7 @@ impl Viewer {
                 heat_map(&evaluations, (scale, "field evaluations per pixel", "evaluations"))
             }
             View::Slice => match &self.slice.drawn {
-                Some(drawn) => (drawn.image.clone(), drawn.scale),
+                Some(drawn) => (drawn.image.clone(), drawn.key.clone()),
                 None => (Rgb8Image::filled(w, h, [0, 0, 0]), None),
             },
             // The colours alone: a preview of every channel would cost as much again.
