@@ -66,9 +66,6 @@ pub enum Action {
     NextSliceView,
 }
 
-/// A heat-map view's colour bar: its scale, metric and unit.
-type ColourBar = ColourKey;
-
 /// The normal-error view's full scale: 30°, beyond which pixels are marked.
 const NORMAL_ERROR_SCALE: Scale = Scale::Magnitude { max: 30.0 };
 
@@ -601,7 +598,7 @@ impl Viewer {
 
     /// The current view at the render's size, and the colour bar (scale,
     /// metric, unit, special colours) of a heat-map view.
-    fn view(&self) -> (Rgb8Image, Option<ColourBar>) {
+    fn view(&self) -> (Rgb8Image, Option<ColourKey>) {
         let (w, h) = (self.session.settings().width, self.session.settings().height);
         // The special colours mean what they mean in `compare`'s maps:
         // missed by both renders, hit by one only.

@@ -68,17 +68,7 @@ pub struct TraceResult {
 
 /// Traces `ray` through `field`, returning the first entry into `f > T`.
 pub fn trace_ray<F: Field + ?Sized>(field: &F, ray: &Ray, opts: &TraceOptions) -> TraceResult {
-    let Some(span) = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY) else {
-        return TraceResult::default();
-    };
-    let (found, mut out) = march(field, ray, opts, span);
-    out.hit = match found {
-        // The eye (or the entry point) is already inside.
-        Crossing::InsideAtStart => Some(span.0),
-        Crossing::At(t) => Some(t),
-        Crossing::None => None,
-    };
-    out
+    trace_ray_from(field, ray, opts, 0.0)
 }
 
 /// [`trace_ray`], knowing the ray holds no crossing before distance `near`
@@ -88,14 +78,14 @@ pub fn trace_ray_from<F: Field + ?Sized>(field: &F, ray: &Ray, opts: &TraceOptio
     let Some((t_enter, t_exit)) = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY) else {
         return TraceResult::default();
     };
-    if near <= t_enter {
-        return trace_ray(field, ray, opts);
-    }
-    let (found, mut out) = march(field, ray, opts, (near, t_exit));
+    let start = near.max(t_enter);
+    let (found, mut out) = march(field, ray, opts, (start, t_exit));
     out.hit = match found {
         Crossing::At(t) => Some(t),
         Crossing::None => None,
-        // Inside at the start, against the proof (within rounding): trace the ray whole.
+        // The eye (or the entry point) is already inside.
+        Crossing::InsideAtStart if start == t_enter => Some(t_enter),
+        // Inside at `near`, against the proof (within rounding): trace the ray whole.
         Crossing::InsideAtStart => {
             let whole = trace_ray(field, ray, opts);
             return TraceResult { steps: out.steps + whole.steps, evals: out.evals + whole.evals, ..whole };
