@@ -67,11 +67,19 @@ fn words_wrapped(text: &str, fits: &impl Fn(&str) -> bool) -> Vec<String> {
     lines
 }
 
-/// The help card: every key and what it does, centred on the view.
+/// The help card: every key and what it does, centred on the view; a
+/// description too long for the view goes on under itself.
 pub fn help(image: &mut Rgb8Image, keys: &[(String, &str)]) {
     let mut lines = vec![("Keys (H or F1 hides this card)".to_string(), HEADING)];
     let key_width = keys.iter().map(|(k, _)| k.chars().count()).max().unwrap_or(0);
-    lines.extend(keys.iter().map(|(k, what)| (format!("{k:<key_width$}  {what}"), TEXT)));
+    let indent = " ".repeat(key_width + 2);
+    let fits = |line: &str| Rgb8Image::text_width(&format!("{indent}{line}")) + 2 * PAD <= image.width;
+    for (k, what) in keys {
+        for (i, part) in words_wrapped(what, &fits).into_iter().enumerate() {
+            let line = if i == 0 { format!("{k:<key_width$}  {part}") } else { format!("{indent}{part}") };
+            lines.push((line, TEXT));
+        }
+    }
     let width = lines.iter().map(|(l, _)| Rgb8Image::text_width(l)).max().unwrap_or(0) + 2 * PAD;
     let height = lines.len() as u32 * (LINE_HEIGHT + 2) + 2 * PAD;
     panel(image, image.width.saturating_sub(width) / 2, image.height.saturating_sub(height) / 2, &lines);
@@ -170,6 +178,20 @@ mod tests {
         assert_eq!(shaded_rows, 3 * (LINE_HEIGHT + 2) + 2 * PAD, "a heading and a line per entry");
         let centre_left = |y: u32| image.pixels[3 * (y * 400) as usize];
         assert!((0..300).all(|y| centre_left(y) == 128), "centred, with the view showing beside it");
+    }
+
+    #[test]
+    fn a_description_too_long_for_the_view_goes_on_under_itself() {
+        let (w, h) = (320, 200);
+        let mut image = grey(w, h);
+        let what = "a description far longer than this narrow view is wide";
+        help(&mut image, &[("a, d".to_string(), what)]);
+        let shaded_rows = (0..h).filter(|&y| image.pixels[3 * (y * w + w / 2) as usize] != 128).count() as u32;
+        assert!(shaded_rows >= 3 * (LINE_HEIGHT + 2) + 2 * PAD, "the heading and two lines at least");
+        let row = h / 2;
+        let shaded: Vec<u32> = (0..w).filter(|&x| image.pixels[3 * (row * w + x) as usize] != 128).collect();
+        let (left, right) = (shaded[0], shaded[shaded.len() - 1]);
+        assert!(right - left + 1 < w, "narrower than the view: nothing cut off");
     }
 
     #[test]
