@@ -47,6 +47,12 @@ pub struct ViewArgs {
     /// card (when its key was pressed) into `--output`, as the window shows them.
     #[arg(long, requires = "headless")]
     pub hud: bool,
+    /// Write a line for every event the window applies to FILE, as it is
+    /// applied: when the input came and was applied, the key, click, drag
+    /// or wheel step, the action, whether a refinement was under way, and
+    /// the node selected and frames applied after it.
+    #[arg(long, value_name = "FILE", conflicts_with = "headless")]
+    pub events_log: Option<PathBuf>,
     /// The PNG `--headless` writes at the end; P writes snapshots beside it
     /// (`view-0001.png`, …).
     #[arg(short, long, default_value = "view.png")]
@@ -79,7 +85,7 @@ pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
     let session = pool.install(|| EditSession::begin(scene, mode, size, &a.polygonize.settings()))?;
     let mut viewer = Viewer::new(session, script, a.node.as_deref(), a.output.clone())?;
     if !a.headless {
-        return show(&mut viewer, &pool);
+        return show(&mut viewer, &pool, a.events_log.as_deref());
     }
     for action in actions {
         pool.install(|| {

@@ -13,7 +13,9 @@
 //! previewer runs where there is no display (and under `cargo test`).
 
 mod hud;
+mod input;
 mod window;
+mod worker;
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -76,6 +78,9 @@ pub const DRAG_DEGREES_PER_PIXEL: f32 = 0.4;
 const ORBIT_DEGREES: f32 = 10.0;
 /// The factor a zoom key moves the camera in by (its inverse, out).
 const ZOOM_FACTOR: f32 = 0.9;
+
+/// How the help card says held keys repeat (see [`input::REPEAT_DELAY`]).
+const REPEAT_HELP: &str = "moves, orbits, zooms and slice steps repeat after 0.3 s, 20 a second";
 
 /// Every key: its name for `--keys`, the window's key, and what it does.
 const KEYS: [(&str, minifb::Key, Action); 22] = {
@@ -147,6 +152,25 @@ impl Action {
         Action::Zoom(ZOOM_FACTOR.powf(notches))
     }
 
+    /// Whether a held key repeats the action: moves of the node, the
+    /// camera and the slice plane do; switches and toggles do not.
+    #[must_use]
+    pub fn repeats(self) -> bool {
+        matches!(self, Action::Move(..) | Action::Orbit(..) | Action::Zoom(_) | Action::MoveSlice(_))
+    }
+
+    /// The one camera move that `self` then `next` make, where both are
+    /// orbits, pans or zooms.
+    #[must_use]
+    pub fn merged_with(self, next: Action) -> Option<Action> {
+        match (self, next) {
+            (Action::Orbit(a, b), Action::Orbit(c, d)) => Some(Action::Orbit(a + c, b + d)),
+            (Action::Pan(a, b), Action::Pan(c, d)) => Some(Action::Pan(a + c, b + d)),
+            (Action::Zoom(a), Action::Zoom(b)) => Some(Action::Zoom(a * b)),
+            _ => None,
+        }
+    }
+
     /// The camera move of an orbit, zoom or pan.
     fn camera_move(self) -> Option<CameraMove> {
         match self {
@@ -197,13 +221,9 @@ impl Action {
             ("right or shift drag".to_string(), "pan the camera"),
             ("click".to_string(), "select the named node under the pointer"),
             ("escape".to_string(), "close the window"),
+            ("a held key".to_string(), REPEAT_HELP),
         ]);
         lines
-    }
-
-    /// The action of a key pressed in the window.
-    fn of_key(key: minifb::Key) -> Option<Self> {
-        KEYS.iter().find(|(_, k, _)| *k == key).map(|&(.., action)| action)
     }
 }
 
@@ -445,6 +465,25 @@ impl Viewer {
             self.session.supersample(budget);
         }
         self.note_refined();
+    }
+
+    /// Whether the last edits' and camera moves' images are refined (the
+    /// field view's samples aside).
+    #[must_use]
+    pub fn session_refined(&self) -> bool {
+        self.session.is_refined()
+    }
+
+    /// The named node the arrow keys move.
+    #[must_use]
+    pub fn selected_node(&self) -> Option<&str> {
+        self.names.get(self.selected).map(String::as_str)
+    }
+
+    /// How many edit frames the viewer has applied.
+    #[must_use]
+    pub fn frames_applied(&self) -> usize {
+        self.frames
     }
 
     /// Finishes every refinement.

@@ -1,112 +1,73 @@
-//! The previewer's window (minifb): keys and mouse in, the current view
-//! out, the frames' work on the worker pool while the window stays on its
-//! thread. Each event shows its coarse pass at once; while no input comes,
-//! the passes refine about a frame's time at a time. A left drag orbits, a
-//! right or shift drag pans, the wheel zooms, and a click (a press and
-//! release without moving) selects the named node under the pointer.
+//! The previewer's window (minifb). Its thread does nothing but take input
+//! and show pictures, turning every few milliseconds (at most
+//! [`LOOP_PERIOD`] apart while the system lets it run), so no key or click
+//! is lost while the frames' work runs on a thread of its own (`worker`)
+//! over the worker pool. A left drag orbits, a right or shift drag pans,
+//! the wheel zooms, and a click (a press and release without moving)
+//! selects the named node under the pointer.
 
+use std::path::Path;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
 
-use super::{Action, Viewer};
-use crate::compare::Rgb8Image;
+use super::Viewer;
+use super::input::{Gestures, Inbox};
+use super::worker::{self, EventsLog, Received, Shared, to_window_pixels};
 
-/// The window loop: keys in, the current view out, until the window closes or Escape.
-pub fn show(viewer: &mut Viewer, pool: &rayon::ThreadPool) -> anyhow::Result<()> {
-    use minifb::{Key, KeyRepeat, Window, WindowOptions};
+/// How long the window's loop waits between its turns at most.
+pub const LOOP_PERIOD: Duration = Duration::from_millis(5);
+
+/// The window loop: input in, the current view out, until the window closes
+/// or Escape. With `events_log`, a line per event applied goes there.
+pub fn show(viewer: &mut Viewer, pool: &rayon::ThreadPool, events_log: Option<&Path>) -> anyhow::Result<()> {
+    use minifb::{MouseMode, Window, WindowOptions};
+    let start = Instant::now();
+    let log = match events_log {
+        Some(path) => {
+            let file = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+            Some(EventsLog::new(Box::new(file), start)?)
+        }
+        None => None,
+    };
     let image = viewer.screen();
     let (w, h) = (image.width as usize, image.height as usize);
     let mut window = Window::new(&viewer.title(), w, h, WindowOptions::default()).map_err(|e| {
         anyhow::anyhow!("could not open a window ({e}); where there is no display, run with --headless --keys …")
     })?;
-    window.set_target_fps(60);
+    window.set_target_fps((1.0 / LOOP_PERIOD.as_secs_f64()) as usize);
+    let inbox = Inbox::default();
+    window.set_input_callback(Box::new(inbox.clone()));
     window.update_with_buffer(&to_window_pixels(&image), w, h).context("drawing the window")?;
-    let mut mouse = Mouse::default();
-    let (mut shown_at, mut shown_refining) = (Instant::now(), false);
-    while window.is_open() && !window.is_key_down(Key::Escape) {
-        let mut actions: Vec<Action> =
-            window.get_keys_pressed(KeyRepeat::Yes).into_iter().filter_map(Action::of_key).collect();
-        actions.extend(mouse.actions(&window));
-        let acted = !actions.is_empty();
-        if acted {
-            for action in actions {
-                pool.install(|| viewer.act(action))?;
+    let shared = &Shared::default();
+    let (send, receive) = mpsc::channel::<Received>();
+    std::thread::scope(|scope| {
+        let work = scope.spawn(move || worker::run(viewer, pool, &receive, shared, log));
+        let mut gestures = Gestures::default();
+        while window.is_open() && !gestures.quit && !work.is_finished() {
+            match shared.take_shown() {
+                Some(shown) => {
+                    window.set_title(&shown.title);
+                    window.update_with_buffer(&shown.pixels, w, h).context("drawing the window")?;
+                }
+                None => window.update(),
             }
-        } else if viewer.is_refining() {
-            // No input: refine for about a frame's time, then look for input again.
-            pool.install(|| viewer.refine(REFINE_BUDGET));
-        }
-        // Each event's coarse pass shows at once; the passes after it, every
-        // so often and when done (each showing costs a few milliseconds).
-        let refined = !viewer.is_refining() && shown_refining;
-        if acted || refined || (viewer.is_refining() && shown_at.elapsed() >= SHOW_EVERY) {
-            window.set_title(&viewer.title());
-            (shown_at, shown_refining) = (Instant::now(), viewer.is_refining());
-            window.update_with_buffer(&to_window_pixels(&viewer.screen()), w, h).context("drawing the window")?;
-        } else {
-            window.update();
-        }
-    }
-    Ok(())
-}
-
-/// How long the window refines before it shows the passes so far and looks
-/// for input again.
-const REFINE_BUDGET: Duration = Duration::from_millis(25);
-
-/// How often the window shows the passes while it refines.
-const SHOW_EVERY: Duration = Duration::from_millis(100);
-
-/// `0RGB` words, as the window takes them.
-fn to_window_pixels(image: &Rgb8Image) -> Vec<u32> {
-    image.pixels.chunks_exact(3).map(|p| u32::from_be_bytes([0, p[0], p[1], p[2]])).collect()
-}
-
-/// The mouse between frames: where the pointer was, where the buttons went
-/// down, and whether it moved since.
-#[derive(Default)]
-struct Mouse {
-    last: Option<(f32, f32)>,
-    pressed_at: Option<(f32, f32)>,
-    dragged: bool,
-}
-
-/// Pixels a press may move and still count as a click.
-const CLICK_SLACK: f32 = 3.0;
-
-impl Mouse {
-    /// What the mouse did since the last frame.
-    fn actions(&mut self, window: &minifb::Window) -> Vec<Action> {
-        use minifb::{Key, MouseButton, MouseMode};
-        let mut actions = vec![];
-        if let Some((_, notches)) = window.get_scroll_wheel()
-            && notches != 0.0
-        {
-            actions.push(Action::wheel(notches.signum()));
-        }
-        let Some(at) = window.get_mouse_pos(MouseMode::Discard) else { return actions };
-        let (left, right) = (window.get_mouse_down(MouseButton::Left), window.get_mouse_down(MouseButton::Right));
-        let shift = window.is_key_down(Key::LeftShift) || window.is_key_down(Key::RightShift);
-        if left || right {
-            let pressed = *self.pressed_at.get_or_insert(at);
-            self.dragged |= (at.0 - pressed.0).abs() > CLICK_SLACK || (at.1 - pressed.1).abs() > CLICK_SLACK;
-            if let Some(last) = self.last
-                && self.dragged
-                && last != at
-            {
-                let (dx, dy) = (at.0 - last.0, at.1 - last.1);
-                actions.push(if right || shift { Action::Pan(dx, dy) } else { Action::drag(dx, dy) });
+            let wheel = window.get_scroll_wheel().map_or(0.0, |(_, notches)| notches);
+            let pointer = window.get_mouse_pos(MouseMode::Pass);
+            let caught_up = shared.queued.load(Ordering::Relaxed) == 0;
+            let events = gestures.events(&inbox.take(), pointer, wheel, Instant::now(), caught_up);
+            let while_refining = shared.refining.load(Ordering::Relaxed);
+            for event in events {
+                shared.queued.fetch_add(1, Ordering::Relaxed);
+                // The worker gone (its error is reported below), nothing more is sent.
+                if send.send(Received { event, at: Instant::now(), while_refining }).is_err() {
+                    break;
+                }
             }
-            self.last = Some(at);
-        } else {
-            if let Some(pressed) = self.pressed_at.take()
-                && !self.dragged
-            {
-                actions.push(Action::SelectAt(pressed.0 as u32, pressed.1 as u32));
-            }
-            (self.last, self.dragged) = (None, false);
         }
-        actions
-    }
+        drop(send);
+        work.join().map_err(|_| anyhow::anyhow!("the viewer's worker panicked"))?
+    })
 }
