@@ -2,7 +2,9 @@
 //! with xdotool selects Medusa's tail, keys switch the view and open the
 //! help card, and a screenshot of the window (ImageMagick's `import`)
 //! equals, pixel for pixel, what `view --headless --hud` writes after the
-//! same input. `scripts/test` installs the three tools.
+//! same input; taps and clicks as quick as a person's (or quicker) all
+//! count, idle or while a refinement runs, as the events log shows.
+//! `scripts/test` installs the three tools.
 
 mod common;
 
@@ -81,5 +83,77 @@ fn the_window_shows_what_the_headless_viewer_draws_after_the_same_keys() {
     assert_eq!(seen.dimensions(), drawn.dimensions(), "the window is the view's size: {log}");
     let differing = seen.pixels().zip(drawn.pixels()).filter(|(a, b)| a != b).count();
     assert_eq!(differing, 0, "pixels of the window unlike the headless view (kept in {}): {log}", dir.display());
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// Opens the viewer with an events log, then: 20 taps of the right arrow,
+/// 15 ms each and 120 ms apart; 10 clicks with no hold (xdotool's own
+/// press and release), turn about between the head and the tail; an orbit
+/// key, and at once 10 taps of the left arrow while its refinement runs.
+/// Escape closes the window.
+const QUICK_INPUT: &str = r#"
+set -u
+"$BIN" view scenes/medusa.ron --size 320x240 --events-log "$LOG" &
+viewer=$!
+window=$(timeout 60 xdotool search --sync --name "blobtrace view" | head -1)
+xdotool windowfocus --sync "$window"
+sleep 1
+for i in $(seq 20); do xdotool keydown Right; sleep 0.015; xdotool keyup Right; sleep 0.12; done
+for i in $(seq 5); do
+  xdotool mousemove --window "$window" 160 60 click 1; sleep 0.12
+  xdotool mousemove --window "$window" 170 150 click 1; sleep 0.12
+done
+xdotool key a
+for i in $(seq 10); do xdotool keydown Left; sleep 0.015; xdotool keyup Left; sleep 0.02; done
+sleep 1
+xdotool key Escape
+for try in $(seq 50); do kill -0 "$viewer" 2>/dev/null || exit 0; sleep 0.1; done
+kill "$viewer"
+"#;
+
+/// The events log's lines: input, action, when it came, and the state after it.
+fn logged(log: &str) -> Vec<[String; 4]> {
+    log.lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| {
+            let f: Vec<&str> = l.split('\t').collect();
+            assert_eq!(f.len(), 6, "a line of six fields: {l:?}");
+            [f[2], f[3], f[4], f[5]].map(String::from)
+        })
+        .collect()
+}
+
+#[test]
+fn every_quick_tap_and_click_counts_idle_or_while_refining() {
+    for tool in ["xvfb-run", "xdotool"] {
+        require(tool);
+    }
+    let dir = scratch("quick-input");
+    let log_path = dir.join("events.log");
+    let status = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 640x480x24", "bash", "-c", QUICK_INPUT])
+        .env("BIN", env!("CARGO_BIN_EXE_blobtrace"))
+        .env("LOG", &log_path)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("xvfb-run runs");
+    let stderr = String::from_utf8_lossy(&status.stderr);
+    let log = std::fs::read_to_string(&log_path).unwrap_or_else(|e| panic!("no events log ({e}): {stderr}"));
+    let lines = logged(&log);
+    let rights: Vec<_> = lines.iter().filter(|l| l[0] == "key right").collect();
+    assert_eq!(rights.len(), 20, "20 taps, 20 moves:\n{log}");
+    assert!(rights.iter().all(|l| l[1] == "Move(0, 1.0)"), "{log}");
+    let clicks: Vec<_> = lines.iter().filter(|l| l[0].starts_with("click ")).collect();
+    assert_eq!(clicks.len(), 10, "10 clicks, 10 selections:\n{log}");
+    for (k, click) in clicks.iter().enumerate() {
+        let node = if k % 2 == 0 { "moving head" } else { "moving tail" };
+        assert!(click[3].starts_with(node), "click {k} selects what is under the pointer: {click:?}\n{log}");
+    }
+    let lefts: Vec<_> = lines.iter().filter(|l| l[0] == "key left").collect();
+    assert_eq!(lefts.len(), 10, "10 taps during the orbit's refinement, 10 moves:\n{log}");
+    assert!(lefts.iter().any(|l| l[2] == "refining"), "some came while the orbit refined:\n{log}");
+    let last = lines.last().expect("a line");
+    assert!(last[3].ends_with(", 30 frames"), "every move is a frame: {last:?}");
+    assert!(!lines.iter().any(|l| l[0].starts_with("repeat")), "taps this short never repeat:\n{log}");
     std::fs::remove_dir_all(dir).unwrap();
 }

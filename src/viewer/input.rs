@@ -243,7 +243,8 @@ mod tests {
     #[test]
     fn taps_between_two_turns_all_count() {
         let mut g = Gestures::default();
-        let taps: Vec<Input> = (0..5).flat_map(|_| [Input::Key(Key::Left, true), Input::Key(Key::Left, false)]).collect();
+        let taps: Vec<Input> =
+            (0..5).flat_map(|_| [Input::Key(Key::Left, true), Input::Key(Key::Left, false)]).collect();
         assert_eq!(g.events(&taps, None, 0.0, Instant::now(), false).len(), 5);
     }
 
@@ -251,10 +252,14 @@ mod tests {
     fn a_click_within_one_turn_selects_and_a_drag_does_not() {
         let mut g = Gestures::default();
         let now = Instant::now();
-        let click = [Input::Button(MouseButton::Left, true, (17.0, 9.0)), Input::Button(MouseButton::Left, false, (18.0, 9.0))];
+        let click =
+            [Input::Button(MouseButton::Left, true, (17.0, 9.0)), Input::Button(MouseButton::Left, false, (18.0, 9.0))];
         assert_eq!(actions(&g.events(&click, Some((40.0, 40.0)), 0.0, now, true)), [Action::SelectAt(17, 9)]);
         // Down, moved, up within one turn: the drag goes the whole way, and selects nothing.
-        let drag = [Input::Button(MouseButton::Left, true, (10.0, 10.0)), Input::Button(MouseButton::Left, false, (30.0, 15.0))];
+        let drag = [
+            Input::Button(MouseButton::Left, true, (10.0, 10.0)),
+            Input::Button(MouseButton::Left, false, (30.0, 15.0)),
+        ];
         assert_eq!(actions(&g.events(&drag, None, 0.0, now, true)), [Action::drag(20.0, 5.0)]);
         // Over several turns, the steps add up to the distance gone.
         let down = [Input::Button(MouseButton::Right, true, (10.0, 10.0))];
