@@ -31,6 +31,7 @@ use crate::pipeline::{EditSession, IDLE_SAMPLES, PlaneView, SliceView, outline_d
 use crate::scene::Script;
 use crate::slice::SlicePlane;
 use crate::trace::PixelRect;
+use hud::StatusPart;
 
 pub use window::show;
 
@@ -196,7 +197,7 @@ impl Action {
             Action::Zoom(f) if f < 1.0 => "zoom in",
             Action::Zoom(_) => "zoom out",
             Action::Snapshot => "write the view beside --output (numbered)",
-            Action::ToggleHelp => "show or hide this card",
+            Action::ToggleHelp => "show this card, its next page, or hide it",
             Action::Pan(..) => "pan the camera",
             Action::SelectAt(..) => "select the named node under the pointer",
             Action::MoveSlice(d) if d < 0.0 => "move the slice plane nearer",
@@ -278,8 +279,8 @@ pub struct Viewer {
     orbit: Orbit,
     /// Where snapshots go (numbered from this name), and how many were taken.
     snapshots: (PathBuf, usize),
-    /// Whether the help card shows.
-    help: bool,
+    /// The page of the help card that shows, if it does.
+    help: Option<usize>,
     slice: Slice,
 }
 
@@ -334,7 +335,7 @@ impl Viewer {
             dirty: (vec![], false),
             orbit,
             snapshots: (snapshot_path, 0),
-            help: false,
+            help: None,
             slice,
         })
     }
@@ -362,7 +363,7 @@ impl Viewer {
                 }
             }
             Action::ToggleRectangles => self.dirty.1 = !self.dirty.1,
-            Action::ToggleHelp => self.help = !self.help,
+            Action::ToggleHelp => self.help = self.next_help_page(),
             Action::Snapshot => {
                 self.settle();
                 self.snapshots.1 += 1;
@@ -585,24 +586,55 @@ impl Viewer {
         image
     }
 
-    /// What the window shows: the view, a status line, the colour bar of a
-    /// heat-map view, and the help card when asked for.
+    /// What the window shows: the view, and over it the overlay.
     pub fn screen(&self) -> Rgb8Image {
-        let (image, bar) = self.view();
+        let (image, key) = self.view();
         let mut image = self.outlined(image);
-        hud::status(&mut image, &self.status());
-        if let Some(key) = bar {
-            hud::colour_bar(&mut image, &key);
-        }
-        if self.help {
-            hud::help(&mut image, &Action::help());
+        for panel in self.overlay(key.as_ref()) {
+            hud::draw(&mut image, &panel);
         }
         image
     }
 
-    /// The status line's parts: view, evaluation, the node the keys move,
-    /// the last frame's and camera move's cost.
+    /// The overlay's panels as laid out for the window: the status band,
+    /// then the help card when it shows, or else the colour bar of a
+    /// heat-map view with `key`.
+    fn overlay(&self, key: Option<&ColourKey>) -> Vec<hud::Panel> {
+        let (w, h) = (self.session.settings().width, self.session.settings().height);
+        let mut panels = vec![hud::status(w, &self.status_parts())];
+        let top = hud::BAND_HEIGHT;
+        if let Some(page) = self.help {
+            panels.push(self.help_card().panel(page, w, h, top));
+        } else if let Some(key) = key {
+            panels.extend(hud::colour_bar(w, h, top, key));
+        }
+        panels
+    }
+
+    /// The help card, laid out for the window.
+    fn help_card(&self) -> hud::HelpCard {
+        let (w, h) = (self.session.settings().width, self.session.settings().height);
+        hud::help(w, h, hud::BAND_HEIGHT, &Action::help())
+    }
+
+    /// The help card's page after the one showing: the first when hidden,
+    /// none (hidden) after the last.
+    fn next_help_page(&self) -> Option<usize> {
+        match self.help {
+            None => Some(0),
+            Some(page) => (page + 1 < self.help_card().pages()).then_some(page + 1),
+        }
+    }
+
+    /// The status line's parts: view, the node the keys move, what the
+    /// slice shows, the last frame's or camera move's cost, the pass under
+    /// way, the evaluation, and how to get help.
     pub fn status(&self) -> Vec<String> {
+        self.status_parts().into_iter().map(|p| p.full).collect()
+    }
+
+    /// The status line's parts, most important first, each with its short form.
+    fn status_parts(&self) -> Vec<StatusPart> {
         let view = match self.view {
             View::Field => "field",
             View::Mesh => "mesh",
@@ -611,27 +643,30 @@ impl Viewer {
             View::Cost => "cost",
             View::Slice => "slice",
         };
-        let mode = format!("{:?}", self.session.mode()).to_lowercase();
         let node = self.names.get(self.selected).map_or("no named node", String::as_str);
-        let mut parts = vec![view.to_string(), mode, format!("moving {node}")];
+        let mut parts = vec![StatusPart::new(view), StatusPart::new(format!("moving {node}"))];
         if self.view == View::Slice {
-            let shows = match self.slice.shows {
-                SliceView::Field => "f",
-                SliceView::Sharp => "sharp: sin(11 pi f), red at the iso-value",
-                SliceView::Error => "error_C",
-                SliceView::Gradient => "gradient error",
+            let (shows, short) = match self.slice.shows {
+                SliceView::Field => ("f", "f"),
+                SliceView::Sharp => ("sharp: sin(11 pi f), red at the iso-value", "sharp"),
+                SliceView::Error => ("error_C", "error_C"),
+                SliceView::Gradient => ("gradient error", "gradient error"),
             };
-            parts.push(format!("{shows} at depth {:.3} (comma, period: move; n: next)", self.slice_depth()));
+            let depth = self.slice_depth();
+            let full = format!("{shows} at depth {depth:.3} (comma, period: move; n: next)");
+            parts.push(StatusPart::shortened(full, format!("{short} at {depth:.3}")));
         }
         if let Some(last) = &self.last {
-            parts.push(last.describe());
+            parts.push(StatusPart::shortened(last.describe(), last.brief()));
         }
         if let Some(pending) = self.session.pending() {
-            parts.push(pending.to_string());
+            parts.push(StatusPart::new(pending.to_string()));
         } else if self.view == View::Field && self.session.samples_taken() > 1 {
-            parts.push(format!("{} samples per pixel", self.session.samples_taken()));
+            let n = self.session.samples_taken();
+            parts.push(StatusPart::shortened(format!("{n} samples per pixel"), format!("{n} spp")));
         }
-        parts.push("H: help".into());
+        parts.push(StatusPart::new(format!("{:?}", self.session.mode()).to_lowercase()));
+        parts.push(StatusPart::new("H: help"));
         parts
     }
 
@@ -692,6 +727,14 @@ impl EventTiming {
         Self { what: what.into(), start, first_pass_s, refined_s: None, dirty }
     }
 
+    /// As a narrow status line says it: the first pass and refined milliseconds.
+    fn brief(&self) -> String {
+        match self.refined_s {
+            Some((s, ..)) => format!("{}: {:.0} / {:.0} ms", self.what, 1e3 * self.first_pass_s, 1e3 * s),
+            None => format!("{}: {:.0} ms", self.what, 1e3 * self.first_pass_s),
+        }
+    }
+
     /// As the status line says it.
     fn describe(&self) -> String {
         let mut text = format!("{}: first pass {:.0} ms", self.what, 1e3 * self.first_pass_s);
@@ -717,6 +760,7 @@ fn numbered(path: &std::path::Path, n: usize) -> PathBuf {
 mod tests {
     use super::*;
     use crate::field::EvalMode;
+    use crate::frame::Size;
     use crate::mesh::canonical_triangles;
     use crate::pipeline::PolygonizeSettings;
     use crate::scene::Scene;
@@ -812,6 +856,47 @@ mod tests {
     }
 
     #[test]
+    fn the_overlay_fits_every_window_and_overlaps_nothing_in_every_view_and_help_page() {
+        for (w, h) in [(160, 120), (320, 240), (640, 480), (1920, 1080)] {
+            let scene = Scene::parse(SCENE, "inline").unwrap();
+            let polygonize = PolygonizeSettings { res: 16, ..Default::default() };
+            let session = EditSession::begin(scene, EvalMode::Indexed, Size(w, h), &polygonize).unwrap();
+            let mut v = Viewer::new(session, Script::default(), None, PathBuf::from("unused.png")).unwrap();
+            v.act(Action::Move(0, 1.0)).unwrap();
+            let mut checked = 0;
+            for view in 0..6 {
+                let slice_views = if v.view == View::Slice { 4 } else { 1 };
+                for _ in 0..slice_views {
+                    let (_, key) = v.view();
+                    let what = format!("{w}x{h} {:?} {:?}", v.view, v.slice.shows);
+                    hud::tests::assert_fits(&v.overlay(key.as_ref()), w, h, &what);
+                    assert_eq!(
+                        v.overlay(key.as_ref()).len(),
+                        1 + usize::from(key.is_some()),
+                        "{what}: a bar when a key"
+                    );
+                    v.act(Action::NextSliceView).unwrap();
+                    checked += 1;
+                }
+                if view == 0 {
+                    // Every page of the help card, then hidden again.
+                    let pages = v.help_card().pages();
+                    for page in 0..pages {
+                        v.act(Action::ToggleHelp).unwrap();
+                        assert_eq!(v.help, Some(page));
+                        hud::tests::assert_fits(&v.overlay(None), w, h, &format!("{w}x{h} help page {page}"));
+                    }
+                    v.act(Action::ToggleHelp).unwrap();
+                    assert_eq!(v.help, None, "{w}x{h}: H after the last page hides the card");
+                    assert!(w > 320 || pages > 1, "{w}x{h}: a small window pages the card");
+                }
+                v.act(Action::NextView).unwrap();
+            }
+            assert_eq!(checked, 9);
+        }
+    }
+
+    #[test]
     fn the_help_card_names_every_key_and_the_screen_draws_over_the_view() {
         let listed: Vec<String> =
             Action::help().iter().flat_map(|(names, _)| names.split(", ").map(String::from)).collect();
@@ -829,8 +914,13 @@ mod tests {
         v.act(Action::named("h").unwrap()).unwrap();
         let with_help = v.screen();
         assert_ne!(row(&with_help, screen.height / 2), row(&screen, screen.height / 2), "the card");
+        // F1 turns the pages as H does, and after the last hides the card.
+        for _ in 1..v.help_card().pages() {
+            v.act(Action::named("f1").unwrap()).unwrap();
+            assert!(v.screen().pixels != screen.pixels, "the next page");
+        }
         v.act(Action::named("f1").unwrap()).unwrap();
-        assert_eq!(v.screen().pixels, screen.pixels, "f1 hides it again");
+        assert!(v.screen().pixels == screen.pixels, "f1 hides it again");
         v.act(Action::named("a").unwrap()).unwrap();
         assert!(v.status().iter().any(|p| p.starts_with("camera: first pass")), "{:?}", v.status());
         v.settle();
