@@ -148,3 +148,59 @@ fn a_sample_part_way_through_weighs_only_the_rows_it_reached() {
     }
     assert!(session.field_colors().iter().zip(&two.color).all(|(a, b)| a == b));
 }
+
+/// The evaluations per pixel of the session's field image, and their sum.
+fn evaluations(session: &EditSession) -> (Vec<f32>, f64) {
+    let evals = session.field_frame().aov("evals.Y").expect("an evaluations channel").to_vec();
+    let sum = evals.iter().map(|&e| f64::from(e)).sum();
+    (evals, sum)
+}
+
+#[test]
+fn a_long_session_once_idle_costs_what_a_fresh_one_does() {
+    let size = Size(160, 120);
+    let polygonize = PolygonizeSettings { res: 32, ..Default::default() };
+    for mode in [EvalMode::Indexed, EvalMode::Cached] {
+        let mut session = EditSession::new(bundled("medusa.ron"), mode, size, &polygonize).unwrap();
+        // 20 orbit steps out and back.
+        let centre = session.scene().model.bounds().center().into();
+        let mut orbit = Orbit::new(&session.settings().camera, centre, size.1);
+        for k in 0..20 {
+            let yaw = if k < 10 { 6.0 } else { -6.0 };
+            session.begin_camera(orbit.moved(CameraMove::Orbit(yaw, 0.0)));
+        }
+        // 200 moves of the head out and back, refined after some, not others.
+        let step = session.scene().model.bounds().diagonal() / 2000.0;
+        for k in 0..200 {
+            let sign = if k < 100 { 1.0 } else { -1.0 };
+            let by = glam::Vec3::new(step, 0.3 * step, 0.0) * sign;
+            session.begin_apply(&[blobtrace::field::Edit::Translate { node: "head".into(), by }]).unwrap();
+            if k % 7 == 0 {
+                session.finish();
+            }
+        }
+        session.finish();
+        assert!(!session.is_tidy(), "{mode:?}: edits leave pixels to tidy");
+        let untidy = evaluations(&session).0;
+        session.tidy_all();
+        // A fresh session of the scene as it was, through the same camera.
+        let mut fresh = EditSession::new(bundled("medusa.ron"), mode, size, &polygonize).unwrap();
+        fresh.set_camera(session.settings().camera);
+        let ((kept, kept_sum), (new, new_sum)) = (evaluations(&session), evaluations(&fresh));
+        let ratio = kept_sum / new_sum;
+        let differing = kept.iter().zip(&new).filter(|(a, b)| a != b).count();
+        let untidy_differing = untidy.iter().zip(&new).filter(|(a, b)| a != b).count();
+        eprintln!(
+            "{mode:?}: {kept_sum} against {new_sum} evaluations ({ratio:.4}), {differing} pixels differ ({untidy_differing} untidy)"
+        );
+        if mode == EvalMode::Cached {
+            // The long session's caches hold the samples of every view it
+            // saw, and slope bounds from more samples are tighter: it may
+            // be cheaper than a fresh session's cold caches, never dearer.
+            assert!(ratio <= 1.01, "{mode:?}: {kept_sum} evaluations against {new_sum} fresh");
+            continue;
+        }
+        assert!((ratio - 1.0).abs() <= 0.01, "{mode:?}: {kept_sum} evaluations against {new_sum} fresh");
+        assert!(differing <= kept.len() / 100, "{mode:?}: the cost image differs in {differing} pixels");
+    }
+}

@@ -2,7 +2,7 @@
 //! built. Each returns the [`Change`] — what moved, its bounds before and
 //! after — so caches, meshes and screens can update only that.
 
-use glam::{Affine3A, Mat3A, Vec3, Vec3A};
+use glam::{Affine3A, Vec3, Vec3A};
 
 use super::MAX_MAGNITUDE;
 use super::model::{Change, Model, ModelError};
@@ -415,19 +415,4 @@ impl Model {
 /// `m` about the point `c`: move `c` to the origin, apply `m`, move back.
 fn about(c: Vec3A, m: Affine3A) -> Affine3A {
     Affine3A::from_translation(c.into()) * m * Affine3A::from_translation((-c).into())
-}
-
-impl Placement {
-    /// The placement of an invertible affine map; `None` when it is singular.
-    #[must_use]
-    pub fn from_affine(to_world: Affine3A) -> Option<Self> {
-        if to_world.matrix3.determinant().abs() <= f32::EPSILON || !to_world.is_finite() {
-            return None;
-        }
-        let to_local = to_world.inverse();
-        let inv: Mat3A = to_local.matrix3;
-        // The Frobenius norm bounds the spectral norm: a safe stretch for slope bounds.
-        let stretch = (inv.x_axis.length_squared() + inv.y_axis.length_squared() + inv.z_axis.length_squared()).sqrt();
-        Some(Self { to_world, to_local, gradient_map: inv.transpose(), stretch })
-    }
 }

@@ -47,6 +47,8 @@ pub struct EmptySpace {
     /// mark blocks concurrently: two that mark one block at once write
     /// marks of the same field, each cell's in one store.
     marks: Vec<AtomicU8>,
+    /// The field's bounds when the grid was laid over them.
+    built_over: Aabb,
 }
 
 impl EmptySpace {
@@ -54,13 +56,15 @@ impl EmptySpace {
     pub fn build<F: Field + ?Sized>(field: &F) -> Self {
         // A field that is zero everywhere still gets a grid, over a unit box,
         // for edits to mark once the field reaches it.
-        let bounds = Some(field.bounds()).filter(|b| !b.is_empty()).unwrap_or(Aabb::around(Vec3A::ZERO, 0.5));
+        let built_over = field.bounds();
+        let bounds = Some(built_over).filter(|b| !b.is_empty()).unwrap_or(Aabb::around(Vec3A::ZERO, 0.5));
         let extent = bounds.size().max(Vec3A::splat(1e-6));
         let cell = extent.max_element() / CELLS_ALONG_LONGEST_SIDE;
         let grid = UniformGrid::new(bounds.min, cell, (extent / cell).ceil().as_uvec3());
         let blocks =
             UniformGrid::new(grid.origin, grid.cell * BLOCK as f32, (grid.dims + UVec3::splat(BLOCK - 1)) / BLOCK);
-        let space = Self { marks: (0..grid.cell_count()).map(|_| AtomicU8::new(OCCUPIED)).collect(), grid, blocks };
+        let marks = (0..grid.cell_count()).map(|_| AtomicU8::new(OCCUPIED)).collect();
+        let space = Self { marks, grid, blocks, built_over };
         // Before a first render, point values at the coarse cells' corners
         // would fill cache samples that no ray reads (a cold cached render of
         // Medusa took ~5% longer with them).
@@ -86,6 +90,33 @@ impl EmptySpace {
                 *self.marks[self.grid.linear(i)].get_mut() |= STALE;
             }
         }
+    }
+
+    /// The field's bounds when the grid was laid: a space built for a field
+    /// whose bounds are now otherwise has another grid than a fresh one.
+    #[must_use]
+    pub fn built_over(&self) -> Aabb {
+        self.built_over
+    }
+
+    /// Whether some marks wait to be marked again since an edit (see [`Self::update`]).
+    #[must_use]
+    pub fn has_stale(&self) -> bool {
+        self.marks.iter().any(|m| m.load(Ordering::Relaxed) & STALE != 0)
+    }
+
+    /// Marks every stale block again now, from `field` (the field this space
+    /// was built from, with every edit since told to [`Self::update`]): the
+    /// marks are then those a space built afresh over the same grid has.
+    pub fn refresh<F: Field + ?Sized>(&self, field: &F) {
+        let stale: Vec<usize> = (0..self.blocks.cell_count())
+            .filter(|&b| {
+                let first = self.blocks.coords(b) * BLOCK;
+                cells_between(first, (first + UVec3::splat(BLOCK)).min(self.grid.dims))
+                    .any(|i| self.marks[self.grid.linear(i)].load(Ordering::Relaxed) & STALE != 0)
+            })
+            .collect();
+        stale.into_par_iter().for_each(|b| self.mark_block(field, b, Order::Guided(&self.marks)));
     }
 
     /// Marks the cells of block `b`, in `order`.

@@ -272,11 +272,12 @@ impl Model {
                 _ => children.iter().map(|&c| self.node_curvature(c, region, mode)).sum(),
             },
             NodeKind::Transform { placement, child } => {
-                // A unit step is at most `stretch` long in the child's frame,
-                // and a concave child stays concave.
-                let stretch = placement.stretch;
+                // A unit step is between `least_stretch` and `stretch` long in
+                // the child's frame: a convex child's bound grows by the most,
+                // a concave child's stays below zero by the least.
                 let child = self.node_curvature(*child, &region.transformed(&placement.to_local), mode);
-                stretch * stretch * child.max(0.0)
+                let stretch = if child > 0.0 { placement.stretch } else { placement.least_stretch };
+                stretch * stretch * child
             }
             NodeKind::Cache { grid, .. } if self.answers_from_lattice(*grid, mode) => f32::INFINITY,
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_curvature(*child, region, mode),

@@ -289,6 +289,24 @@ pub fn refine<F: Field + ?Sized>(
     done.stats()
 }
 
+/// Traces each of `pixels` of `frame` (a render of `field` with `settings`)
+/// again whole, its march starting where `coverage` says, and writes what
+/// it finds with its counters: the image stays as it was (a pixel traced
+/// whole is the same however it was traced before); its counts become
+/// those of a render from scratch with that coverage.
+pub fn retrace_whole<F: Field + ?Sized>(
+    field: &F,
+    settings: &RenderSettings,
+    frame: &mut Frame,
+    pixels: &[(u32, u32, PixelState)],
+    coverage: &Coverage,
+) -> RenderStats {
+    let done = retrace_listed(frame, pixels, FIELD_COUNTERS, |x, y, _, _| {
+        Some(Retrace::Changed(trace_pixel(field, settings, (x, y, CENTRE), Some(coverage))))
+    });
+    done.stats()
+}
+
 /// Calls `pixel` on each of `pixels` with its state and the hit distance it
 /// had (in parallel) and writes the samples it changes into `frame`,
 /// counters into the extra channels named `counters`.

@@ -446,10 +446,11 @@ impl Viewer {
     }
 
     /// Whether the viewer has work to do while idle: the refinement the
-    /// last edits or camera moves left, then samples to smooth the field view.
+    /// last edits or camera moves left, the tidying that keeps a long
+    /// session's cost a fresh one's, then samples to smooth the field view.
     #[must_use]
     pub fn is_refining(&self) -> bool {
-        !self.session.is_refined() || self.samples_wanted()
+        !self.session.is_refined() || !self.session.is_tidy() || self.samples_wanted()
     }
 
     /// Whether the field view still takes samples to smooth its edges.
@@ -458,10 +459,13 @@ impl Viewer {
     }
 
     /// Refines the images for about `budget` (see [`EditSession::refine`]),
-    /// or once they are, adds samples to the field view.
+    /// or once they are, tidies (see [`EditSession::tidy`]), then adds
+    /// samples to the field view.
     pub fn refine(&mut self, budget: std::time::Duration) {
         if !self.session.is_refined() {
             self.session.refine(budget);
+        } else if !self.session.is_tidy() {
+            self.session.tidy(budget);
         } else if self.samples_wanted() {
             self.session.supersample(budget);
         }
@@ -493,10 +497,11 @@ impl Viewer {
         self.note_refined();
     }
 
-    /// Finishes every refinement, and the samples of the field view: what
-    /// the window shows once left alone.
+    /// Finishes every refinement, the tidying, and the samples of the field
+    /// view: what the window shows once left alone.
     pub fn converge(&mut self) {
         self.settle();
+        self.session.tidy_all();
         while self.samples_wanted() {
             self.session.supersample(std::time::Duration::from_secs(1));
         }

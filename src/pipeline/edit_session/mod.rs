@@ -4,6 +4,8 @@
 //! triangles in the BVH2, the mesh image and the depth difference in those
 //! rectangles — and checkable, frame by frame, against work from scratch.
 
+mod tidy;
+
 use std::borrow::Cow;
 use std::time::Instant;
 
@@ -103,6 +105,8 @@ pub struct EditSession {
     work: WorkLeft,
     /// The samples added to the field image since it was last refined.
     samples: Option<Samples>,
+    /// The pixels to trace again once idle, so their counts are a fresh session's.
+    tidy: tidy::Tidy,
 }
 
 /// Samples added to each pixel of a still, refined field image while the
@@ -214,6 +218,7 @@ impl EditSession {
             frames: 0,
             work,
             samples: None,
+            tidy: tidy::Tidy::default(),
         };
         session.begin_camera(session.settings.camera);
         Ok(session)
@@ -289,6 +294,8 @@ impl EditSession {
         // The camera's work is its own, not the last edit's.
         (self.work.traced, self.work.row) = ((0, 0.0), FrameRow { frame: self.frames, ..Default::default() });
         self.work.coverage = Some(self.coverage());
+        let exact = self.empty_space_exact();
+        self.tidy.camera_moved(exact, self.settings.width, self.settings.height);
         let work = &mut self.work;
         work.field.mark_all();
         work.changed = None;
@@ -339,6 +346,8 @@ impl EditSession {
         self.empty.update(&supports);
         check_edited_model(&self.scene.model, self.polygonizer.lattice())?;
         let dirty = self.mark_changed(&support_regions, &mut row);
+        // Traced while the edit's marks are stale.
+        self.tidy.traced(&dirty);
         let remesh = self.work.remesh.get_or_insert_default();
         remesh.0.extend(regions);
         remesh.1.extend(support_regions);
