@@ -22,7 +22,7 @@ pub enum MetricArg {
     Normal,
     /// Signed depth difference (EXR with Z).
     Depth,
-    /// LDR-FLIP perceptual error of B against A, the reference (NVIDIA's FLIP).
+    /// NVIDIA's FLIP of B against A, the reference: LDR-FLIP for PNG, HDR-FLIP for two EXRs.
     Flip,
 }
 

@@ -21,7 +21,7 @@ pub enum Metric {
     Normal,
     /// Depth of the first minus depth of the second (both need `Z`); signed.
     Depth,
-    /// The LDR-ꟻLIP perceptual error of the second image against the first
+    /// The ꟻLIP perceptual error (LDR, or HDR for two EXRs) of the second image against the first
     /// (the reference), in `[0, 1]`.
     Flip,
 }
