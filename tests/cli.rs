@@ -541,7 +541,10 @@ fn diff_follows_idiff_exit_codes_and_writes_a_heat_map() {
     assert_eq!(with_colour(&["--fail", "0.01", "--failpercent", "50", "--hardfail", "0.05"]), Some(2));
     assert_eq!(with_colour(&["--allowfailures", "100000"]), Some(0));
     assert_eq!(code(&["diff", &ray, &mesh, "--channels", "R,Q"]), Some(4));
-    assert_eq!(code(&["diff", &path("ray.png"), &path("small.png")]), Some(3));
+    // As idiff does, the abs metric compares images of different sizes (over the larger one); the
+    // surface metrics cannot.
+    assert_eq!(code(&["diff", &path("ray.png"), &path("small.png")]), Some(2));
+    assert_eq!(code(&["diff", &ray, &path("small.exr"), "--metric", "depth"]), Some(3));
     assert_eq!(code(&["diff", &ray, &path("missing.exr")]), Some(4));
     assert_eq!(code(&["diff", &path("ray.png"), &path("mesh.png"), "--metric", "depth"]), Some(4));
     // Bad options are usage errors, with the code every command gives them.
@@ -557,6 +560,48 @@ fn diff_follows_idiff_exit_codes_and_writes_a_heat_map() {
     assert!(v["masked_px"].as_u64().unwrap() > 0);
     let img = image::open(&heat).expect("a heat map was written").to_rgb8();
     assert!(img.width() >= 48 && img.height() > 36, "{:?}", img.dimensions());
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn diff_takes_idiffs_options_and_refuses_outputs_it_cannot_write() {
+    let dir = scratch("diff-outputs");
+    let path = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    let (ray, mesh) = (path("ray.png"), path("mesh.png"));
+    assert!(blobtrace(&["render", "scenes/pair.ron", "--size", "48x36", "-o", &ray]).status.success());
+    let mesh_args = ["render", "scenes/pair.ron", "--size", "48x36", "--mesh", "--res", "16", "-o", &mesh];
+    assert!(blobtrace(&mesh_args).status.success());
+    let code = |args: &[&str]| blobtrace(&[&["diff"], args].concat()).status.code();
+    // idiff's single-dash options mean ours.
+    assert_eq!(code(&["-fail", "0.5", "-warn", "0.01", &ray, &mesh]), Some(2));
+    assert_eq!(
+        code(&["-fail", "0.5", "-warn", "0.01", &ray, &mesh]),
+        code(&["--fail", "0.5", "--warn", "0.01", &ray, &mesh])
+    );
+    assert_eq!(code(&["-fail", "1", "-warn", "1", &ray, &mesh]), Some(0));
+    assert_eq!(code(&["-allowfailures", "100000", &ray, &mesh]), Some(0));
+    assert_eq!(code(&["-fail", "0.01", "-failpercent", "50", "-warn", "0.01", &ray, &mesh]), Some(1));
+    // -p is FLIP: its report says so.
+    let out = blobtrace(&["diff", "-p", &ray, &mesh]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("FLIP at 67.0 pixels per degree"), "{out:?}");
+    // -q prints nothing but FAILURE, on stderr.
+    let out = blobtrace(&["diff", "-q", &ray, &mesh]);
+    assert_eq!((out.stdout.is_empty(), String::from_utf8_lossy(&out.stderr).trim()), (true, "FAILURE"));
+    // An output name we cannot write is a usage error, and nothing is written.
+    for name in ["heat.jpg", "heat", "heat.tiff"] {
+        let out = blobtrace(&["diff", &ray, &mesh, "-o", &path(name)]);
+        assert_eq!(out.status.code(), Some(64), "-o {name}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(String::from_utf8_lossy(&out.stderr).contains(".png"), "{out:?}");
+        assert!(!dir.join(name).exists());
+    }
+    assert_eq!(code(&[&ray, &mesh, "-o", &path("no-such-folder/heat.png")]), Some(4));
+    assert_eq!(code(&["-a", &ray, &mesh]), Some(64));
+    assert_eq!(code(&[&ray, &mesh, "-p", "--metric", "abs"]), Some(64));
+    // -o FILE.png is a heat map; with -abs, idiff's absolute difference image of the same size.
+    assert_eq!(code(&[&ray, &mesh, "-o", &path("heat.png")]), Some(2));
+    assert!(image::open(path("heat.png")).unwrap().height() > 36, "a heat map with its colour bar");
+    assert_eq!(code(&["-abs", "-o", &path("abs.png"), &ray, &mesh]), Some(2));
+    assert_eq!(image::open(path("abs.png")).unwrap().to_rgb8().dimensions(), (48, 36));
     std::fs::remove_dir_all(dir).unwrap();
 }
 

@@ -1,8 +1,8 @@
 //! Exit codes and error messages, one convention across commands: 0 success,
 //! 1 an error (a bad scene or script, a failed write, a failed check), 64 a
 //! usage error (a bad option or option value) in every command. `diff` keeps
-//! idiff's codes for its verdicts (0 pass, 1 warn, 2 fail, 3 size mismatch,
-//! 4 file error).
+//! idiff's codes for its verdicts (0 pass, 1 warn, 2 fail, 3 size mismatch
+//! for the metrics that need one size, 4 file error).
 
 use crate::pipeline::PipelineError;
 

@@ -38,8 +38,19 @@ pub struct Cli {
 const EXIT_CODES: &str = "Exit codes: 0 success; 1 error (bad scene or script, failed write, failed check); \
 64 usage error (bad option or value). `diff` exits as idiff does: 0 pass, 1 warn, 2 fail, 3 size mismatch, 4 file error.";
 
-/// `diff`'s exit codes, as its `--help` lists them.
-const DIFF_EXIT_CODES: &str = "Exit codes (idiff's): 0 pass, 1 warn, 2 fail, 3 size mismatch, 4 file error; 64 usage error (bad option or value).";
+/// `diff`'s exit codes and where it departs from idiff, as its `--help` lists them.
+const DIFF_EXIT_CODES: &str = "idiff's command lines work unchanged (-fail, -failrelative, -failpercent, -hardfail, \
+-allowfailures, -warn, -warnrelative, -warnpercent, -hardwarn, -o, -od, -abs, -scale, -p, -q, -v), and diff judges \
+as idiff 2.4.7 does, except: a value finite in one image only (a miss's infinite Z) fails its pixel and stays out of \
+the sums, so the mean and RMS stay finite and such pixels are counted beside them (idiff's first mismatch only sets \
+the maximum to inf and is not counted; later ones make its mean inf or nan; --idiff-stats prints idiff's figures); \
+-o FILE.png is a heat map unless -abs is given; -p is NVIDIA's FLIP, not idiff's Yee metric; the report is printed \
+on a pass too; -a (every subimage) is not supported. Images of different sizes are compared as idiff compares \
+them (over the larger extent, pixels beyond an image reading 0, percentages of the first image's pixels), with a \
+warning; --metric depth, normal and flip need one size. --metric flip is LDR-FLIP for PNG and HDR-FLIP (ACES, \
+flip-evaluator's exposures) for two EXRs.\n\n\
+Exit codes (idiff's): 0 pass, 1 warn, 2 fail, 3 size mismatch (depth, normal, flip), 4 file error; 64 usage error \
+(bad option or value, an -o name other than .png or .exr).";
 
 /// The subcommands.
 #[derive(Debug, Subcommand)]
@@ -66,8 +77,9 @@ pub enum Command {
     /// reference (--bless rewrites them); exits non-zero on any failure.
     #[command(after_help = EXIT_CODES)]
     Regress(regress::RegressArgs),
-    /// Compare two images (PNG or EXR) like idiff: exit 0 pass, 1 warn, 2 fail,
-    /// 3 size mismatch, 4 file error; optionally write a heat map.
+    /// Compare two images (PNG or EXR) like idiff, taking its options: exit 0
+    /// pass, 1 warn, 2 fail, 3 size mismatch, 4 file error; optionally write a
+    /// heat map or idiff's difference image.
     #[command(after_help = DIFF_EXIT_CODES)]
     Diff(diff::DiffArgs),
     /// Place and size the scene's caches from error_C sampled at mesh vertices:
@@ -94,6 +106,13 @@ pub enum Command {
 
 /// Parses `args` and runs the command; returns the process exit code.
 pub fn main_with_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> ExitCode {
+    let args = match diff::idiff_style(args.into_iter().collect()) {
+        Ok(args) => args,
+        Err(message) => {
+            eprintln!("error: {message}");
+            return ExitCode::from(USAGE);
+        }
+    };
     let cli = match Cli::try_parse_from(args) {
         Ok(cli) => cli,
         Err(e) => {

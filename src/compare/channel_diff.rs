@@ -13,6 +13,7 @@
 
 use super::channels::ChannelImage;
 use super::diff::{DiffReport, MaxAt, Metric, Thresholds, Totals, report};
+use super::idiff_stats::IdiffAccumulator;
 
 /// OpenImageIO sums differences in batches of this many pixels.
 const BATCH: usize = 4096;
@@ -20,18 +21,31 @@ const BATCH: usize = 4096;
 /// Compares `a` and `b` (same size) over every channel, leaving out pixels
 /// where `masked` is set; returns the report and every pixel's largest
 /// difference over its channels (infinite for a mismatch), masked or not.
+/// Percentages are of the judged pixels, or of `percent_base` pixels when
+/// given (idiff's: the first image's, when the images differ in size); the
+/// report carries idiff's own figures too, over every pixel, masked or not.
 #[must_use]
-pub fn compare_channels(a: &ChannelImage, b: &ChannelImage, masked: &[bool], t: Thresholds) -> (DiffReport, Vec<f32>) {
+pub fn compare_channels(
+    a: &ChannelImage,
+    b: &ChannelImage,
+    masked: &[bool],
+    t: Thresholds,
+    percent_base: Option<usize>,
+) -> (DiffReport, Vec<f32>) {
     let nch = a.names.len().max(b.names.len());
     let value = |img: &ChannelImage, c: usize, i: usize| img.planes.get(c).map_or(0.0, |p| p[i]);
-    let mut totals = Totals { peak: 1.0, ..Totals::default() };
+    let mut totals = Totals { peak: 1.0, percent_base, ..Totals::default() };
+    let mut idiff = IdiffAccumulator::new(t);
     let mut per_pixel = Vec::with_capacity(masked.len());
     for start in (0..masked.len()).step_by(BATCH) {
         let (mut batch_sum, mut batch_sq) = (0.0, 0.0);
         for (i, &is_masked) in masked.iter().enumerate().skip(start).take(BATCH) {
             let mut pixel = PixelState::default();
+            let (x, y) = (i as u32 % a.width, i as u32 / a.width);
+            idiff.start_pixel();
             for c in 0..nch {
                 pixel.add(value(a, c, i), value(b, c, i), c, t);
+                idiff.add(value(a, c, i), value(b, c, i), (x, y, c));
             }
             per_pixel.push(if pixel.mismatch { f32::INFINITY } else { pixel.max as f32 });
             if is_masked {
@@ -54,10 +68,16 @@ pub fn compare_channels(a: &ChannelImage, b: &ChannelImage, masked: &[bool], t: 
         }
         totals.sum += batch_sum;
         totals.sum_sq += batch_sq;
+        idiff.end_batch();
     }
     let names = (0..nch).map(|c| channel_name(a, b, c)).collect();
     let magnitudes = per_pixel.iter().zip(masked).filter(|(_, m)| !**m).map(|(&v, _)| v).collect();
-    (report(Metric::Abs, names, masked.len(), magnitudes, totals, t), per_pixel)
+    let mut r = report(Metric::Abs, names, masked.len(), magnitudes, totals, t);
+    let mut stats = idiff.finish(percent_base.unwrap_or(masked.len()));
+    let at = max_at(a, b, (stats.max_y * a.width + stats.max_x) as usize, stats.max_channel);
+    (stats.channel, stats.a, stats.b) = (at.channel, at.a, at.b);
+    r.idiff = Some(stats);
+    (r, per_pixel)
 }
 
 /// One pixel's differences over its channels.
@@ -121,7 +141,7 @@ mod tests {
     fn statistics_are_per_channel_and_a_missing_channel_reads_zero() {
         let a = image(&["R", "A"], vec![vec![0.5, 0.25], vec![1.0, 1.0]]);
         let b = image(&["R"], vec![vec![0.5, 0.75]]);
-        let (r, _) = compare_channels(&a, &b, &[false, false], Thresholds::default());
+        let (r, _) = compare_channels(&a, &b, &[false, false], Thresholds::default(), None);
         // Values: R 0, 0.5; A 1, 1 → mean 2.5/4, rms sqrt(2.25/4).
         assert!((r.mean - 0.625).abs() < 1e-12 && (r.rms - 0.75).abs() < 1e-12, "{r:?}");
         let at = r.max_at.unwrap();
@@ -135,12 +155,12 @@ mod tests {
         let a = image(&["Z"], vec![vec![inf, inf, 1.0, 2.0]]);
         let b = image(&["Z"], vec![vec![inf, 3.0, 1.0, 2.5]]);
         let (r, per_pixel) =
-            compare_channels(&a, &b, &[false; 4], Thresholds { fail: 0.6, warn: 0.6, ..Default::default() });
+            compare_channels(&a, &b, &[false; 4], Thresholds { fail: 0.6, warn: 0.6, ..Default::default() }, None);
         assert_eq!(per_pixel, [0.0, f32::INFINITY, 0.0, 0.5]);
         assert_eq!((r.mismatch_px, r.over_fail_px, r.max), (1, 1, 0.5));
         assert!((r.mean - 0.125).abs() < 1e-12, "mean stays finite: {}", r.mean);
         assert_eq!(r.verdict, Verdict::Fail);
         let allowed = Thresholds { fail: 0.6, warn: 0.6, allowfailures: 1, ..Default::default() };
-        assert_eq!(compare_channels(&a, &b, &[false; 4], allowed).0.verdict, Verdict::Pass);
+        assert_eq!(compare_channels(&a, &b, &[false; 4], allowed, None).0.verdict, Verdict::Pass);
     }
 }

@@ -45,6 +45,26 @@ impl ChannelImage {
         self.names.iter().position(|n| n == name).map(|i| self.planes[i].as_slice())
     }
 
+    /// The image on a `width × height` canvas (at least its own size), the
+    /// pixels beyond it reading 0, as OpenImageIO reads past a data window.
+    #[must_use]
+    pub fn padded(&self, width: u32, height: u32) -> ChannelImage {
+        let (w, h) = (width.max(self.width) as usize, height.max(self.height) as usize);
+        let own = self.width as usize;
+        let planes = self
+            .planes
+            .iter()
+            .map(|p| {
+                let mut out = vec![0.0; w * h];
+                for (y, row) in p.chunks_exact(own.max(1)).enumerate() {
+                    out[y * w..y * w + own].copy_from_slice(row);
+                }
+                out
+            })
+            .collect();
+        ChannelImage { width: w as u32, height: h as u32, names: self.names.clone(), planes }
+    }
+
     /// Keeps only the channels `names`, in that order; names one missing.
     pub fn select(&self, names: &[String]) -> Result<ChannelImage, String> {
         let planes = names

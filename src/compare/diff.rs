@@ -6,6 +6,7 @@
 //! wrong; they are reported separately.
 
 use super::flip::FlipStats;
+use super::idiff_stats::IdiffStats;
 use crate::frame::Frame;
 
 /// What is compared per pixel.
@@ -20,7 +21,7 @@ pub enum Metric {
     Normal,
     /// Depth of the first minus depth of the second (both need `Z`); signed.
     Depth,
-    /// The LDR-ꟻLIP perceptual error of the second image against the first
+    /// The ꟻLIP perceptual error (LDR, or HDR for two EXRs) of the second image against the first
     /// (the reference), in `[0, 1]`.
     Flip,
 }
@@ -197,6 +198,9 @@ pub struct Totals {
     pub masked_px: usize,
     /// Masked pixels above `fail`.
     pub masked_over_fail_px: usize,
+    /// Pixels the percentages (and `failpercent`, `warnpercent`) are of, when
+    /// not the judged pixels: idiff's, the first image's, when sizes differ.
+    pub percent_base: Option<usize>,
 }
 
 /// Statistics of a difference image and the verdict.
@@ -253,6 +257,13 @@ pub struct DiffReport {
     /// ꟻLIP's own pooled statistics (the `flip` metric).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub flip: Option<FlipStats>,
+    /// idiff's own figures, non-finite values included (the `abs` metric).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub idiff: Option<IdiffStats>,
+    /// The two images' sizes, when they differ (the `abs` metric compares
+    /// them over the larger extent, as idiff does).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sizes: Option<[(u32, u32); 2]>,
 }
 
 /// Judges the per-pixel `values` (see [`differences`]) of a `width`-wide
@@ -307,7 +318,8 @@ pub fn report(
     magnitudes.sort_by(f32::total_cmp);
     let n = magnitudes.len();
     let percentile = |p: usize| if n == 0 { 0.0 } else { magnitudes[((n - 1) * p) / 100] };
-    let percent = |k: usize| 100.0 * k as f64 / totals.compared.max(1) as f64;
+    let base = totals.percent_base.unwrap_or(totals.compared).max(1);
+    let percent = |k: usize| 100.0 * k as f64 / base as f64;
     let values = totals.values.max(1) as f64;
     let rms = (totals.sum_sq / values).sqrt();
     DiffReport {
@@ -333,6 +345,8 @@ pub fn report(
         max_at: totals.max_at,
         thresholds: t,
         flip: None,
+        idiff: None,
+        sizes: None,
     }
 }
 
@@ -342,7 +356,8 @@ pub fn report(
 /// `hardfail`; then warn likewise. A coverage mismatch counts as an infinite
 /// difference.
 fn verdict(totals: &Totals, t: Thresholds) -> Verdict {
-    let allowed = |percent: f64| percent / 100.0 * totals.compared as f64;
+    let base = totals.percent_base.unwrap_or(totals.compared);
+    let allowed = |percent: f64| percent / 100.0 * base as f64;
     let max = if totals.mismatch_px > 0 { f64::INFINITY } else { totals.max };
     if totals.over_fail_px <= t.allowfailures {
         Verdict::Pass

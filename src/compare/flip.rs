@@ -36,6 +36,9 @@ pub struct FlipStats {
     pub max: f32,
     /// Pixels per bucket of width 1/`FLIP_BUCKETS` over `[0, 1]`.
     pub histogram: Vec<usize>,
+    /// HDR-ꟻLIP's exposures (absent for LDR-ꟻLIP).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub exposures: Option<super::hdr_flip::Exposures>,
 }
 
 /// The pixels per degree NVIDIA's ꟻLIP tools default to.
@@ -88,6 +91,7 @@ pub fn flip_stats(errors: &[f32], width: u32, height: u32, ppd: f32) -> FlipStat
         min: pool.min_value(),
         max: pool.max_value(),
         histogram,
+        exposures: None,
     }
 }
 

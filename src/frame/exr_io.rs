@@ -24,10 +24,19 @@ pub fn exr_bytes(frame: &Frame) -> std::result::Result<Vec<u8>, String> {
         ("N.Z".into(), frame.normal.iter().map(|n| n.z).collect()),
     ];
     channels.extend(frame.extra.iter().cloned());
+    channels_exr_bytes(frame.width, frame.height, channels)
+}
+
+/// Encodes named row-major float planes of `width × height` as EXR bytes.
+pub fn channels_exr_bytes(
+    width: u32,
+    height: u32,
+    channels: Vec<(String, Vec<f32>)>,
+) -> std::result::Result<Vec<u8>, String> {
     let list =
         channels.into_iter().map(|(name, v)| AnyChannel::new(name.as_str(), FlatSamples::F32(v))).collect::<Vec<_>>();
     let layer = Layer::new(
-        (frame.width as usize, frame.height as usize),
+        (width as usize, height as usize),
         LayerAttributes::default(),
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(SmallVec::from_vec(list)),

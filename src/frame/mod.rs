@@ -6,7 +6,7 @@ mod size;
 
 use glam::Vec3;
 
-pub use exr_io::{ExrChannels, read_exr_channels};
+pub use exr_io::{ExrChannels, channels_exr_bytes, read_exr_channels};
 pub use size::{MAX_PIXELS, MAX_SIDE, Size};
 
 /// Geometric disagreement between two renders of one view.

@@ -1,18 +1,33 @@
 //! Comparing two image files the way idiff does: load both (PNG or EXR),
-//! check they match in size and hold the channels the metric needs, judge
-//! the differences against thresholds, and draw a heat map. The `abs` metric
-//! compares every channel as idiff does; `depth` and `normal` compare the
-//! surfaces two renders found, pixel by pixel.
+//! check they hold the channels the metric needs, judge the differences
+//! against thresholds, and draw a heat map or write idiff's difference image.
+//! The `abs` metric compares every channel as idiff does, images of
+//! different sizes over the larger extent (pixels beyond an image read 0, and
+//! percentages are of the first image's pixels, as in idiff); `depth` and
+//! `normal` compare the surfaces two renders found, pixel by pixel; `flip`
+//! is LDR-ꟻLIP for PNG and HDR-ꟻLIP for a pair of EXRs.
 
 use std::path::{Path, PathBuf};
 
 use super::error::PipelineError;
 use crate::compare::{
-    ChannelImage, Decoding, DiffReport, Metric, Scale, SpecialLabels, Thresholds, Verdict, compare_channels,
-    default_pixels_per_degree, differences, edge_mask, flip_errors, flip_stats, heat_map_labelled, histogram_plot,
-    judge, load_channels, load_image,
+    ChannelImage, Decoding, DiffReport, DifferenceForm, Exposures, Metric, Scale, SpecialLabels, Thresholds, Verdict,
+    compare_channels, default_pixels_per_degree, difference_planes, differences, edge_mask, flip_errors, flip_stats,
+    hdr_flip, heat_map_labelled, histogram_plot, judge, load_channels, load_image, planes_png_bytes,
 };
+use crate::frame::channels_exr_bytes;
 use crate::output::FileSet;
+
+/// What `-o` writes.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DiffOutput {
+    /// Our heat map of the per-pixel differences with its colour bar (PNG).
+    HeatMap(PathBuf),
+    /// idiff's difference image: every channel's difference (EXR, or the
+    /// first four channels as 8-bit PNG); for depth, normal and ꟻLIP one
+    /// channel of the metric's per-pixel values.
+    Difference(PathBuf, DifferenceForm),
+}
 
 /// How to compare two images.
 #[derive(Clone, Debug)]
@@ -27,8 +42,12 @@ pub struct ImageDiffSettings {
     pub decoding: Decoding,
     /// Set aside pixels within this many pixels of a silhouette edge.
     pub mask_edges: Option<u32>,
-    /// Write a heat map of the differences here.
-    pub heat_map: Option<PathBuf>,
+    /// Write a heat map or a difference image.
+    pub output: Option<DiffOutput>,
+    /// Write the output only when the images differ (idiff's `-od`).
+    pub only_if_different: bool,
+    /// HDR-ꟻLIP's first and last exposures (default: chosen from the reference).
+    pub exposures: (Option<f32>, Option<f32>),
     /// Write a histogram plot of the ꟻLIP errors here (the `flip` metric).
     pub histogram: Option<PathBuf>,
     /// The heat map's full-scale value (default: chosen from the data, the p99 rounded up).
@@ -65,6 +84,16 @@ impl ImageDiffSettings {
         non_negative("hardwarn", f64::from(t.hardwarn))?;
         non_negative("failrelative", f64::from(t.failrelative))?;
         non_negative("warnrelative", f64::from(t.warnrelative))?;
+        for (setting, v) in [("start_exposure", self.exposures.0), ("stop_exposure", self.exposures.1)] {
+            if v.is_some_and(|v| !v.is_finite()) {
+                return Err(PipelineError::setting(setting, "must be a finite number"));
+            }
+        }
+        if let Some(DiffOutput::Difference(_, form)) = &self.output
+            && !form.scale.is_finite()
+        {
+            return Err(PipelineError::setting("diff_scale", "must be a finite number"));
+        }
         match self.scale {
             Some(s) if !(s.is_finite() && s > 0.0) => {
                 Err(PipelineError::setting("scale", format!("must be a positive number, got {s}")))
@@ -90,7 +119,7 @@ impl ImageDiffSettings {
 /// one masked, or missed by both for depth and normals) fails.
 pub fn diff_images(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<DiffReport, ImageDiffError> {
     settings.check().map_err(ImageDiffError::Setting)?;
-    let (mut report, values, (width, height)) = match settings.metric {
+    let Judged { mut report, values, size, channels } = match settings.metric {
         Metric::Abs => diff_channels(a, b, settings)?,
         Metric::Depth | Metric::Normal => diff_surfaces(a, b, settings)?,
         Metric::Flip => diff_flip(a, b, settings)?,
@@ -100,16 +129,28 @@ pub fn diff_images(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<D
         report.verdict = Verdict::Fail;
     }
     let mut files = FileSet::new();
-    if let Some(out) = &settings.heat_map {
-        let what = if settings.metric == Metric::Flip { "error" } else { "difference" };
-        let title = format!("{:?} {what}: {} vs {}", settings.metric, file_name(a), file_name(b)).to_lowercase();
-        let labels = match settings.metric {
-            Metric::Depth | Metric::Normal | Metric::Flip => SpecialLabels::default(),
-            Metric::Abs => SpecialLabels { no_value: "not a number", infinite: "finite in one image only" },
-        };
-        let text = (title.as_str(), settings.metric.unit());
-        let img = heat_map_labelled(&values, (width, height), settings.heat_scale(&values), text, &labels);
-        files.add(out, img.png_bytes_for(out).map_err(|e| ImageDiffError::File(e.to_string()))?);
+    let differs = report.max != 0.0 || report.mismatch_px > 0;
+    match &settings.output {
+        Some(_) if settings.only_if_different && !differs => {}
+        Some(DiffOutput::HeatMap(out)) => {
+            let what = if settings.metric == Metric::Flip { "error" } else { "difference" };
+            let title = format!("{:?} {what}: {} vs {}", settings.metric, file_name(a), file_name(b)).to_lowercase();
+            let labels = match settings.metric {
+                Metric::Depth | Metric::Normal | Metric::Flip => SpecialLabels::default(),
+                Metric::Abs => SpecialLabels { no_value: "not a number", infinite: "finite in one image only" },
+            };
+            let text = (title.as_str(), settings.metric.unit());
+            let img = heat_map_labelled(&values, size, settings.heat_scale(&values), text, &labels);
+            files.add(out, img.png_bytes_for(out).map_err(|e| ImageDiffError::File(e.to_string()))?);
+        }
+        Some(DiffOutput::Difference(out, form)) => {
+            let planes = match channels {
+                Some((first, second)) => difference_planes(&first, &second, *form),
+                None => vec![(format!("{:?}", settings.metric).to_lowercase(), metric_plane(&values, *form))],
+            };
+            files.add(out, difference_bytes(out, planes, size)?);
+        }
+        None => {}
     }
     if let (Some(out), Some(flip)) = (&settings.histogram, &report.flip) {
         let title = format!("FLIP histogram: {} vs {}", file_name(a), file_name(b));
@@ -121,38 +162,90 @@ pub fn diff_images(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<D
     Ok(report)
 }
 
-/// LDR-ꟻLIP of the second image against the first, the reference. Both are
-/// read as 8-bit sRGB colour, alpha dropped as NVIDIA's tool drops it; an
-/// EXR's (premultiplied, linear) colour is encoded to 8-bit sRGB first.
+/// ꟻLIP of the second image against the first, the reference: HDR-ꟻLIP of
+/// the linear colour when both are EXR, else LDR-ꟻLIP of 8-bit sRGB colour
+/// (an EXR's premultiplied linear colour encoded to it), alpha dropped as
+/// NVIDIA's tool drops it.
 fn diff_flip(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<Judged, ImageDiffError> {
     let (first, second) = (load_frame(a)?.frame, load_frame(b)?.frame);
     same_size(a, b, (first.width, first.height), (second.width, second.height))?;
     let (w, h) = (first.width, first.height);
     let ppd = default_pixels_per_degree();
-    let errors = flip_errors(&first.to_srgb8(), &second.to_srgb8(), w, h, ppd);
+    let (errors, exposures) = if is_exr(a) && is_exr(b) {
+        let (start, stop) = settings.exposures;
+        let exposures = Exposures::for_reference(&first.color, start, stop)
+            .map_err(|e| ImageDiffError::File(format!("{}: {e}", a.display())))?;
+        (hdr_flip(&first.color, &second.color, w, h, ppd, exposures), Some(exposures))
+    } else {
+        (flip_errors(&first.to_srgb8(), &second.to_srgb8(), w, h, ppd), None)
+    };
     let masked = settings.mask_edges.map_or_else(|| vec![false; errors.len()], |k| edge_mask(&first, &second, k));
     let mut report = judge(Metric::Flip, &errors, &masked, w, settings.thresholds);
-    report.flip = Some(flip_stats(&errors, w, h, ppd));
-    Ok((report, errors, (w, h)))
+    let mut stats = flip_stats(&errors, w, h, ppd);
+    stats.exposures = exposures;
+    report.flip = Some(stats);
+    Ok(Judged { report, values: errors, size: (w, h), channels: None })
 }
 
-type Judged = (DiffReport, Vec<f32>, (u32, u32));
+/// A judgement with what its output needs: the per-pixel values, the
+/// image size, and (the `abs` metric) both images' channels as compared.
+struct Judged {
+    report: DiffReport,
+    values: Vec<f32>,
+    size: (u32, u32),
+    channels: Option<(ChannelImage, ChannelImage)>,
+}
 
-/// idiff's comparison over every channel (or the ones named).
+/// idiff's comparison over every channel (or the ones named); images of
+/// different sizes are compared over the larger extent, as idiff does.
 fn diff_channels(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<Judged, ImageDiffError> {
     let load = |p: &Path| load_channels(p, settings.decoding).map_err(ImageDiffError::File);
     let (first, second) = (load(a)?, load(b)?);
-    same_size(a, b, (first.width, first.height), (second.width, second.height))?;
+    let (sa, sb) = ((first.width, first.height), (second.width, second.height));
     let (first, second) = match &settings.channels {
         Some(names) => (select(a, &first, names)?, select(b, &second, names)?),
         None => (first, second),
     };
     let masked = match settings.mask_edges {
-        Some(k) => edge_mask(&load_frame(a)?.frame, &load_frame(b)?.frame, k),
-        None => vec![false; first.planes.first().map_or(0, Vec::len)],
+        Some(k) => {
+            same_size(a, b, sa, sb)?;
+            edge_mask(&load_frame(a)?.frame, &load_frame(b)?.frame, k)
+        }
+        None => vec![false; (sa.0.max(sb.0) * sa.1.max(sb.1)) as usize],
     };
-    let (report, values) = compare_channels(&first, &second, &masked, settings.thresholds);
-    Ok((report, values, (first.width, first.height)))
+    let (first, second, base) = match sa == sb {
+        true => (first, second, None),
+        false => {
+            let (w, h) = (sa.0.max(sb.0), sa.1.max(sb.1));
+            (first.padded(w, h), second.padded(w, h), Some((sa.0 * sa.1) as usize))
+        }
+    };
+    let (mut report, values) = compare_channels(&first, &second, &masked, settings.thresholds, base);
+    report.sizes = (sa != sb).then_some([sa, sb]);
+    let size = (first.width, first.height);
+    Ok(Judged { report, values, size, channels: Some((first, second)) })
+}
+
+/// One metric's per-pixel values as a difference plane (absolute and scaled as asked).
+fn metric_plane(values: &[f32], form: DifferenceForm) -> Vec<f32> {
+    values.iter().map(|&v| if form.absolute { v.abs() } else { v } * form.scale).collect()
+}
+
+/// A difference image's bytes, EXR or PNG by `out`'s extension.
+fn difference_bytes(
+    out: &Path,
+    planes: Vec<(String, Vec<f32>)>,
+    (w, h): (u32, u32),
+) -> Result<Vec<u8>, ImageDiffError> {
+    let failed = |e: String| ImageDiffError::File(format!("{}: could not encode: {e}", out.display()));
+    match is_exr(out) {
+        true => channels_exr_bytes(w, h, planes).map_err(failed),
+        false => planes_png_bytes(&planes, w, h).map_err(failed),
+    }
+}
+
+fn is_exr(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"))
 }
 
 /// The depth or normal metric over the surfaces two renders found.
@@ -166,7 +259,7 @@ fn diff_surfaces(a: &Path, b: &Path, settings: &ImageDiffSettings) -> Result<Jud
     let values = differences(fa, fb, settings.metric);
     let masked = settings.mask_edges.map_or_else(|| vec![false; values.len()], |k| edge_mask(fa, fb, k));
     let report = judge(settings.metric, &values, &masked, fa.width, settings.thresholds);
-    Ok((report, values, (fa.width, fa.height)))
+    Ok(Judged { report, values, size: (fa.width, fa.height), channels: None })
 }
 
 fn load_frame(path: &Path) -> Result<crate::compare::LoadedImage, ImageDiffError> {

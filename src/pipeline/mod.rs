@@ -66,7 +66,7 @@ pub use cost_map::cost_map;
 pub use edit_session::{EditSession, FrameRow, FrameUpdate, IDLE_SAMPLES, Pending, Verification, outline_dirty};
 pub use error::{PipelineError, Result};
 pub use eval::{EvalSettings, ExactLookup, FieldChoice, MB};
-pub use image_diff::{ImageDiffError, ImageDiffSettings, diff_images};
+pub use image_diff::{DiffOutput, ImageDiffError, ImageDiffSettings, diff_images};
 pub use junit::junit_xml;
 pub use mesh_repair::{MAX_SNAP, MeshRepair, RepairReport, SnapEffect, repair_mesh};
 pub use polygonize::{
