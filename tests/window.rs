@@ -88,8 +88,9 @@ fn the_window_shows_what_the_headless_viewer_draws_after_the_same_keys() {
 
 /// Opens the viewer with an events log, then: 20 taps of the right arrow,
 /// 15 ms each and 120 ms apart; 10 clicks with no hold (xdotool's own
-/// press and release), turn about between the head and the tail; an orbit
-/// key, and at once 10 taps of the left arrow while its refinement runs.
+/// press and release), turn about between the head and the tail; a drag
+/// with no pause and three wheel notches (two in, one out); an orbit key,
+/// and at once 10 taps of the left arrow while its refinement runs.
 /// Escape closes the window.
 const QUICK_INPUT: &str = r#"
 set -u
@@ -103,6 +104,10 @@ for i in $(seq 5); do
   xdotool mousemove --window "$window" 160 60 click 1; sleep 0.12
   xdotool mousemove --window "$window" 170 150 click 1; sleep 0.12
 done
+xdotool mousemove --window "$window" 100 100 mousedown 1 mousemove --window "$window" 140 110 mouseup 1
+sleep 0.3
+xdotool click 4 click 4 click 5
+sleep 0.3
 xdotool key a
 for i in $(seq 10); do xdotool keydown Left; sleep 0.015; xdotool keyup Left; sleep 0.02; done
 sleep 1
@@ -149,6 +154,16 @@ fn every_quick_tap_and_click_counts_idle_or_while_refining() {
         let node = if k % 2 == 0 { "moving head" } else { "moving tail" };
         assert!(click[3].starts_with(node), "click {k} selects what is under the pointer: {click:?}\n{log}");
     }
+    // The drag's steps add up to the 40 by 10 pixels it went, whatever the loop saw of it.
+    let (dx, dy) = lines.iter().filter_map(|l| l[0].strip_prefix("drag ")).fold((0.0, 0.0), |(x, y), d| {
+        let (a, b) = d.split_once(',').expect("drag DX,DY");
+        (x + a.parse::<f32>().unwrap(), y + b.parse::<f32>().unwrap())
+    });
+    assert_eq!((dx, dy), (40.0, 10.0), "the whole drag:\n{log}");
+    let notches: f32 =
+        lines.iter().filter_map(|l| l[0].strip_prefix("wheel ")).map(|n| n.parse::<f32>().unwrap()).sum();
+    let turns = lines.iter().filter(|l| l[0].starts_with("wheel ")).count();
+    assert!(notches == 1.0 && (1..=3).contains(&turns), "two notches in and one out:\n{log}");
     let lefts: Vec<_> = lines.iter().filter(|l| l[0] == "key left").collect();
     assert_eq!(lefts.len(), 10, "10 taps during the orbit's refinement, 10 moves:\n{log}");
     assert!(lefts.iter().any(|l| l[2] == "refining"), "some came while the orbit refined:\n{log}");

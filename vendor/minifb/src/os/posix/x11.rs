@@ -1193,7 +1193,11 @@ impl Window {
             return;
         }
 
-        // in X, the mouse wheel is usually mapped to Button4/5
+        // in X, the mouse wheel is usually mapped to Button4/5, each notch a press and a
+        // release: count the press only
+        if !is_down {
+            return;
+        }
 
         let scroll: (i32, i32) = match ev.button.button {
             xlib::Button4 => (0, 10),
