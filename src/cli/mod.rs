@@ -94,7 +94,9 @@ pub enum Command {
     /// screen (Space steps an edit script), each move updating only what it
     /// changed, a coarse pass at once and the rest refined while idle; the
     /// mouse orbits, pans, zooms and selects; V cycles the field, mesh, depth
-    /// and normal differences, cost and slice views; H shows every key.
+    /// and normal differences, cost and slice views; H shows every key (in
+    /// pages where the window is small). Every tap and click counts; held keys
+    /// repeat after 0.3 s, 20 a second.
     /// --headless takes the keys from --keys and writes the last view.
     #[cfg(feature = "viewer")]
     #[command(after_help = EXIT_CODES)]

@@ -37,7 +37,7 @@ pub struct ViewArgs {
     /// Keys for `--headless`, comma-separated: left, right, up, down, pageup,
     /// pagedown (move the node), tab (next node), v (next view), space (next
     /// script frame), r (outline the dirty rectangles), a, d, w, s (orbit),
-    /// z, x (zoom in, out), p (snapshot), h or f1 (help card), comma and
+    /// z, x (zoom in, out), p (snapshot), h or f1 (help card, its next page, hide it), comma and
     /// period (move the slice plane nearer, away), n (what the slice shows); and mouse
     /// gestures drag:DX:DY (orbit), pan:DX:DY, wheel:N (zoom), click:X:Y
     /// (select the named node under that pixel).
