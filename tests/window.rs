@@ -170,5 +170,8 @@ fn every_quick_tap_and_click_counts_idle_or_while_refining() {
     let last = lines.last().expect("a line");
     assert!(last[3].ends_with(", 30 frames"), "every move is a frame: {last:?}");
     assert!(!lines.iter().any(|l| l[0].starts_with("repeat")), "taps this short never repeat:\n{log}");
+    let loop_line = log.lines().last().unwrap_or_default();
+    assert!(loop_line.starts_with("# window loop: ") && loop_line.contains(" turns, at most "), "{loop_line}");
+    eprintln!("{loop_line}");
     std::fs::remove_dir_all(dir).unwrap();
 }

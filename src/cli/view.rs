@@ -10,7 +10,7 @@ use super::exit::UsageError;
 use crate::frame::Size;
 use crate::pipeline::{EditSession, check_names};
 use crate::scene::{Script, load_script};
-use crate::viewer::{Action, Viewer, show};
+use crate::viewer::{Action, Viewer, background_pool, show};
 
 /// Options of `blobtrace view`.
 #[derive(Debug, Args)]
@@ -80,7 +80,8 @@ pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
     let size = a.size.unwrap_or(scene.size);
     // The window stays on this thread (some systems draw windows from the
     // main thread alone); the frames' work runs on the pool.
-    let pool = worker_pool(None)?;
+    // Below the window's thread, which must turn every few milliseconds.
+    let pool = if a.headless { worker_pool(None)? } else { background_pool()? };
     // The window opens on the coarse pass and refines the rest while idle.
     let session = pool.install(|| EditSession::begin(scene, mode, size, &a.polygonize.settings()))?;
     let mut viewer = Viewer::new(session, script, a.node.as_deref(), a.output.clone())?;

@@ -34,6 +34,7 @@ use crate::trace::PixelRect;
 use hud::StatusPart;
 
 pub use window::show;
+pub use worker::background_pool;
 
 /// The keys' meanings.
 #[derive(Clone, Copy, Debug, PartialEq)]

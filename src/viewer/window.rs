@@ -18,7 +18,7 @@ use super::input::{Gestures, Inbox};
 use super::worker::{self, EventsLog, Received, Shared, to_window_pixels};
 
 /// How long the window's loop waits between its turns at most.
-pub const LOOP_PERIOD: Duration = Duration::from_millis(5);
+pub const LOOP_PERIOD: Duration = Duration::from_millis(4);
 
 /// The window loop: input in, the current view out, until the window closes
 /// or Escape. With `events_log`, a line per event applied goes there.
@@ -46,7 +46,9 @@ pub fn show(viewer: &mut Viewer, pool: &rayon::ThreadPool, events_log: Option<&P
     std::thread::scope(|scope| {
         let work = scope.spawn(move || worker::run(viewer, pool, &receive, shared, log));
         let mut gestures = Gestures::default();
+        let mut turned = Instant::now();
         while window.is_open() && !gestures.quit && !work.is_finished() {
+            shared.turned(std::mem::replace(&mut turned, Instant::now()).elapsed());
             match shared.take_shown() {
                 Some(shown) => {
                     window.set_title(&shown.title);

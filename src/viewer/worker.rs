@@ -7,7 +7,7 @@
 
 use std::io::Write;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
@@ -45,9 +45,17 @@ pub struct Shared {
     pub refining: AtomicBool,
     /// Events sent and not yet applied.
     pub queued: AtomicUsize,
+    /// The window loop's turns, and the longest time between two, in microseconds.
+    pub turns: (AtomicU64, AtomicU64),
 }
 
 impl Shared {
+    /// One more turn of the window loop, `gap` after the last.
+    pub fn turned(&self, gap: Duration) {
+        self.turns.0.fetch_add(1, Ordering::Relaxed);
+        self.turns.1.fetch_max(gap.as_micros() as u64, Ordering::Relaxed);
+    }
+
     /// Takes the newest picture, if one came since the last call.
     pub fn take_shown(&self) -> Option<Shown> {
         self.shown.lock().map(|mut s| s.take()).unwrap_or(None)
@@ -80,6 +88,38 @@ impl EventsLog {
         // Line by line, so the log is whole at any moment the window is closed.
         self.out.flush()
     }
+
+    /// The last line: how often the window loop turned.
+    fn close(&mut self, shared: &Shared) -> std::io::Result<()> {
+        let (turns, longest) = (shared.turns.0.load(Ordering::Relaxed), shared.turns.1.load(Ordering::Relaxed));
+        writeln!(self.out, "# window loop: {turns} turns, at most {:.1} ms apart", longest as f64 / 1e3)?;
+        self.out.flush()
+    }
+}
+
+/// How much lower than the window's thread the work runs: on two cores its
+/// threads would otherwise keep the window's loop waiting for a core for
+/// milliseconds after each of its short sleeps.
+const NICER_BY: i32 = 5;
+
+/// A pool of a thread per core, each at a lower priority than the window's
+/// thread (where the system lets a thread lower its own).
+pub fn background_pool() -> anyhow::Result<rayon::ThreadPool> {
+    let pool = rayon::ThreadPoolBuilder::new().start_handler(|_| lower_priority());
+    pool.build().map_err(|e| anyhow::anyhow!("starting the worker threads: {e}"))
+}
+
+/// Lowers the calling thread's priority by [`NICER_BY`]; where it cannot,
+/// the thread runs as before.
+pub fn lower_priority() {
+    #[cfg(target_os = "linux")]
+    // SAFETY: `gettid` and `setpriority` take and return plain integers;
+    // Linux applies a thread id's priority to that thread alone.
+    unsafe {
+        let tid = libc::gettid();
+        let now = libc::getpriority(libc::PRIO_PROCESS, tid as libc::id_t);
+        libc::setpriority(libc::PRIO_PROCESS, tid as libc::id_t, now + NICER_BY);
+    }
 }
 
 /// Applies the events from `events` until the window's side hangs up,
@@ -91,12 +131,18 @@ pub fn run(
     shared: &Shared,
     mut log: Option<EventsLog>,
 ) -> anyhow::Result<()> {
+    lower_priority();
     let mut shown_at = Instant::now();
     loop {
         shared.refining.store(!viewer.session_refined(), Ordering::Relaxed);
         let batch = match next_batch(events, viewer.is_refining()) {
             Ok(batch) => batch,
-            Err(RecvTimeoutError::Disconnected) => return Ok(()),
+            Err(RecvTimeoutError::Disconnected) => {
+                if let Some(log) = log.as_mut() {
+                    log.close(shared)?;
+                }
+                return Ok(());
+            }
             Err(RecvTimeoutError::Timeout) => vec![],
         };
         if batch.is_empty() {
