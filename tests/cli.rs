@@ -1512,7 +1512,7 @@ fn scene_script_and_manifest_errors_say_what_the_file_may_write_there() {
     let render = ["render", scene.to_str().unwrap(), "-o", png.to_str().unwrap()];
     let point = "Point(center: (0.0, 0.0, 0.0), radius: 1.0)";
     let cached = |opts: &str| scene_with(&format!("Cache(res: 32, {opts}, child: {point})"));
-    let cases: [(String, &str, &[&str]); 13] = [
+    let cases: [(String, &str, &[&str]); 14] = [
         (
             scene_with(&point.replace("Point", "Pointy")),
             "Pointy",
@@ -1534,6 +1534,7 @@ fn scene_script_and_manifest_errors_say_what_the_file_may_write_there() {
         ),
         (scene_with(&point.replace(", radius: 1.0", "")), ")|),", &["Point needs its `radius`"]),
         (scene_with(&format!("Named(probe, {point})")), "probe", &["in double quotes"]),
+        (scene_with(&format!("Difference({point})")), "),\n)", &["Difference( … ) with 2 values", "found 1"]),
     ];
     for (text, marker, words) in &cases {
         error_in_own_words(&render, &scene, text, marker, words);

@@ -52,6 +52,7 @@ pub fn explain(code: &Error, rest: &str) -> String {
         Error::ExpectedDifferentStructName { expected, found } => {
             format!("expected {expected}( … ) here, not {found}( … )")
         }
+        Error::UnclosedBlockComment => "a /* comment is never closed with */".to_string(),
         Error::Message(message) => message.clone(),
         other => format!("{}, found {found}", expected_token(other).unwrap_or_else(|| other.to_string())),
     }
@@ -95,6 +96,12 @@ fn all_of(words: &[&str]) -> String {
 fn in_scene_words(expected: &str) -> String {
     if let Some(n) = expected.strip_prefix("a tuple of size ").or_else(|| expected.strip_prefix("tuple of size ")) {
         return format!("{n} values in parentheses");
+    }
+    // serde names a tuple variant by its Rust path: `tuple variant NodeDesc::Named with 2 elements`.
+    if let Some(variant) = expected.strip_prefix("tuple variant ") {
+        let (path, count) = variant.split_once(" with ").unwrap_or((variant, "its elements"));
+        let name = path.rsplit("::").next().unwrap_or(path);
+        return format!("{name}( … ) with {}", count.replace("elements", "values"));
     }
     let word = match expected {
         "u8" | "u16" | "u32" | "u64" | "usize" | "i32" | "i64" => "a whole number",
@@ -160,5 +167,10 @@ mod tests {
             explain(&Error::ExpectedArray, "Point("),
             "expected a list in square brackets, [ … ], found `Point`"
         );
+        let named = Error::ExpectedDifferentLength {
+            expected: "tuple variant NodeDesc::Named with 2 elements".into(),
+            found: 1,
+        };
+        assert_eq!(explain(&named, ")"), "expected Named( … ) with 2 values here, found 1");
     }
 }
