@@ -1,6 +1,7 @@
 //! Writing files so that an existing output is never left half-written: the
 //! bytes go to a temporary file beside the target, which is then renamed over
-//! it; and a set of files is written all or none.
+//! it; and a set of files is written all or none, optionally replacing what
+//! an earlier run left in a folder.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -75,6 +76,25 @@ impl FileSet {
     }
 }
 
+impl FileSet {
+    /// [`Self::commit`], then removes the files directly in `dir` that
+    /// `earlier_output` claims (by name) and this set did not write, so a
+    /// folder of reports describes this run alone. Files it does not claim
+    /// are left, so a folder shared with other files loses none of them.
+    pub fn commit_replacing(self, dir: &Path, earlier_output: impl Fn(&str) -> bool) -> Result<(), FileSetError> {
+        let written: Vec<PathBuf> = self.files.iter().map(|(path, _)| path.clone()).collect();
+        self.commit()?;
+        let Ok(entries) = std::fs::read_dir(dir) else { return Ok(()) };
+        for path in entries.filter_map(|e| e.ok()).map(|e| e.path()) {
+            let claimed = path.file_name().and_then(|n| n.to_str()).is_some_and(&earlier_output);
+            if claimed && path.is_file() && !written.contains(&path) {
+                std::fs::remove_file(&path).map_err(|error| FileSetError { path: path.clone(), error })?;
+            }
+        }
+        Ok(())
+    }
+}
+
 fn write_synced(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let mut f = std::fs::File::create(path)?;
     f.write_all(bytes)?;
@@ -119,6 +139,25 @@ mod tests {
         set.add(&b, b"new b".to_vec());
         set.commit().unwrap();
         assert_eq!((std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap()), (b"new a".to_vec(), b"new b".to_vec()));
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn replacing_a_folder_removes_what_an_earlier_run_left_and_nothing_else() {
+        let dir = std::env::temp_dir().join(format!("blobtrace-replacing-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for name in ["old-a.png", "old-b.png", "notes.txt"] {
+            write_atomic(&dir.join(name), b"earlier").unwrap();
+        }
+        let mut set = FileSet::new();
+        set.add(dir.join("old-a.png"), b"now".to_vec());
+        set.add(dir.join("new.png"), b"now".to_vec());
+        set.commit_replacing(&dir, |name| name.ends_with(".png")).unwrap();
+        let mut left: Vec<String> =
+            std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        left.sort();
+        assert_eq!(left, ["new.png", "notes.txt", "old-a.png"]);
+        assert_eq!(std::fs::read(dir.join("old-a.png")).unwrap(), b"now");
         std::fs::remove_dir_all(dir).unwrap();
     }
 

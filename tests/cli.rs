@@ -215,7 +215,7 @@ fn bad_scenes_give_positions_and_no_panic() {
     assert_rejected("ricci-below-one", &GOOD.replace(point, &ricci), Some((5, 18)), "at least 1");
     let flat = "Circle(center: (0.0, 0.0, 0.0), normal: (0.0, 0.0, 0.0), ring: 0.5, radius: 0.3)";
     assert_rejected("circle-without-normal", &GOOD.replace(point, flat), Some((5, 63)), "no length");
-    let nested = (0..300).fold(point.to_string(), |inner, _| format!("Blend([{inner}])"));
+    let nested = (0..600).fold(point.to_string(), |inner, _| format!("Blend([{inner}])"));
     assert_rejected("too-deep", &GOOD.replace(point, &nested), None, "nests deeper than");
     let many = |node: &str, n: usize| GOOD.replace(point, &vec![node; n].join(", "));
     let spline = "SplinePoints(control: [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)], count: 1000000, radius: 0.01)";
@@ -1070,15 +1070,15 @@ fn edit_scripts_are_checked_where_they_are_written_and_edits_that_overreach_are_
     // found when the frame is applied, and named where the frame is written.
     let err =
         run("EditScript(frames: [\n  (repeat: 2, edits: []),\n  (edits: [Radius(node: \"probe\", radius: 5e5)])])");
-    assert!(err.contains("s.ron:3:3: frame 2") && err.contains("cells of the mesh lattice"), "{err}");
+    assert!(err.contains("s.ron:3:3: frame 3") && err.contains("cells of the mesh lattice"), "{err}");
     // The wrong kind of node is named by its name.
     let err = run("EditScript(frames: [(edits: [Radius(node: \"hair\", radius: 0.5)])])");
-    assert!(err.contains("s.ron:1:21: frame 0") && err.contains("the node under \"hair\" is a"), "{err}");
+    assert!(err.contains("s.ron:1:21: frame 1") && err.contains("the node under \"hair\" is a"), "{err}");
     // A name an earlier frame removed.
     let err = run(
         "EditScript(frames: [(edits: [Remove(node: \"probe\")]),\n (edits: [Radius(node: \"probe\", radius: 0.5)])])",
     );
-    assert!(err.contains("s.ron:2:2: frame 1: no node is named \"probe\""), "{err}");
+    assert!(err.contains("s.ron:2:2: frame 2: no node is named \"probe\""), "{err}");
     std::fs::remove_dir_all(dir).unwrap();
 }
 
@@ -1256,7 +1256,8 @@ fn view_runs_headless_on_keys_and_explains_a_missing_display() {
         blobtrace(&["view", "scenes/hair_point.ron", "--node", "tail", "--headless", "-o", png.to_str().unwrap()]);
     let bad_node_err = String::from_utf8_lossy(&bad_node.stderr);
     assert!(!bad_node.status.success() && bad_node_err.contains("no node is named \"tail\""), "{bad_node_err}");
-    // Local updates run on the --res lattice alone: --refine is refused, not ignored.
+    // Local updates run on the --res lattice alone: --refine is no option of
+    // theirs (refused as any unknown option, not ignored), and their help omits it.
     let out_dir = dir.join("edit");
     let commands: [&[&str]; 2] = [
         &["view", "scenes/hair_point.ron", "--refine", "1", "--headless", "-o", png.to_str().unwrap()],
@@ -1274,8 +1275,14 @@ fn view_runs_headless_on_keys_and_explains_a_missing_display() {
     for args in commands {
         let refined = blobtrace(args);
         let refined_err = String::from_utf8_lossy(&refined.stderr);
-        assert!(!refined.status.success() && refined_err.contains("--refine does not apply"), "{refined_err}");
+        assert_eq!(refined.status.code(), Some(64), "{refined_err}");
+        assert!(refined_err.contains("unexpected argument '--refine'"), "{refined_err}");
+        let help = blobtrace(&[args[0], "--help"]);
+        let help = String::from_utf8_lossy(&help.stdout);
+        assert!(help.contains("--res") && !help.contains("--refine"), "{} --help offers --refine: {help}", args[0]);
     }
+    let help = blobtrace(&["mesh", "--help"]);
+    assert!(String::from_utf8_lossy(&help.stdout).contains("--refine"), "mesh still refines");
     let no_display = Command::new(env!("CARGO_BIN_EXE_blobtrace"))
         .args(["view", "scenes/sphere.ron", "--res", "16", "--size", "32x24"])
         .current_dir(env!("CARGO_MANIFEST_DIR"))
@@ -1503,5 +1510,309 @@ fn the_crown_cache_pays_so_auto_answers_from_its_lattice_on_any_thread_count() {
     assert_eq!(auto, render(&["--mode", "cached"], "cached").1);
     assert_eq!(auto, render(&["--threads", "1"], "one").1);
     assert_ne!(auto, render(&["--mode", "exact"], "exact").1, "the lattice's image is not the exact one");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// A scene text whose model is `model`, with a small image.
+fn scene_with(model: &str) -> String {
+    format!(
+        "Scene(\n    camera: Camera(eye: (0.0, 0.0, 4.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),\n    size: (8, 8),\n    model: {model},\n)\n"
+    )
+}
+
+/// The 1-based line and column where `marker` first occurs in `text`; a `|`
+/// in the marker points past the text before it (`")|),"`: the second `)`).
+fn position_of(text: &str, marker: &str) -> (usize, usize) {
+    let (lead, _) = marker.split_once('|').unwrap_or(("", marker));
+    let at = text.find(&marker.replace('|', "")).unwrap_or_else(|| panic!("{marker} not in {text}")) + lead.len();
+    let before = &text[..at];
+    (before.matches('\n').count() + 1, before.rsplit('\n').next().unwrap().chars().count() + 1)
+}
+
+/// Runs `args` with `file` (a scene, script or manifest) written from `text`;
+/// the error message, checked to be in the file's own words at `marker`.
+fn error_in_own_words(args: &[&str], file: &Path, text: &str, marker: &str, words: &[&str]) -> String {
+    std::fs::write(file, text).unwrap();
+    let out = blobtrace(args);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "{text}: {err}");
+    let (line, column) = position_of(text, marker);
+    let at = format!("{}:{line}:{column}: ", file.display());
+    assert!(err.contains(&at), "expected {at} in {err}");
+    for word in words {
+        assert!(err.to_lowercase().contains(&word.to_lowercase()), "expected {word:?} in {err}");
+    }
+    // Neither the grammar's Rust types nor the RON library's advice.
+    for internal in ["enum", "Desc", "raw identifier", "r#", "recursion_limit", "serde", "tuple", "u32", "Unexpected"] {
+        assert!(!err.contains(internal), "{internal:?} in {err}");
+    }
+    err
+}
+
+#[test]
+fn scene_script_and_manifest_errors_say_what_the_file_may_write_there() {
+    let dir = scratch("own-words");
+    let scene = dir.join("s.ron");
+    let png = dir.join("s.png");
+    let render = ["render", scene.to_str().unwrap(), "-o", png.to_str().unwrap()];
+    let point = "Point(center: (0.0, 0.0, 0.0), radius: 1.0)";
+    let cached = |opts: &str| scene_with(&format!("Cache(res: 32, {opts}, child: {point})"));
+    let cases: [(String, &str, &[&str]); 14] = [
+        (
+            scene_with(&point.replace("Point", "Pointy")),
+            "Pointy",
+            &["expected a node", "Point, Segment, Circle", "Named or Cache"],
+        ),
+        (scene_with(&format!("Twist(axis: W, rate: 1.0, child: {point})")), "W,", &["expected an axis", "X, Y or Z"]),
+        (scene_with(&format!("Twist(axis: \"Y\", rate: 1.0, child: {point})")), "\"Y\"", &["write Y, not \"Y\""]),
+        (scene_with(&point.replace("1.0)", "1.0, kernel: Gauss)")), "Gauss", &["expected a kernel", "Wyvill"]),
+        (cached("value: Cubic"), "Cubic", &["reconstruction filter", "Trilinear or Triquadratic"]),
+        (cached("storage: F64"), "F64", &["sample storage", "F32 or F16"]),
+        (cached("use: Sometimes"), "Sometimes", &["`use`", "Auto, Always or Never"]),
+        (cached("res: 2.5").replacen("res: 32, ", "", 1), ".5", &["whole number"]),
+        (scene_with(&format!("Ricci(4, [{point}], 3)")), "3)", &["closing `)`"]),
+        (scene_with("Point((0.0, 0.0, 0.0), 1.0)"), "Point(|(0.0", &["field name"]),
+        (
+            scene_with(&point.replace("(0.0, 0.0, 0.0)", "(0.0, 0.0)")),
+            "), radius",
+            &["3 values in parentheses", "found 2"],
+        ),
+        (scene_with(&point.replace(", radius: 1.0", "")), ")|),", &["Point needs its `radius`"]),
+        (scene_with(&format!("Named(probe, {point})")), "probe", &["in double quotes"]),
+        (scene_with(&format!("Difference({point})")), "),\n)", &["Difference( … ) with 2 values", "found 1"]),
+    ];
+    for (text, marker, words) in &cases {
+        error_in_own_words(&render, &scene, text, marker, words);
+    }
+    // Edit scripts: an edit and an operator that do not exist.
+    let script = dir.join("e.ron");
+    let edit =
+        ["edit", "scenes/hair_point.ron", "--script", script.to_str().unwrap(), "--out-dir", dir.to_str().unwrap()];
+    let spin = "EditScript(frames: [\n  (edits: [Spin(node: \"probe\")]),\n])";
+    error_in_own_words(&edit, &script, spin, "Spin", &["expected an edit", "Translate, Rotate", "Remove or Operator"]);
+    let smooth = "EditScript(frames: [(edits: [Operator(node: \"hair\", op: Smooth)])])";
+    error_in_own_words(&edit, &script, smooth, "Smooth", &["expected an operator", "Intersection or Ricci"]);
+    // A manifest entry of a kind that does not exist.
+    let refs = dir.join("refs");
+    std::fs::create_dir_all(&refs).unwrap();
+    let manifest = refs.join("manifest.ron");
+    let report = dir.join("r");
+    let regress = ["regress", "--refs", refs.to_str().unwrap(), "--report", report.to_str().unwrap()];
+    let feld = "Manifest(entries: [Entry(scene: \"sphere.ron\", size: (8, 8), kind: Feld)])";
+    error_in_own_words(&regress, &manifest, feld, "Feld", &["entry's kind", "Field or Mesh"]);
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn models_nest_512_nodes_deep_and_a_deeper_one_is_refused_where_it_goes_too_deep() {
+    let dir = scratch("nesting");
+    let scene = dir.join("deep.ron");
+    let point = "Point(center: (0.0, 0.0, 0.0), radius: 1.0)";
+    let chain = |n: usize, node: &str| (1..n).fold(point.to_string(), |inner, _| node.replace('@', &inner));
+    let render = |text: &str| {
+        std::fs::write(&scene, text).unwrap();
+        let out = blobtrace(&["render", scene.to_str().unwrap(), "-o", dir.join("deep.png").to_str().unwrap()]);
+        (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    // 169 transforms were refused as "deeper than 512 levels"; every kind of
+    // node nests to the documented depth and renders.
+    for node in ["Transform(child: @)", "Blend([@])", "Difference(@, Point(center: (5.0, 0.0, 0.0), radius: 0.1))"] {
+        for n in [169, 512] {
+            let (code, err) = render(&scene_with(&chain(n, node)));
+            assert_eq!(code, Some(0), "{n} levels of {node}: {err}");
+        }
+    }
+    // One more is refused in nodes, at the node that goes too deep.
+    let text = scene_with(&chain(513, "Transform(child: @)"));
+    let (code, err) = render(&text);
+    let (line, column) = (4, position_of(&text, point).1);
+    let at = format!("{}:{line}:{column}: the model nests deeper than 512 nodes", scene.display());
+    assert!(code == Some(1) && err.contains(&at), "expected {at} in {err}");
+    // Far deeper still: the same clear error, no overflowing stack.
+    let (code, err) = render(&scene_with(&chain(100_000, "Blend([@])")));
+    assert!(code == Some(1) && err.contains("nests deeper than 512 nodes") && !err.contains("overflow"), "{err}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn the_readme_scene_table_lists_every_node_and_each_reads_as_it_is_written() {
+    let dir = scratch("readme-nodes");
+    let readme = std::fs::read_to_string("README.md").unwrap();
+    let scene = dir.join("s.ron");
+    let info = |text: &str| {
+        std::fs::write(&scene, text).unwrap();
+        let out = blobtrace(&["info", scene.to_str().unwrap()]);
+        (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    // The table's nodes are the parser's: those its error for an unknown node lists.
+    let table = &readme[readme.find("| node | fields").unwrap()..];
+    let rows = table.lines().skip(2).take_while(|l| l.starts_with('|'));
+    let mut listed: Vec<String> = rows
+        .flat_map(|row| {
+            row.split('|').nth(1).unwrap().split('`').skip(1).step_by(2).map(str::to_string).collect::<Vec<_>>()
+        })
+        .map(|form| form.chars().take_while(char::is_ascii_alphanumeric).collect())
+        .collect();
+    let (_, err) = info(&scene_with("Nothing(radius: 1.0)"));
+    let known = err.split("a node is ").nth(1).expect("the parser lists its nodes").trim();
+    let mut known: Vec<String> = known.replace(" or ", ", ").split(", ").map(str::to_string).collect();
+    listed.sort();
+    known.sort();
+    assert_eq!(listed, known, "the README's table against the parser");
+    // Each row's form, every field the table names, read as the table writes it.
+    let p = "Point(center: (0.0, 0.0, 0.0), radius: 1.0)";
+    let forms = [
+        "Point(center: (0.0, 0.0, 0.0), radius: 1.0, weight: 1.0, kernel: Wyvill, color: (0.5, 0.5, 0.5))".to_string(),
+        "Segment(a: (0.0, 0.0, 0.0), b: (1.0, 0.0, 0.0), radius: 0.5, weight: 1.0, kernel: Wyvill, color: (0.5, 0.5, 0.5))".into(),
+        "Circle(center: (0.0, 0.0, 0.0), normal: (0.0, 2.0, 0.0), ring: 1.0, radius: 0.3, weight: 1.0, kernel: Wyvill, color: (0.5, 0.5, 0.5))".into(),
+        "SplinePoints(control: [(0.0, 0.0, 0.0), (1.0, 1.0, 0.0)], count: 10, radius: 0.3, radius_end: 0.1, weight: 1.0, color: (0.5, 0.5, 0.5))".into(),
+        format!("Blend([{p}])"),
+        format!("Union([{p}, {p}])"),
+        format!("Intersection([{p}, {p}])"),
+        format!("Difference({p}, {p})"),
+        format!("Ricci(4, [{p}, {p}])"),
+        format!("Ricci(n: 4, children: [{p}])"),
+        format!("Transform(translate: (1.0, 0.0, 0.0), rotate: (0.0, 0.0, 30.0), scale: (1.0, 2.0, 1.0), child: {p}, color: (0.5, 0.5, 0.5))"),
+        format!("Twist(axis: X, rate: 0.2, child: {p})"),
+        format!("Taper(axis: Z, from: -1.0, to: 1.0, scale_from: 1.0, scale_to: 0.5, child: {p})"),
+        format!("Bend(rate: 0.1, child: {p})"),
+        format!("Named(\"name\", {p})"),
+        format!("Cache(res: 16, value: Trilinear, gradient: Triquadratic, storage: F16, use: Always, child: {p})"),
+    ];
+    for form in &forms {
+        let (ok, err) = info(&scene_with(form));
+        assert!(ok, "{form}: {err}");
+    }
+    // And the example scene the README writes out.
+    let example = readme.split("```ron\n").nth(1).unwrap().split("```").next().unwrap();
+    let (ok, err) = info(example);
+    assert!(ok, "the README's example: {err}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn view_refuses_an_unknown_node_and_space_without_a_script_as_usage_errors() {
+    let dir = scratch("view-usage");
+    let png = dir.join("v.png");
+    let view = |args: &[&str]| {
+        let out = blobtrace(&[&["view"], args, &["--headless", "-o", png.to_str().unwrap()]].concat());
+        (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (code, err) = view(&["scenes/hair_point.ron", "--node", "nope"]);
+    assert_eq!(code, Some(64), "{err}");
+    assert!(err.contains("no node is named \"nope\"") && err.contains("probe"), "names the nodes there are: {err}");
+    let (code, err) = view(&["scenes/hair_point.ron", "--keys", "right,space"]);
+    assert_eq!(code, Some(64), "{err}");
+    assert!(err.contains("space") && err.contains("no --script"), "{err}");
+    // An unknown key: the message lists the mouse gestures with the keys.
+    let (code, err) = view(&["scenes/sphere.ron", "--keys", "f13"]);
+    assert_eq!(code, Some(64), "{err}");
+    for gesture in ["drag:DX:DY", "pan:DX:DY", "wheel:N", "click:X:Y", "pageup"] {
+        assert!(err.contains(gesture), "{gesture} in {err}");
+    }
+    assert!(!png.exists(), "nothing written");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn mesh_of_a_scene_without_a_surface_warns_and_claims_no_closed_surface() {
+    let dir = scratch("mesh-empty");
+    let scene = dir.join("empty.ron");
+    let sphere = std::fs::read_to_string("scenes/sphere.ron").unwrap();
+    std::fs::write(&scene, sphere.replace("threshold: 0.5", "threshold: 5.0")).unwrap();
+    let ply = dir.join("e.ply");
+    let args = ["mesh", scene.to_str().unwrap(), "--res", "16", "-o", ply.to_str().unwrap()];
+    let out = blobtrace(&args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && err.contains("0 triangles") && err.contains("warning: no surface"), "{err}");
+    for nonsense in ["per triangle", "closed", "watertight"] {
+        assert!(!err.contains(nonsense), "{nonsense:?} of no triangles: {err}");
+    }
+    let out = blobtrace(&[&args[..], &["--json"]].concat());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("warning: no surface"));
+    let v = json(&out);
+    assert!(v["warning"].as_str().unwrap().contains("no surface"), "{v}");
+    assert!(v["evals_per_triangle"].is_null(), "{v}");
+    assert_eq!((&v["closed_manifold"], &v["quality"]["watertight"]), (&false.into(), &false.into()), "{v}");
+    // A mesh with a surface has neither warning nor gaps.
+    let v = json(&blobtrace(&["mesh", "scenes/sphere.ron", "--res", "16", "-o", args[5], "--json"]));
+    assert!(v.get("warning").is_none() && v["evals_per_triangle"].as_f64().unwrap() > 0.0, "{v}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// A reference folder of one blessed entry, `size` pixels of the pair.
+fn blessed_pair_refs(dir: &Path, size: &str) -> PathBuf {
+    let refs = dir.join("refs");
+    std::fs::create_dir_all(&refs).unwrap();
+    let entry = format!("Manifest(entries: [Entry(scene: \"pair.ron\", size: ({size}), kind: Field)])");
+    std::fs::write(refs.join("manifest.ron"), entry).unwrap();
+    let out = blobtrace(&["regress", "--refs", refs.to_str().unwrap(), "--bless"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    refs
+}
+
+#[test]
+fn regress_fails_when_a_filter_or_shard_selects_no_entry_unless_empty_runs_are_allowed() {
+    let dir = scratch("regress-empty");
+    let refs = blessed_pair_refs(&dir, "16, 12");
+    let (junit, report) = (dir.join("junit.xml"), dir.join("r"));
+    let args = ["regress", "--refs", refs.to_str().unwrap(), "--report", report.to_str().unwrap(), "--junit"];
+    let run = |extra: &[&str]| {
+        let out = blobtrace(&[&args[..], &[junit.to_str().unwrap()], extra].concat());
+        (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (code, err) = run(&["--filter", "piar"]);
+    assert!(code == Some(1) && err.contains("no entry matches piar"), "{err}");
+    assert!(!junit.exists(), "no JUnit file to pass CI");
+    let (code, err) = run(&["--shard", "2/2"]);
+    assert!(code == Some(1) && err.contains("shard 2/2 holds no entry"), "{err}");
+    assert!(!junit.exists());
+    // Allowed, an empty shard passes, and says it ran nothing.
+    let (code, err) = run(&["--shard", "2/2", "--allow-empty"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(std::fs::read_to_string(&junit).unwrap().contains("tests=\"0\""));
+    let (code, err) = run(&["--filter", "pair"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(std::fs::read_to_string(&junit).unwrap().matches("<testcase").count(), 1);
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn regress_junit_goes_into_folders_it_creates() {
+    let dir = scratch("regress-junit");
+    let refs = blessed_pair_refs(&dir, "16, 12");
+    let (junit, report) = (dir.join("ci").join("reports").join("regress.xml"), dir.join("r"));
+    let args = ["regress", "--refs", refs.to_str().unwrap(), "--report", report.to_str().unwrap()];
+    let out = blobtrace(&[&args[..], &["--junit", junit.to_str().unwrap()]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read_to_string(&junit).unwrap().contains("<testcase"));
+    // Still no directory in the file's place, nor a misnamed file.
+    for bad in [dir.join("ci"), dir.join("ci").join("regress.txt")] {
+        let out = blobtrace(&[&args[..], &["--junit", bad.to_str().unwrap()]].concat());
+        assert!(!out.status.success(), "{}", bad.display());
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn the_regress_report_describes_the_last_run_alone() {
+    let dir = scratch("regress-stale");
+    let refs = blessed_pair_refs(&dir, "96, 72");
+    let report = dir.join("report");
+    let run = |scenes: &Path| {
+        let (refs, report) = (refs.to_str().unwrap(), report.to_str().unwrap());
+        blobtrace(&["regress", "--refs", refs, "--report", report, "--scenes", scenes.to_str().unwrap()])
+    };
+    let failure = ["ref", "actual", "diff", "heat"].map(|kind| report.join(format!("{kind}-pair-field-96x72.png")));
+    assert!(!run(&scenes_with_a_grown_radius(&dir)).status.success());
+    assert!(failure.iter().all(|f| f.exists()), "the failure's images");
+    std::fs::write(report.join("notes.txt"), "mine").unwrap();
+    let out = run(Path::new("scenes"));
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for stale in &failure {
+        assert!(!stale.exists(), "{} is left from the run before", stale.display());
+    }
+    assert!(std::fs::read_to_string(report.join("index.html")).unwrap().contains("Pass"));
+    assert_eq!(std::fs::read_to_string(report.join("notes.txt")).unwrap(), "mine", "what is not the report's stays");
     std::fs::remove_dir_all(dir).unwrap();
 }

@@ -197,7 +197,7 @@ fn table_row(scene: &mut Scene, args: &PolygonizeSettings) -> Result<TableRow> {
         indexed_over_cached: ratio(&indexed),
         paper_ratio: PAPER_RATIOS.iter().find(|(r, _)| *r == args.res).map(|&(_, x)| x),
         triangles: (cached.triangles, indexed.triangles),
-        evals_per_triangle: (cached.evals_per_triangle, indexed.evals_per_triangle),
+        evals_per_triangle: (per_triangle(&cached), per_triangle(&indexed)),
         cache_touched_fraction: touched,
     })
 }
@@ -207,7 +207,7 @@ fn placement_cost(scene: &Scene, args: PolygonizeSettings) -> Result<PlacementCo
     let run = |vertex| polygonize(&scene.model, EvalMode::Indexed, &PolygonizeSettings { vertex, ..args }, &Silent);
     let (root, linear) = (run(VertexPlacement::default())?.1, run(VertexPlacement::Linear)?.1);
     let cells = cells_name(args.cells).to_string();
-    Ok(PlacementCost { cells, res: args.res, root: root.evals_per_triangle, linear: linear.evals_per_triangle })
+    Ok(PlacementCost { cells, res: args.res, root: per_triangle(&root), linear: per_triangle(&linear) })
 }
 
 /// The bundled sphere polygonized at `detail`'s resolution, on one thread and on all.
@@ -224,4 +224,10 @@ fn triangle_rate(detail: &PolygonizeSettings) -> Result<TriangleRate> {
         all_threads: all.triangles_per_second,
         threads: all.threads,
     })
+}
+
+/// Evaluations per triangle, NaN (null in JSON) for a mesh without any: the
+/// bench's scenes all have a surface, so a NaN says a bench scene lost it.
+fn per_triangle(report: &MeshReport) -> f64 {
+    report.evals_per_triangle.unwrap_or(f64::NAN)
 }

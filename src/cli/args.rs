@@ -104,9 +104,10 @@ pub enum VertexArg {
     Linear,
 }
 
-/// How to polygonize: shared by every command that builds a mesh.
+/// The polygonizer's lattice: shared by every command that builds a mesh,
+/// the incremental ones (`edit`, `view`) included.
 #[derive(Clone, Copy, Debug, Args)]
-pub struct PolygonizeArgs {
+pub struct LatticeArgs {
     /// Lattice cells along the longest side of the model's bounds.
     #[arg(long, default_value_t = 128)]
     pub res: u32,
@@ -116,6 +117,32 @@ pub struct PolygonizeArgs {
     /// Vertex placement.
     #[arg(long, value_enum, default_value_t = VertexArg::Root)]
     pub vertex: VertexArg,
+}
+
+impl LatticeArgs {
+    /// The pipelines' polygonization settings, unrefined.
+    #[must_use]
+    pub fn settings(&self) -> PolygonizeSettings {
+        PolygonizeSettings {
+            res: self.res,
+            cells: self.cells.into(),
+            vertex: match self.vertex {
+                VertexArg::Root => VertexPlacement::default(),
+                VertexArg::Linear => VertexPlacement::Linear,
+            },
+            refine: 0,
+            repair: MeshRepair::default(),
+        }
+    }
+}
+
+/// How to polygonize from scratch: the lattice, and refinement (which local
+/// updates cannot take, so `edit` and `view` take [`LatticeArgs`] alone).
+#[derive(Clone, Copy, Debug, Args)]
+pub struct PolygonizeArgs {
+    /// The lattice.
+    #[command(flatten)]
+    pub lattice: LatticeArgs,
     /// Refine K levels: polygonize at res·2^K, grown from the surface found at
     /// res instead of from the skeletons (coarse and fine meshes of one lattice family).
     #[arg(long, default_value_t = 0, value_name = "K")]
@@ -126,16 +153,7 @@ impl PolygonizeArgs {
     /// The pipelines' polygonization settings.
     #[must_use]
     pub fn settings(&self) -> PolygonizeSettings {
-        PolygonizeSettings {
-            res: self.res,
-            cells: self.cells.into(),
-            vertex: match self.vertex {
-                VertexArg::Root => VertexPlacement::default(),
-                VertexArg::Linear => VertexPlacement::Linear,
-            },
-            refine: self.refine,
-            repair: MeshRepair::default(),
-        }
+        PolygonizeSettings { refine: self.refine, ..self.lattice.settings() }
     }
 }
 
@@ -253,6 +271,13 @@ pub fn check_output_dir(path: &Path) -> anyhow::Result<()> {
 /// format written), so no file is given a name that misstates its contents.
 pub fn check_output_file(path: &Path, extension: &str) -> anyhow::Result<()> {
     check_output_dir(path)?;
+    check_output_name(path, extension)
+}
+
+/// That `path` is no directory and its name ends in `.extension`, for an
+/// output whose missing folders the command creates.
+pub fn check_output_name(path: &Path, extension: &str) -> anyhow::Result<()> {
+    anyhow::ensure!(!path.is_dir(), "{}: is a directory, not a file to write", path.display());
     let named = path.extension().is_some_and(|e| e.eq_ignore_ascii_case(extension));
     if !named {
         let problem = format!("the output is written as {extension}, so its name must end in .{extension}");

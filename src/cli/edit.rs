@@ -7,9 +7,7 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 
-use super::args::{
-    CameraArgs, EvalOptions, PolygonizeArgs, create_dir, load_scene, parse_size, print_json, with_threads,
-};
+use super::args::{CameraArgs, EvalOptions, LatticeArgs, create_dir, load_scene, parse_size, print_json, with_threads};
 use super::progress::Bars;
 use crate::compare::{frame_image, line_plot};
 use crate::frame::{Frame, Size};
@@ -34,7 +32,7 @@ pub struct EditArgs {
     pub camera: CameraArgs,
     /// Polygonizer options.
     #[command(flatten)]
-    pub polygonize: PolygonizeArgs,
+    pub polygonize: LatticeArgs,
     /// Field evaluation.
     #[command(flatten)]
     pub field: EvalOptions,

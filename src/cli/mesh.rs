@@ -81,6 +81,9 @@ pub fn run(a: &MeshArgs) -> anyhow::Result<()> {
     })??;
     bars.finish();
     write_mesh(&output, &mesh, format).with_context(|| format!("writing {}", output.display()))?;
+    if let Some(warning) = &report.warning {
+        eprintln!("warning: {warning}");
+    }
     if a.json {
         return print_json(&report);
     }
@@ -89,15 +92,18 @@ pub fn run(a: &MeshArgs) -> anyhow::Result<()> {
 }
 
 fn print_summary(output: &std::path::Path, report: &MeshReport) {
+    let per_triangle = report.evals_per_triangle.map_or(String::new(), |e| {
+        let closed = if report.closed_manifold { "closed" } else { "NOT closed" };
+        format!(", {e:.2} field evaluations per triangle, {closed}")
+    });
     eprintln!(
-        "{}: {} triangles, {} vertices in {:.3} s, {:.2} field evaluations per triangle{}",
+        "{}: {} triangles, {} vertices in {:.3} s{per_triangle}",
         output.display(),
         report.triangles,
         report.vertices,
         report.seconds,
-        report.evals_per_triangle,
-        if report.closed_manifold { ", closed" } else { ", NOT closed" }
     );
+
     eprintln!("quality: {}", report.quality.headline());
     if let Some(repairs) = &report.repairs {
         print_repairs(repairs);

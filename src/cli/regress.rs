@@ -1,13 +1,14 @@
 //! `blobtrace regress`: render every entry of a reference manifest, compare
 //! each with its stored reference under the entry's tolerances (the `diff`
 //! rules), report failures with images and one HTML page, and exit non-zero
-//! on any failure; `--bless` rewrites the references.
+//! on any failure (and when `--filter` or `--shard` selects no entry, unless
+//! `--allow-empty`); `--bless` rewrites the references.
 
 use std::path::PathBuf;
 
 use clap::Args;
 
-use super::args::{check_output_file, with_threads};
+use super::args::{check_output_name, with_threads};
 use super::progress::Bars;
 use crate::pipeline::{RegressSettings, regress};
 
@@ -23,16 +24,22 @@ pub struct RegressArgs {
     /// Rewrite every reference from the current renders instead of comparing.
     #[arg(long)]
     pub bless: bool,
-    /// Directory for actual images, heat maps of failures and index.html.
+    /// Directory for actual images, heat maps of failures and index.html
+    /// (created if missing; what an earlier run left there is replaced).
     #[arg(long, default_value = "regress-report")]
     pub report: PathBuf,
-    /// Only the entries whose reference name contains PATTERN.
+    /// Only the entries whose reference name contains PATTERN (none matching fails).
     #[arg(long, value_name = "PATTERN")]
     pub filter: Option<String>,
     /// Only shard I of N (e.g. 2/3): N shards, one per CI job, run every entry once.
     #[arg(long, value_name = "I/N", value_parser = parse_shard)]
     pub shard: Option<(usize, usize)>,
-    /// Also write JUnit XML of the results (one test case per entry) here.
+    /// Pass when --filter or --shard selects no entry (a shard of a short
+    /// manifest, say); without it such a run fails, so a typo cannot pass CI.
+    #[arg(long)]
+    pub allow_empty: bool,
+    /// Also write JUnit XML of the results (one test case per entry) here;
+    /// missing folders are created.
     #[arg(long, value_name = "FILE")]
     pub junit: Option<PathBuf>,
     /// Worker threads (default: all cores). The renders are identical for any count.
@@ -52,7 +59,7 @@ fn parse_shard(s: &str) -> Result<(usize, usize), String> {
 /// Runs `blobtrace regress`.
 pub fn run(a: &RegressArgs) -> anyhow::Result<()> {
     if let Some(junit) = &a.junit {
-        check_output_file(junit, "xml")?;
+        check_output_name(junit, "xml")?;
     }
     let settings = RegressSettings {
         scenes: a.scenes.clone(),
@@ -62,6 +69,7 @@ pub fn run(a: &RegressArgs) -> anyhow::Result<()> {
         filter: a.filter.clone(),
         shard: a.shard,
         junit: a.junit.clone(),
+        allow_empty: a.allow_empty,
     };
     let bars = Bars::new();
     let log = |line: &str| bars.suspend(|| eprintln!("{line}"));

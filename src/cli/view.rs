@@ -5,8 +5,9 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::args::{CameraArgs, EvalOptions, PolygonizeArgs, check_output_file, load_scene, parse_size, worker_pool};
+use super::args::{CameraArgs, EvalOptions, LatticeArgs, check_output_file, load_scene, parse_size, worker_pool};
 use super::exit::UsageError;
+use crate::field::Model;
 use crate::frame::Size;
 use crate::pipeline::{EditSession, check_names};
 use crate::scene::{Script, load_script};
@@ -59,7 +60,7 @@ pub struct ViewArgs {
     pub output: PathBuf,
     /// Polygonizer options.
     #[command(flatten)]
-    pub polygonize: PolygonizeArgs,
+    pub polygonize: LatticeArgs,
     /// Field evaluation.
     #[command(flatten)]
     pub field: EvalOptions,
@@ -67,10 +68,10 @@ pub struct ViewArgs {
 
 /// Runs `blobtrace view`.
 pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
-    let actions = a.keys.iter().map(|k| Action::named(k)).collect::<anyhow::Result<Vec<_>>>();
-    let actions = actions.map_err(|e| UsageError(format!("{e:#}")))?;
+    let actions = parse_keys(&a.keys, a.script.is_some())?;
     check_output_file(&a.output, "png")?;
     let mut scene = load_scene(&a.scene, &a.camera)?;
+    check_node(&scene.model, a.node.as_deref())?;
     let mode = a.field.apply(&mut scene.model)?;
     let script = match &a.script {
         Some(path) => load_script(path)?,
@@ -99,4 +100,33 @@ pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
     eprintln!("{}", viewer.title());
     let image = if a.hud { viewer.screen() } else { viewer.image() };
     Ok(image.save_png(&a.output)?)
+}
+
+/// The actions of `--keys`; Space steps a script, so it needs `--script`.
+fn parse_keys(keys: &[String], scripted: bool) -> Result<Vec<Action>, UsageError> {
+    let gestures = "drag:DX:DY (orbit), pan:DX:DY, wheel:N (zoom), click:X:Y (select)";
+    let actions = keys.iter().map(|k| Action::named(k)).collect::<anyhow::Result<Vec<_>>>().map_err(|e| {
+        let message = format!("{e:#}");
+        // The viewer's list names the keys; a person typing a gesture needs those too.
+        match message.contains("drag:DX:DY") {
+            true => UsageError(message),
+            false => UsageError(format!("{message}; or a mouse gesture: {gestures}")),
+        }
+    })?;
+    if !scripted && actions.contains(&Action::NextScriptFrame) {
+        return Err(UsageError("--keys space steps an edit script's frames, and no --script is given".into()));
+    }
+    Ok(actions)
+}
+
+/// Checks before any work that `--node` names a node of the scene.
+fn check_node(model: &Model, node: Option<&str>) -> Result<(), UsageError> {
+    let names = model.names();
+    match node {
+        Some(n) if !names.contains(&n) => Err(UsageError(match names.is_empty() {
+            true => format!("--node: no node is named {n:?} (the scene names none)"),
+            false => format!("--node: no node is named {n:?} (names: {})", names.join(", ")),
+        })),
+        _ => Ok(()),
+    }
 }

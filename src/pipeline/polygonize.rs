@@ -153,8 +153,8 @@ pub struct MeshReport {
     pub vertices: usize,
     /// Every field evaluation (corner values, root finding, gradients, colours).
     pub field_evals: u64,
-    /// Field evaluations per triangle.
-    pub evals_per_triangle: f64,
+    /// Field evaluations per triangle (none without triangles).
+    pub evals_per_triangle: Option<f64>,
     /// Evaluations by kind and cells visited.
     #[serde(flatten)]
     pub work: PolygonizeStats,
@@ -162,8 +162,12 @@ pub struct MeshReport {
     pub crossed_cells: u64,
     /// Triangles per second.
     pub triangles_per_second: f64,
-    /// True when every edge is shared by exactly two consistently oriented triangles.
+    /// True when every edge is shared by exactly two consistently oriented
+    /// triangles, and there is one (no triangles bound nothing).
     pub closed_manifold: bool,
+    /// Why the mesh may not be what was meant: it has no triangles.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warning: Option<String>,
     /// Pieces, watertightness, genus, triangle shape, normals, self-intersections.
     pub quality: MeshQuality,
     /// Wall-clock seconds measuring `quality` (not in `seconds`).
@@ -182,6 +186,10 @@ pub struct MeshReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error_c: Option<CacheErrorStats>,
 }
+
+/// The warning of a mesh without triangles.
+pub const NO_SURFACE: &str =
+    "no surface: the field never exceeds the threshold on the lattice (is the threshold above the field's maximum?)";
 
 /// Polygonizes `model` evaluating its field in `mode`, from scratch (caches as
 /// they are), after checking the settings and that the mesh fits in memory;
@@ -237,11 +245,12 @@ fn report(
         triangles: mesh.triangles.len(),
         vertices: mesh.positions.len(),
         field_evals,
-        evals_per_triangle: field_evals as f64 / mesh.triangles.len().max(1) as f64,
+        evals_per_triangle: (!mesh.triangles.is_empty()).then(|| field_evals as f64 / mesh.triangles.len() as f64),
         work: counts.stats,
         crossed_cells: counts.crossed_cells,
         triangles_per_second: mesh.triangles.len() as f64 / seconds.max(1e-9),
         closed_manifold: quality.watertight,
+        warning: mesh.triangles.is_empty().then(|| NO_SURFACE.to_string()),
         quality,
         quality_seconds,
         repairs: None,

@@ -2,6 +2,11 @@
 //! compare each with its stored reference under the entry's tolerances (the
 //! `diff` rules), keep images of the failures and one HTML page; or bless,
 //! rewriting the references from the current renders.
+//!
+//! The report folder describes the last run alone: its page, its failures'
+//! images and the JUnit file are written together, all or none, and images
+//! an earlier run left there are removed. A filter or shard that selects no
+//! entry is an error (a typo must not pass CI) unless empty runs are allowed.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -15,8 +20,9 @@ use super::render::{render_field, render_mesh};
 use crate::compare::{DiffReport, Metric, Scale, Thresholds, Verdict, differences, heat_map, judge, load_image};
 use crate::field::EvalMode;
 use crate::frame::{Frame, Size};
+use crate::output::FileSet;
 use crate::progress::{Progress, Silent};
-use crate::scene::{Scene, SceneError, entry_positions, values};
+use crate::scene::{Scene, SceneError, entry_positions, syntax_error, values};
 
 /// Where a regression run reads and writes.
 #[derive(Clone, Debug)]
@@ -34,8 +40,10 @@ pub struct RegressSettings {
     /// Only shard `i` of `n` (from 1): the entries whose place in the manifest
     /// is `i − 1` modulo `n`, so `n` shards together run every entry once.
     pub shard: Option<(usize, usize)>,
-    /// Also write JUnit XML of the results here.
+    /// Also write JUnit XML of the results here (its folder is created).
     pub junit: Option<PathBuf>,
+    /// Accept a filter or shard that selects no entry (an empty run passes).
+    pub allow_empty: bool,
 }
 
 impl RegressSettings {
@@ -43,6 +51,17 @@ impl RegressSettings {
     fn selects(&self, place: usize, name: &str) -> bool {
         let in_shard = self.shard.is_none_or(|(i, n)| place % n == i - 1);
         in_shard && self.filter.as_deref().is_none_or(|f| name.contains(f))
+    }
+
+    /// Why selecting no entry of a manifest of `total` fails the run.
+    fn nothing_selected(&self, total: usize) -> PipelineError {
+        let what = match (&self.filter, self.shard) {
+            (Some(f), Some((i, n))) => format!("no entry of shard {i}/{n} matches {f}"),
+            (Some(f), None) => format!("no entry matches {f}"),
+            (None, Some((i, n))) => format!("shard {i}/{n} holds no entry (the manifest has {total})"),
+            (None, None) => "the manifest has no entries".to_string(),
+        };
+        PipelineError::Unsuitable(format!("{what}; nothing was run (--allow-empty accepts an empty run)"))
     }
 
     /// Checks the shard before any work.
@@ -153,8 +172,7 @@ pub fn load_manifest(refs: &Path, scenes: &Path) -> Result<Manifest> {
     })?;
     let syntax =
         |line, column, message| PipelineError::Scene(SceneError::Syntax { path: label.clone(), line, column, message });
-    let manifest: Manifest =
-        ron::from_str(&text).map_err(|e| syntax(e.span.start.line, e.span.start.col, e.code.to_string()))?;
+    let manifest: Manifest = ron::from_str(&text).map_err(|e| PipelineError::Scene(syntax_error(&label, &text, &e)))?;
     let positions = entry_positions(&text);
     for (k, entry) in manifest.entries.iter().enumerate() {
         let scene = scenes.join(&entry.scene);
@@ -185,11 +203,16 @@ pub fn regress(settings: &RegressSettings, progress: &dyn Progress, log: &dyn Fn
         .filter(|(k, e)| settings.selects(*k, &e.file_name()))
         .map(|(_, e)| e)
         .collect();
-    if !settings.bless {
-        std::fs::create_dir_all(&settings.report)
-            .map_err(|e| PipelineError::File { path: settings.report.clone(), message: e.to_string() })?;
+    if entries.is_empty() && !settings.allow_empty {
+        return Err(settings.nothing_selected(manifest.entries.len()));
+    }
+    let folders = settings.junit.iter().filter_map(|j| j.parent()).filter(|d| !d.as_os_str().is_empty());
+    let report = (!settings.bless).then_some(settings.report.as_path());
+    for dir in report.into_iter().chain(folders) {
+        std::fs::create_dir_all(dir).map_err(|e| PipelineError::File { path: dir.into(), message: e.to_string() })?;
     }
     let mut summary = RegressSummary { rows: vec![], blessed: vec![] };
+    let mut files = FileSet::new();
     let n = entries.len() as u64;
     for (i, entry) in entries.into_iter().enumerate() {
         progress.update("regression entries", i as u64, n);
@@ -201,17 +224,26 @@ pub fn regress(settings: &RegressSettings, progress: &dyn Progress, log: &dyn Fn
             summary.blessed.push(reference);
             continue;
         }
-        summary.rows.push(check_entry(entry, &actual, &reference, &settings.report, log)?);
+        summary.rows.push(check_entry(entry, &actual, &reference, &settings.report, &mut files, log)?);
     }
     progress.update("regression entries", n, n);
-    if !settings.bless {
-        write_html(&settings.report.join("index.html"), &summary.rows)?;
-    }
     if let Some(path) = &settings.junit {
-        crate::output::write_atomic(path, junit_xml("blobtrace regress", &summary.rows).as_bytes())
-            .map_err(|e| PipelineError::File { path: path.clone(), message: e.to_string() })?;
+        files.add(path, junit_xml("blobtrace regress", &summary.rows).into_bytes());
+    }
+    if settings.bless {
+        files.commit()?;
+    } else {
+        files.add(settings.report.join("index.html"), html(&summary.rows).into_bytes());
+        files.commit_replacing(&settings.report, is_failure_image)?;
     }
     Ok(summary)
+}
+
+/// Whether a file of the report folder is a failure's image, as
+/// [`save_failure`] names them.
+fn is_failure_image(name: &str) -> bool {
+    let failure = ["ref-", "actual-", "diff-", "heat-"].iter().any(|p| name.starts_with(p));
+    failure && name.ends_with(".png")
 }
 
 /// The render an entry guards.
@@ -234,11 +266,13 @@ fn check_entry(
     actual: &Frame,
     reference: &Path,
     report: &Path,
+    files: &mut FileSet,
     log: &dyn Fn(&str),
 ) -> Result<RegressRow> {
     let name = entry.file_name();
     let Ok(expected) = load_image(reference) else {
-        actual.save_png(&report.join(format!("actual-{name}")))?;
+        let path = report.join(format!("actual-{name}"));
+        files.add(&path, actual.png_bytes_for(&path)?);
         log(&format!("FAIL {name}: no readable reference at {} (bless to create it)", reference.display()));
         return Ok((name, None));
     };
@@ -265,31 +299,35 @@ fn check_entry(
     };
     let diff = judge(Metric::Abs, &values, &vec![false; values.len()], frame.width, thresholds);
     if diff.verdict == Verdict::Fail {
-        save_failure(&name, reference, actual, &quantized, &values, report)?;
+        save_failure(&name, reference, (actual, &quantized), &values, report, files)?;
     }
     log(&format!("{:?} {name}: max {:.4}, {} pixels above {}", diff.verdict, diff.max, diff.over_fail_px, entry.fail));
     Ok((name, Some(diff)))
 }
 
-/// The images of a failed entry: its reference, the render, the brightened
-/// difference and a heat map (titled by metric alone: the page names the entry).
+/// The images of a failed entry, added to the report's files: its reference,
+/// the render, the brightened difference and a heat map (titled by metric
+/// alone: the page names the entry).
 fn save_failure(
     name: &str,
     reference: &Path,
-    actual: &Frame,
-    quantized: &Frame,
+    (actual, quantized): (&Frame, &Frame),
     values: &[f32],
     report: &Path,
+    files: &mut FileSet,
 ) -> Result<()> {
-    let expected =
-        load_image(reference).map_err(|message| PipelineError::File { path: reference.to_path_buf(), message })?.frame;
-    let copy = report.join(format!("ref-{name}"));
-    std::fs::copy(reference, &copy).map_err(|e| PipelineError::File { path: copy, message: e.to_string() })?;
-    actual.save_png(&report.join(format!("actual-{name}")))?;
-    difference_image(quantized, &expected).save_png(&report.join(format!("diff-{name}")))?;
+    let unreadable = |message: String| PipelineError::File { path: reference.to_path_buf(), message };
+    let expected = load_image(reference).map_err(unreadable)?.frame;
+    files.add(report.join(format!("ref-{name}")), std::fs::read(reference).map_err(|e| unreadable(e.to_string()))?);
+    let path = report.join(format!("actual-{name}"));
+    files.add(&path, actual.png_bytes_for(&path)?);
+    let path = report.join(format!("diff-{name}"));
+    files.add(&path, difference_image(quantized, &expected).png_bytes_for(&path)?);
     let path = report.join(format!("heat-{name}"));
     let scale = Scale::Magnitude { max: 0.1 };
-    Ok(heat_map(values, expected.width, expected.height, scale, "abs difference", "").save_png(&path)?)
+    let heat = heat_map(values, expected.width, expected.height, scale, "abs difference", "");
+    files.add(&path, heat.png_bytes_for(&path)?);
+    Ok(())
 }
 
 /// |actual − expected| per channel, brightened eightfold so small differences show.
@@ -310,7 +348,8 @@ fn quantize(frame: &Frame) -> Frame {
     q
 }
 
-fn write_html(path: &Path, rows: &[RegressRow]) -> Result<()> {
+/// The report's page: one row per entry, with a failure's images.
+fn html(rows: &[RegressRow]) -> String {
     let mut html = String::from(
         "<!doctype html><meta charset=utf-8><title>blobtrace regression</title>\
          <style>body{font-family:sans-serif}td,th{padding:4px 8px}.Fail{color:#b00}.Pass{color:#070}</style>\
@@ -333,6 +372,5 @@ fn write_html(path: &Path, rows: &[RegressRow]) -> Result<()> {
         let _ = write!(html, "<tr><td>{name}<td class={verdict}>{verdict}<td>{max}<td>{over}<td>{images}</tr>");
     }
     html.push_str("</table>\n");
-    crate::output::write_atomic(path, html.as_bytes())
-        .map_err(|e| PipelineError::File { path: path.to_path_buf(), message: e.to_string() })
+    html
 }

@@ -175,9 +175,42 @@ impl TryFrom<RawCamera> for CameraDesc {
     }
 }
 
-/// A node of the BlobTree as written in a scene file.
+/// Most nodes a path from the model's root down to a primitive may pass
+/// through. Parsing, building and evaluating a model recurse once a level;
+/// this many levels fit the stacks they run on with room to spare.
+pub const MAX_DEPTH: usize = 512;
+
+thread_local! {
+    /// Nodes being read on this thread, from the root to the one being read.
+    static DEPTH: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// One level of nodes being read, counted in [`DEPTH`] while it lives.
+struct Level;
+
+impl Level {
+    /// Enters a node's level, or refuses one past [`MAX_DEPTH`] where it begins.
+    fn enter<E: de::Error>() -> Result<Level, E> {
+        DEPTH.with(|depth| {
+            if depth.get() >= MAX_DEPTH {
+                return Err(E::custom(format!("the model nests deeper than {MAX_DEPTH} nodes")));
+            }
+            depth.set(depth.get() + 1);
+            Ok(Level)
+        })
+    }
+}
+
+impl Drop for Level {
+    fn drop(&mut self) {
+        DEPTH.with(|depth| depth.set(depth.get() - 1));
+    }
+}
+
+/// A node of the BlobTree as written in a scene file. (The derived grammar
+/// is wrapped by the impls below, which count the levels of nodes.)
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
-#[serde(rename = "node", deny_unknown_fields)]
+#[serde(remote = "Self", rename = "node", deny_unknown_fields)]
 pub enum NodeDesc {
     /// A point skeleton: a blob.
     Point {
@@ -261,7 +294,8 @@ pub enum NodeDesc {
     Intersection(Children),
     /// The first child with the second carved out.
     Difference(Box<NodeDesc>, Box<NodeDesc>),
-    /// Ricci's blend with exponent `n`.
+    /// Ricci's blend with exponent `n`, read by place or by name.
+    #[serde(deserialize_with = "ricci_fields")]
     Ricci {
         /// Exponent, at least 1.
         n: AtLeastOne,
@@ -341,6 +375,53 @@ pub enum NodeDesc {
         /// The cached subtree.
         child: Box<NodeDesc>,
     },
+}
+
+impl<'de> Deserialize<'de> for NodeDesc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let _level = Level::enter()?;
+        NodeDesc::deserialize(d)
+    }
+}
+
+impl Serialize for NodeDesc {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        NodeDesc::serialize(self, s)
+    }
+}
+
+/// `Ricci(n, [children])` or `Ricci(n: …, children: […])`: the exponent and
+/// the children, by place or by name (the variant's contents, unwrapped).
+fn ricci_fields<'de, D: Deserializer<'de>>(d: D) -> Result<(AtLeastOne, Children), D::Error> {
+    d.deserialize_any(RicciVisitor)
+}
+
+/// Reads Ricci's values in either form.
+struct RicciVisitor;
+
+/// Ricci's values by name.
+#[derive(Deserialize)]
+#[serde(rename = "Ricci", deny_unknown_fields)]
+struct RicciByName {
+    n: AtLeastOne,
+    children: Children,
+}
+
+impl<'de> de::Visitor<'de> for RicciVisitor {
+    type Value = (AtLeastOne, Children);
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("Ricci's exponent and children: Ricci(n, [children]) or Ricci(n: …, children: […])")
+    }
+
+    fn visit_seq<A: de::SeqAccess<'de>>(self, seq: A) -> Result<Self::Value, A::Error> {
+        Deserialize::deserialize(de::value::SeqAccessDeserializer::new(seq))
+    }
+
+    fn visit_map<A: de::MapAccess<'de>>(self, map: A) -> Result<Self::Value, A::Error> {
+        let r = RicciByName::deserialize(de::value::MapAccessDeserializer::new(map))?;
+        Ok((r.n, r.children))
+    }
 }
 
 impl NodeDesc {

@@ -7,6 +7,7 @@ mod build;
 mod desc;
 mod edit_desc;
 mod locate;
+mod messages;
 mod script;
 pub mod values;
 mod write;
@@ -16,7 +17,7 @@ use std::path::Path;
 use glam::Vec3;
 
 pub use crate::frame::Size;
-pub use desc::{CameraDesc, Children, NodeDesc, Resolution, SceneDesc};
+pub use desc::{CameraDesc, Children, MAX_DEPTH, NodeDesc, Resolution, SceneDesc};
 pub use edit_desc::{EditDesc, OperatorDesc};
 pub use script::{Script, entry_positions, load_script, parse_script};
 pub use values::{Color, Finite, Positive, V3};
@@ -86,12 +87,14 @@ impl Scene {
 
     /// Builds a scene from RON text; `label` names the source in errors.
     pub fn parse(text: &str, label: &str) -> Result<Scene, SceneError> {
-        let desc = parse_desc(text, label)?;
-        Scene::from_desc(&desc).map_err(|cause| match locate::locate(text, &cause) {
-            Some((line, column)) => {
-                SceneError::Syntax { path: label.to_string(), line, column, message: cause.to_string() }
-            }
-            None => SceneError::Model { path: label.to_string(), cause },
+        on_a_deep_stack(|| {
+            let desc = parse_desc_here(text, label)?;
+            Scene::from_desc(&desc).map_err(|cause| match locate::locate(text, &cause) {
+                Some((line, column)) => {
+                    SceneError::Syntax { path: label.to_string(), line, column, message: cause.to_string() }
+                }
+                None => SceneError::Model { path: label.to_string(), cause },
+            })
         })
     }
 
@@ -148,17 +151,49 @@ impl Scene {
 
 /// Parses RON text into a [`SceneDesc`], with positions in errors.
 pub fn parse_desc(text: &str, label: &str) -> Result<SceneDesc, SceneError> {
-    ron_options().from_str::<SceneDesc>(without_bom(text)).map_err(|e| syntax_error(label, &e))
+    on_a_deep_stack(|| parse_desc_here(text, label))
 }
 
-/// Nesting levels of RON a scene or script may use: a model nests a few per
-/// operator, so this allows trees about a hundred operators deep.
-const RECURSION_LIMIT: usize = 512;
+/// [`parse_desc`] on the calling thread's stack.
+fn parse_desc_here(text: &str, label: &str) -> Result<SceneDesc, SceneError> {
+    let text = without_bom(text);
+    ron_options().from_str::<SceneDesc>(text).map_err(|e| syntax_error(label, text, &e))
+}
 
-/// How scene and script files are read.
+/// Nesting levels of brackets RON may read: well above the few levels each
+/// of [`MAX_DEPTH`] nodes takes, so the model's own limit, counted in nodes
+/// and reported as such, is the one a file meets.
+const RECURSION_LIMIT: usize = 8 * MAX_DEPTH;
+
+/// Stack for reading and building a file: parsing and building recurse once
+/// per level of the model, a few kilobytes a level (more in debug builds),
+/// which [`MAX_DEPTH`] levels would take past the 2 MB of a spawned thread.
+const PARSE_STACK_BYTES: usize = 256 << 20;
+
+/// Runs `f` on a thread with [`PARSE_STACK_BYTES`] of stack (only the pages
+/// touched are used), or here if no such thread can be made.
+fn on_a_deep_stack<T: Send>(f: impl FnOnce() -> T + Send) -> T {
+    // The work is taken by whichever runs it: the thread, or this one when
+    // the thread could not be made.
+    let work = std::sync::Mutex::new(Some(f));
+    let run = || work.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take().map(|f| f());
+    std::thread::scope(|scope| {
+        let thread = std::thread::Builder::new().name("parse".into()).stack_size(PARSE_STACK_BYTES);
+        let ran = match thread.spawn_scoped(scope, run) {
+            Ok(handle) => handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
+            Err(_) => None,
+        };
+        ran.or_else(run).expect("the work runs once")
+    })
+}
+
+/// How scene and script files are read. Unwrapped variant newtypes let a
+/// node read its values by place or by name (`Ricci(4, […])` and
+/// `Ricci(n: 4, children: […])`).
 fn ron_options() -> ron::Options {
     ron::Options::default()
         .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
+        .with_default_extension(ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES)
         .with_recursion_limit(RECURSION_LIMIT)
 }
 
@@ -167,11 +202,19 @@ fn without_bom(text: &str) -> &str {
     text.strip_prefix('\u{feff}').unwrap_or(text)
 }
 
-/// A RON error of the file `label`, at its position.
-fn syntax_error(label: &str, e: &ron::error::SpannedError) -> SceneError {
-    let message = match e.code {
-        ron::Error::ExceededRecursionLimit => format!("the file nests deeper than {RECURSION_LIMIT} levels"),
-        ref code => code.to_string(),
-    };
-    SceneError::Syntax { path: label.to_string(), line: e.span.start.line, column: e.span.start.col, message }
+/// A RON error of the file `label` holding `text`, at its position, said in
+/// the scene format's words.
+pub fn syntax_error(label: &str, text: &str, e: &ron::error::SpannedError) -> SceneError {
+    let (mut line, mut column) = (e.span.start.line, e.span.start.col);
+    let start = text.split_inclusive('\n').take(line.saturating_sub(1)).map(str::len).sum::<usize>();
+    let mut rest = text[start.min(text.len())..].chars();
+    rest.by_ref().take(column.saturating_sub(1)).for_each(drop);
+    // Point at what stands there, not at the space before it.
+    let mut rest = rest.as_str();
+    while let Some(c) = rest.chars().next().filter(|c| c.is_whitespace()) {
+        (line, column) = if c == '\n' { (line + 1, 1) } else { (line, column + 1) };
+        rest = &rest[c.len_utf8()..];
+    }
+    let message = messages::explain(&e.code, rest);
+    SceneError::Syntax { path: label.to_string(), line, column, message }
 }

@@ -57,10 +57,11 @@ impl Script {
         self.origins.get(i).map_or("", String::as_str)
     }
 
-    /// Frame `i` named for an error: where it is written, and its number.
+    /// Frame `i` (from 0) named for an error: where it is written, and its
+    /// number as a person counts the frames the script expands to, from 1.
     #[must_use]
     pub fn frame_label(&self, i: usize) -> String {
-        format!("{}: frame {i}", self.origin(i))
+        format!("{}: frame {}", self.origin(i), i + 1)
     }
 }
 
@@ -74,7 +75,8 @@ pub fn load_script(path: &Path) -> Result<Script, SceneError> {
 /// Parses script text; `label` names the source in errors.
 pub fn parse_script(text: &str, label: &str) -> Result<Script, SceneError> {
     let text = super::without_bom(text);
-    let script: EditScript = super::ron_options().from_str(text).map_err(|e| super::syntax_error(label, &e))?;
+    let script: EditScript = super::on_a_deep_stack(|| super::ron_options().from_str(text))
+        .map_err(|e| super::syntax_error(label, text, &e))?;
     let total: usize = script.frames.iter().map(|f| f.repeat as usize).sum();
     if total == 0 || total > MAX_FRAMES {
         return Err(SceneError::Syntax {
@@ -212,6 +214,7 @@ mod tests {
         assert_eq!(script.frames.len(), 4);
         let origins: Vec<&str> = (0..4).map(|i| script.origin(i)).collect();
         assert_eq!(origins, ["s.ron:4:5", "s.ron:4:5", "s.ron:5:3", "s.ron:6:5"]);
-        assert_eq!(script.frame_label(3), "s.ron:6:5: frame 3");
+        assert_eq!(script.frame_label(0), "s.ron:4:5: frame 1");
+        assert_eq!(script.frame_label(3), "s.ron:6:5: frame 4");
     }
 }

@@ -15,7 +15,9 @@ impl SceneDesc {
     /// `//`) first.
     pub fn to_ron(&self, header: &[String]) -> Result<String, ron::Error> {
         let config = PrettyConfig::new().struct_names(true).indentor("    ").new_line("\n");
-        let body = ron::ser::to_string_pretty(self, config)?;
+        // The reader's options, so whatever it reads (MAX_DEPTH levels of
+        // nodes) is written back, on a stack as deep as the reader's.
+        let body = super::on_a_deep_stack(|| super::ron_options().to_string_pretty(self, config))?;
         let mut out: String = header.iter().map(|line| format!("// {line}\n")).collect();
         out.push_str(&body);
         out.push('\n');

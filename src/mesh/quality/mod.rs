@@ -93,7 +93,8 @@ impl MeshQuality {
         let components = Components::of(&mesh.triangles, &edges);
         Self {
             topology,
-            watertight: topology.is_closed_manifold(),
+            // No triangles enclose nothing: an empty mesh is no closed surface.
+            watertight: !mesh.triangles.is_empty() && topology.is_closed_manifold(),
             components: ComponentSummary::of(&components, DEFAULT_ISLAND_TRIANGLES),
             shape: ShapeQuality::of(&mesh.positions, &mesh.triangles),
             normals: NormalCheck::of(&mesh.positions, &mesh.normals, &mesh.triangles),
@@ -104,6 +105,9 @@ impl MeshQuality {
     /// One line of the headline figures.
     #[must_use]
     pub fn headline(&self) -> String {
+        if self.components.count == 0 {
+            return "no triangles".to_string();
+        }
         format!(
             "{} piece{} ({} island{} of <= {} triangles), {}, min angle {:.3} deg, {} normal{} against faces, {} self-intersection{}",
             self.components.count,
