@@ -96,10 +96,11 @@ pub fn flip_stats(errors: &[f32], width: u32, height: u32, ppd: f32) -> FlipStat
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn pattern(width: u32, height: u32, seed: u32) -> Vec<u8> {
+    /// A test image: a gradient with noise, different for each `seed`.
+    pub(crate) fn pattern(width: u32, height: u32, seed: u32) -> Vec<u8> {
         (0..width * height * 3)
             .map(|i| {
                 let (x, y) = ((i / 3) % width, (i / 3) / width);

@@ -272,18 +272,9 @@ fn max_distance() -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::compare::flip::tests::pattern;
     use crate::compare::{default_pixels_per_degree, flip_whole};
     use crate::frame::srgb8_to_linear;
-
-    fn pattern(width: u32, height: u32, seed: u32) -> Vec<u8> {
-        (0..width * height * 3)
-            .map(|i| {
-                let (x, y) = ((i / 3) % width, (i / 3) / width);
-                let noise = (i.wrapping_mul(2_654_435_761) ^ seed).rotate_left(7) % 40;
-                ((x * 255 / width + y * 3 + noise) % 256) as u8
-            })
-            .collect()
-    }
 
     #[test]
     fn float_flip_equals_nvidias_on_eight_bit_images() {
