@@ -12,7 +12,8 @@ use std::time::{Duration, Instant};
 
 use minifb::{Key, MouseButton};
 
-use super::{Action, KEYS};
+use super::Action;
+use super::keys::KEYS;
 
 /// A held key waits this long before it repeats ...
 pub const REPEAT_DELAY: Duration = Duration::from_millis(300);
@@ -237,7 +238,7 @@ mod tests {
     fn the_help_card_states_the_repeat_rate() {
         let delay = format!("after {} s", REPEAT_DELAY.as_secs_f32());
         let rate = format!("{} a second", 1000 / REPEAT_EVERY.as_millis());
-        assert!(super::super::REPEAT_HELP.contains(&delay) && super::super::REPEAT_HELP.contains(&rate));
+        assert!(super::super::keys::REPEAT_HELP.contains(&delay) && super::super::keys::REPEAT_HELP.contains(&rate));
     }
 
     #[test]

@@ -5,15 +5,26 @@
 //! BVH2 triangles, the difference in those rectangles). Other keys and the
 //! mouse orbit, pan and zoom the camera about the model, which renders the
 //! images again whole (the empty space and the mesh stay); a click selects
-//! the named node strongest at the surface under the pointer. Views: the
-//! field, the mesh, their depth difference, the angle between their normals,
-//! and the field evaluations per pixel. A status line, a colour bar over the
-//! heat-map views and a help card are drawn over the view (`hud`).
-//! Headless, the same loop runs on a list of keys instead of a window, so the
+//! the named node strongest at the surface under the pointer. Headless, the
+//! same [`Viewer`] runs on a list of keys instead of a window, so the
 //! previewer runs where there is no display (and under `cargo test`).
+//!
+//! Its parts: `keys` (every key and gesture and what it does, the help
+//! card's lines), `views` (every view, its name and how it draws), `slice`
+//! (the slice view's plane), `hud` (the status band, colour bars and help
+//! card laid out over the view), `timing` (each event's cost), `input` (the
+//! window's key and button edges as actions), `worker` (the work off the
+//! window's thread) and `window` (the window loop). To add a view: a
+//! variant and a row in `views`; to add a key: a row of `keys::KEYS`.
 
 mod hud;
 mod input;
+mod keys;
+mod slice;
+#[cfg(test)]
+mod tests;
+mod timing;
+mod views;
 mod window;
 mod worker;
 
@@ -23,243 +34,19 @@ use std::time::Instant;
 use anyhow::Context;
 use glam::Vec3;
 
-use crate::camera::{CameraMove, Orbit};
-use crate::compare::{ColourKey, Metric, Rgb8Image, Scale, SpecialLabels, differences};
+use crate::camera::Orbit;
+use crate::compare::{ColourKey, Rgb8Image};
 use crate::field::Edit;
-use crate::frame::srgb8_of;
-use crate::pipeline::{EditSession, IDLE_SAMPLES, PlaneView, SliceView, outline_dirty, plane_view};
+use crate::pipeline::{EditSession, IDLE_SAMPLES, SliceView, outline_dirty};
 use crate::scene::Script;
-use crate::slice::SlicePlane;
 use crate::trace::PixelRect;
 use hud::StatusPart;
-
+pub use keys::{Action, DRAG_DEGREES_PER_PIXEL};
+use slice::Slice;
+use timing::EventTiming;
+use views::View;
 pub use window::show;
 pub use worker::background_pool;
-
-/// The keys' meanings.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Action {
-    /// Move the selected node one step along the screen's right (0), up (1)
-    /// or depth away from the viewer (2), in a direction (±1).
-    Move(usize, f32),
-    /// Select the next named node.
-    NextNode,
-    /// Show the next view.
-    NextView,
-    /// Apply the script's next frame.
-    NextScriptFrame,
-    /// Outline the last frame's dirty rectangles, or stop.
-    ToggleRectangles,
-    /// Turn the camera about the model's centre: degrees about the up axis
-    /// (positive: the camera moves to its right) and towards the up axis.
-    Orbit(f32, f32),
-    /// Bring the camera this factor of its distance to the model's centre.
-    Zoom(f32),
-    /// Write the view to the next numbered file beside `--output`.
-    Snapshot,
-    /// Show or hide the card listing every key.
-    ToggleHelp,
-    /// Slide the camera and the point it orbits by this many pixels right and down.
-    Pan(f32, f32),
-    /// Select the named node strongest at the surface under this pixel.
-    SelectAt(u32, u32),
-    /// Move the slice plane this many steps away from the viewer.
-    MoveSlice(f32),
-    /// Show the next thing on the slice plane: f, the sharp view, error_C,
-    /// the cached gradient's error.
-    NextSliceView,
-}
-
-/// The normal-error view's full scale: 30°, beyond which pixels are marked.
-const NORMAL_ERROR_SCALE: Scale = Scale::Magnitude { max: 30.0 };
-
-/// Degrees of orbit per pixel a mouse drag moves.
-pub const DRAG_DEGREES_PER_PIXEL: f32 = 0.4;
-
-/// Degrees an orbit key turns the camera.
-const ORBIT_DEGREES: f32 = 10.0;
-/// The factor a zoom key moves the camera in by (its inverse, out).
-const ZOOM_FACTOR: f32 = 0.9;
-
-/// How the help card says held keys repeat (see [`input::REPEAT_DELAY`]).
-const REPEAT_HELP: &str = "moves, orbits, zooms and slice steps repeat after 0.3 s, 20 a second";
-
-/// Every key: its name for `--keys`, the window's key, and what it does.
-const KEYS: [(&str, minifb::Key, Action); 22] = {
-    use minifb::Key;
-    [
-        ("left", Key::Left, Action::Move(0, -1.0)),
-        ("right", Key::Right, Action::Move(0, 1.0)),
-        ("down", Key::Down, Action::Move(1, -1.0)),
-        ("up", Key::Up, Action::Move(1, 1.0)),
-        ("pagedown", Key::PageDown, Action::Move(2, -1.0)),
-        ("pageup", Key::PageUp, Action::Move(2, 1.0)),
-        ("tab", Key::Tab, Action::NextNode),
-        ("v", Key::V, Action::NextView),
-        ("space", Key::Space, Action::NextScriptFrame),
-        ("r", Key::R, Action::ToggleRectangles),
-        ("a", Key::A, Action::Orbit(-ORBIT_DEGREES, 0.0)),
-        ("d", Key::D, Action::Orbit(ORBIT_DEGREES, 0.0)),
-        ("w", Key::W, Action::Orbit(0.0, ORBIT_DEGREES)),
-        ("s", Key::S, Action::Orbit(0.0, -ORBIT_DEGREES)),
-        ("z", Key::Z, Action::Zoom(ZOOM_FACTOR)),
-        ("x", Key::X, Action::Zoom(1.0 / ZOOM_FACTOR)),
-        ("p", Key::P, Action::Snapshot),
-        ("h", Key::H, Action::ToggleHelp),
-        ("f1", Key::F1, Action::ToggleHelp),
-        ("comma", Key::Comma, Action::MoveSlice(-1.0)),
-        ("period", Key::Period, Action::MoveSlice(1.0)),
-        ("n", Key::N, Action::NextSliceView),
-    ]
-};
-
-impl Action {
-    /// The action of a key named on the command line, or of a mouse gesture:
-    /// `drag:DX:DY` (left button, pixels), `pan:DX:DY` (right button),
-    /// `wheel:N` (notches, positive away from the user), `click:X:Y`.
-    pub fn named(key: &str) -> anyhow::Result<Self> {
-        let key = key.trim().to_lowercase();
-        if let Some((gesture, args)) = key.split_once(':') {
-            return Self::gesture(gesture, args).with_context(|| format!("--keys: {key:?}"));
-        }
-        KEYS.iter().find(|(name, ..)| *name == key).map(|&(.., action)| action).with_context(|| {
-            let names: Vec<&str> = KEYS.iter().map(|(name, ..)| *name).collect();
-            format!("--keys: unknown key {key:?} (known: {})", names.join(", "))
-        })
-    }
-
-    /// A mouse gesture's action.
-    fn gesture(gesture: &str, args: &str) -> anyhow::Result<Self> {
-        let numbers: Vec<f32> = args.split(':').map(str::parse).collect::<Result<_, _>>()?;
-        let finite = numbers.iter().all(|v| v.is_finite());
-        anyhow::ensure!(finite, "the numbers must be finite");
-        Ok(match (gesture, numbers.as_slice()) {
-            ("drag", &[dx, dy]) => Self::drag(dx, dy),
-            ("pan", &[dx, dy]) => Action::Pan(dx, dy),
-            ("wheel", &[notches]) => Self::wheel(notches),
-            ("click", &[x, y]) if x >= 0.0 && y >= 0.0 => Action::SelectAt(x as u32, y as u32),
-            _ => anyhow::bail!("expected drag:DX:DY, pan:DX:DY, wheel:N or click:X:Y"),
-        })
-    }
-
-    /// The orbit a left-button drag by `dx, dy` pixels makes: the model turns with the pointer.
-    #[must_use]
-    pub fn drag(dx: f32, dy: f32) -> Self {
-        Action::Orbit(-dx * DRAG_DEGREES_PER_PIXEL, dy * DRAG_DEGREES_PER_PIXEL)
-    }
-
-    /// The zoom `notches` of the wheel make (positive: in).
-    #[must_use]
-    pub fn wheel(notches: f32) -> Self {
-        Action::Zoom(ZOOM_FACTOR.powf(notches))
-    }
-
-    /// Whether a held key repeats the action: moves of the node, the
-    /// camera and the slice plane do; switches and toggles do not.
-    #[must_use]
-    pub fn repeats(self) -> bool {
-        matches!(self, Action::Move(..) | Action::Orbit(..) | Action::Zoom(_) | Action::MoveSlice(_))
-    }
-
-    /// The one camera move that `self` then `next` make, where both are
-    /// orbits, pans or zooms.
-    #[must_use]
-    pub fn merged_with(self, next: Action) -> Option<Action> {
-        match (self, next) {
-            (Action::Orbit(a, b), Action::Orbit(c, d)) => Some(Action::Orbit(a + c, b + d)),
-            (Action::Pan(a, b), Action::Pan(c, d)) => Some(Action::Pan(a + c, b + d)),
-            (Action::Zoom(a), Action::Zoom(b)) => Some(Action::Zoom(a * b)),
-            _ => None,
-        }
-    }
-
-    /// The camera move of an orbit, zoom or pan.
-    fn camera_move(self) -> Option<CameraMove> {
-        match self {
-            Action::Orbit(yaw, pitch) => Some(CameraMove::Orbit(yaw, pitch)),
-            Action::Zoom(factor) => Some(CameraMove::Zoom(factor)),
-            Action::Pan(dx, dy) => Some(CameraMove::Pan(dx, dy)),
-            _ => None,
-        }
-    }
-
-    /// What the action does, as the help card says it.
-    #[must_use]
-    pub fn describe(self) -> &'static str {
-        match self {
-            Action::Move(0, _) => "move the node along the screen",
-            Action::Move(1, _) => "move the node up or down the screen",
-            Action::Move(..) => "move the node away or nearer",
-            Action::NextNode => "move the next named node",
-            Action::NextView => "next view: field, mesh, depth and normal differences, cost, slice",
-            Action::NextScriptFrame => "apply the script's next frame",
-            Action::ToggleRectangles => "outline the last frame's dirty rectangles",
-            Action::Orbit(..) => "orbit the camera about the model",
-            Action::Zoom(f) if f < 1.0 => "zoom in",
-            Action::Zoom(_) => "zoom out",
-            Action::Snapshot => "write the view beside --output (numbered)",
-            Action::ToggleHelp => "show this card, its next page, or hide it",
-            Action::Pan(..) => "pan the camera",
-            Action::SelectAt(..) => "select the named node under the pointer",
-            Action::MoveSlice(d) if d < 0.0 => "move the slice plane nearer",
-            Action::MoveSlice(_) => "move the slice plane away",
-            Action::NextSliceView => "slice shows: f, sharp view, error_C, gradient error",
-        }
-    }
-
-    /// Every key, grouped with the keys that do the same, and what they do.
-    #[must_use]
-    pub fn help() -> Vec<(String, &'static str)> {
-        let mut lines: Vec<(String, &'static str)> = vec![];
-        for (name, _, action) in KEYS {
-            match lines.last_mut() {
-                Some((names, what)) if *what == action.describe() => *names = format!("{names}, {name}"),
-                _ => lines.push((name.to_string(), action.describe())),
-            }
-        }
-        lines.extend([
-            ("left drag".to_string(), "orbit the camera about the model"),
-            ("wheel".to_string(), "zoom in or out"),
-            ("right or shift drag".to_string(), "pan the camera"),
-            ("click".to_string(), "select the named node under the pointer"),
-            ("escape".to_string(), "close the window"),
-            ("a held key".to_string(), REPEAT_HELP),
-        ]);
-        lines
-    }
-}
-
-/// What the window shows.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum View {
-    Field,
-    Mesh,
-    /// Mesh depth less field depth, red where the mesh lies behind.
-    Difference,
-    /// The angle between the mesh's and the field's normals, on magma.
-    NormalError,
-    /// Field evaluations per pixel, on magma.
-    Cost,
-    /// A plane facing the camera through the model: f, the sharp view,
-    /// error_C or the cached gradient's error on it.
-    Slice,
-}
-
-/// The slice view's plane and what it shows.
-struct Slice {
-    /// Steps the plane lies beyond the point the camera orbits, away from
-    /// the viewer (counted, so that moves and their opposites come back to
-    /// the same plane).
-    steps: i32,
-    /// What it shows.
-    shows: SliceView,
-    /// The picture, drawn when the plane, the camera or the model last changed.
-    drawn: Option<PlaneView>,
-    /// The model with every cache answering from its lattice, as of frame
-    /// number `.0`: error_C and the gradient error show what the caches
-    /// would answer, whether or not auto mode uses them.
-    lattices: Option<(usize, crate::field::Model)>,
-}
 
 /// Moves through a model's edits one key at a time, keeping every image up to date.
 pub struct Viewer {
@@ -283,22 +70,6 @@ pub struct Viewer {
     /// The page of the help card that shows, if it does.
     help: Option<usize>,
     slice: Slice,
-}
-
-/// How long the last edit or camera move took to show, coarse and refined.
-#[derive(Clone, Debug)]
-struct EventTiming {
-    /// "frame N" or "camera".
-    what: String,
-    start: Instant,
-    /// Seconds until its first, coarse pass showed.
-    first_pass_s: f64,
-    /// Seconds until everything was up to date, with the rays traced per
-    /// second then and the field evaluations per ray of the image.
-    refined_s: Option<(f64, f64, f64)>,
-    /// The fraction of the image its dirty rectangles cover, and how many
-    /// there are (edits only).
-    dirty: Option<(f64, usize)>,
 }
 
 impl Viewer {
@@ -347,16 +118,7 @@ impl Viewer {
         match action {
             Action::Move(axis, sign) => self.move_selected(axis, sign)?,
             Action::NextNode => self.selected = (self.selected + 1) % self.names.len().max(1),
-            Action::NextView => {
-                self.view = match self.view {
-                    View::Field => View::Mesh,
-                    View::Mesh => View::Difference,
-                    View::Difference => View::NormalError,
-                    View::NormalError => View::Cost,
-                    View::Cost => View::Slice,
-                    View::Slice => View::Field,
-                }
-            }
+            Action::NextView => self.view = self.view.next(),
             Action::NextScriptFrame => {
                 if let Some(edits) = self.script.frames.get(self.next_script_frame).cloned() {
                     self.apply(&edits).with_context(|| self.script.frame_label(self.next_script_frame))?;
@@ -392,58 +154,6 @@ impl Viewer {
             self.draw_slice();
         }
         Ok(())
-    }
-
-    /// What the slice shows after what it shows now: error_C and the
-    /// gradient error only where the model has caches to compare.
-    fn next_slice_view(&self) -> SliceView {
-        let caches = self.session.scene().model.counts().caches > 0;
-        match self.slice.shows {
-            SliceView::Field => SliceView::Sharp,
-            SliceView::Sharp if caches => SliceView::Error,
-            SliceView::Error => SliceView::Gradient,
-            SliceView::Sharp | SliceView::Gradient => SliceView::Field,
-        }
-    }
-
-    /// Moves the slice plane `steps` away from the viewer, but not to or past the eye.
-    fn move_slice(&mut self, steps: i32) {
-        self.slice.steps += steps;
-        if self.slice_depth() <= 0.01 * self.step_length {
-            self.slice.steps -= steps;
-        }
-    }
-
-    /// The slice plane's distance in front of the eye: through the point
-    /// the camera orbits, moved by its steps, and never behind the eye.
-    fn slice_depth(&self) -> f32 {
-        let camera = &self.session.settings().camera;
-        let centre = glam::Vec3A::from(self.orbit.centre());
-        let depth = (centre - camera.eye).dot(camera.forward()) + self.slice.steps as f32 * self.step_length;
-        depth.max(0.01 * self.step_length)
-    }
-
-    /// Draws the slice view again, when it shows.
-    fn draw_slice(&mut self) {
-        if self.view != View::Slice {
-            self.slice.drawn = None;
-            return;
-        }
-        let s = self.session.settings();
-        let plane = SlicePlane::facing(&s.camera, s.width, s.height, self.slice_depth());
-        let model = &self.session.scene().model;
-        let model = match self.slice.shows {
-            SliceView::Error | SliceView::Gradient => {
-                if self.slice.lattices.as_ref().is_none_or(|(frame, _)| *frame != self.frames) {
-                    let mut forced = model.clone();
-                    forced.use_lattices(false);
-                    self.slice.lattices = Some((self.frames, forced));
-                }
-                &self.slice.lattices.as_ref().expect("just made").1
-            }
-            SliceView::Field | SliceView::Sharp => model,
-        };
-        self.slice.drawn = Some(plane_view(model, &plane, self.slice.shows));
     }
 
     /// Whether the viewer has work to do while idle: the refinement the
@@ -641,14 +351,7 @@ impl Viewer {
 
     /// The status line's parts, most important first, each with its short form.
     fn status_parts(&self) -> Vec<StatusPart> {
-        let view = match self.view {
-            View::Field => "field",
-            View::Mesh => "mesh",
-            View::Difference => "depth difference",
-            View::NormalError => "normal error",
-            View::Cost => "cost",
-            View::Slice => "slice",
-        };
+        let view = self.view.name();
         let node = self.names.get(self.selected).map_or("no named node", String::as_str);
         let mut parts = vec![StatusPart::new(view), StatusPart::new(format!("moving {node}"))];
         if self.view == View::Slice {
@@ -676,83 +379,9 @@ impl Viewer {
         parts
     }
 
-    /// The current view at the render's size, and the colour bar (scale,
-    /// metric, unit, special colours) of a heat-map view.
-    fn view(&self) -> (Rgb8Image, Option<ColourKey>) {
-        let (w, h) = (self.session.settings().width, self.session.settings().height);
-        // The special colours mean what they mean in `compare`'s maps:
-        // missed by both renders, hit by one only.
-        let heat_map = |values: &[f32], (scale, title, unit): (Scale, &'static str, &'static str)| {
-            let key = ColourKey::of(values, scale, (title, unit), &SpecialLabels::default());
-            (scale.paint(values, w, h), Some(key))
-        };
-        match self.view {
-            View::NormalError => {
-                let angles = differences(&self.session.mesh_preview(), &self.session.field_preview(), Metric::Normal);
-                heat_map(&angles, (NORMAL_ERROR_SCALE, "angle between mesh and field normals", "deg"))
-            }
-            View::Cost => {
-                let evaluations = self.session.field_frame().aov("evals.Y").unwrap_or(&[]);
-                let evaluations = self.session.field_refinement().preview_values(evaluations);
-                // The evaluations' 99th percentile, rounded up.
-                let scale = Scale::from_data(&evaluations, false, 1.0);
-                heat_map(&evaluations, (scale, "field evaluations per pixel", "evaluations"))
-            }
-            View::Slice => match &self.slice.drawn {
-                Some(drawn) => (drawn.image.clone(), drawn.key.clone()),
-                None => (Rgb8Image::filled(w, h, [0, 0, 0]), None),
-            },
-            // The colours alone: a preview of every channel would cost as much again.
-            View::Field => (Rgb8Image { width: w, height: h, pixels: srgb8_of(&self.session.field_colors()) }, None),
-            View::Mesh => {
-                let colors = self.session.mesh_refinement().preview_values(&self.session.mesh_frame().color);
-                (Rgb8Image { width: w, height: h, pixels: srgb8_of(&colors) }, None)
-            }
-            // A lattice cell either way is the strongest colour.
-            View::Difference => heat_map(
-                &self.session.depth_diff_preview(),
-                (
-                    Scale::Signed { max: self.session.lattice().cell },
-                    "mesh depth - field depth, 1 cell full scale",
-                    "scene units",
-                ),
-            ),
-        }
-    }
-
     /// The window's title: the status line's parts.
     pub fn title(&self) -> String {
         format!("blobtrace view · {}", self.status().join(" · "))
-    }
-}
-
-impl EventTiming {
-    /// An event that started at `start` and has just shown its coarse pass.
-    fn new(what: &str, start: Instant, dirty: Option<(f64, usize)>) -> Self {
-        let first_pass_s = start.elapsed().as_secs_f64();
-        Self { what: what.into(), start, first_pass_s, refined_s: None, dirty }
-    }
-
-    /// As a narrow status line says it: the first pass and refined milliseconds.
-    fn brief(&self) -> String {
-        match self.refined_s {
-            Some((s, ..)) => format!("{}: {:.0} / {:.0} ms", self.what, 1e3 * self.first_pass_s, 1e3 * s),
-            None => format!("{}: {:.0} ms", self.what, 1e3 * self.first_pass_s),
-        }
-    }
-
-    /// As the status line says it.
-    fn describe(&self) -> String {
-        let mut text = format!("{}: first pass {:.0} ms", self.what, 1e3 * self.first_pass_s);
-        if let Some((s, rays_per_second, per_ray)) = self.refined_s {
-            text += &format!(", refined {:.0} ms ({:.1} M rays/s", 1e3 * s, rays_per_second / 1e6);
-            text += &format!(", {per_ray:.1} evaluations per ray)");
-        }
-        if let Some((dirty, rects)) = self.dirty {
-            let s = if rects == 1 { "" } else { "s" };
-            text += &format!(", {rects} dirty rectangle{s} ({:.1}%)", 100.0 * dirty);
-        }
-        text
     }
 }
 
@@ -760,292 +389,4 @@ impl EventTiming {
 fn numbered(path: &std::path::Path, n: usize) -> PathBuf {
     let stem = path.file_stem().unwrap_or_default().to_string_lossy();
     path.with_file_name(format!("{stem}-{n:04}.png"))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::field::EvalMode;
-    use crate::frame::Size;
-    use crate::mesh::canonical_triangles;
-    use crate::pipeline::PolygonizeSettings;
-    use crate::scene::Scene;
-    use crate::trace::render_model;
-
-    const SCENE: &str = "Scene(
-        camera: Camera(eye: (0.0, 0.5, 5.0), target: (0.0, 0.0, 0.0), fov_y: 40.0),
-        size: (48, 36),
-        model: Blend([
-            Named(\"left\", Point(center: (-0.6, 0.0, 0.0), radius: 1.0)),
-            Named(\"right\", Cache(res: 32, child: Point(center: (0.6, 0.0, 0.0), radius: 1.0))),
-        ]),
-    )";
-
-    fn viewer(mode: EvalMode) -> (Viewer, PolygonizeSettings) {
-        let scene = Scene::parse(SCENE, "inline").unwrap();
-        let polygonize = PolygonizeSettings { res: 24, ..Default::default() };
-        let size = scene.size;
-        let session = EditSession::new(scene, mode, size, &polygonize).unwrap();
-        let snapshots = std::env::temp_dir().join(format!("blobtrace-view-test-{}.png", std::process::id()));
-        (Viewer::new(session, Script::default(), None, snapshots).unwrap(), polygonize)
-    }
-
-    #[test]
-    fn after_moves_by_key_the_views_equal_a_render_and_a_mesh_from_scratch() {
-        for mode in [EvalMode::Indexed, EvalMode::Cached] {
-            let (mut v, polygonize) = viewer(mode);
-            let keys = [
-                "right",
-                "right",
-                "a",
-                "up",
-                "tab",
-                "w",
-                "left",
-                "z",
-                "drag:12:-5",
-                "pagedown",
-                "pan:6:3",
-                "tab",
-                "wheel:1",
-                "down",
-            ];
-            // Where each move should take its node: along the screen as the camera then was.
-            let mut expected = [glam::Vec3A::ZERO; 2];
-            for (k, key) in keys.into_iter().enumerate() {
-                let action = Action::named(key).unwrap();
-                if let Action::Move(axis, sign) = action {
-                    expected[v.selected] += v.screen_axis(axis) * sign * v.step_length;
-                }
-                v.act(action).unwrap();
-                // Events come as the last one's passes stand: coarse only, one pass further, or all.
-                match k % 3 {
-                    0 => {}
-                    1 => v.refine(std::time::Duration::ZERO),
-                    _ => v.settle(),
-                }
-            }
-            v.settle();
-            assert_eq!(v.frames, 6, "every move is a frame; tab is none");
-            let s = &v.session;
-            let full = render_model(&s.scene().model, mode, s.settings(), &|_| {}).0;
-            assert!(full.same_image(s.field_frame()), "{mode:?}: the field view differs from a full render");
-            // The model has grown: a lattice over its new bounds would differ, so polygonize on the session's.
-            let fresh = crate::pipeline::polygonizer_on(&s.scene().model, mode, s.lattice(), polygonize.options());
-            assert_eq!(fresh.mesh().triangle_set(), canonical_triangles(s.mesh().triangles()));
-            // The moves went where the keys said.
-            let centre =
-                |model: &crate::field::Model, name: &str| model.node(model.find(name).unwrap()).bounds.center();
-            let start = Scene::parse(SCENE, "inline").unwrap();
-            for (name, expected) in ["left", "right"].iter().zip(expected) {
-                let moved = centre(&v.session.scene().model, name) - centre(&start.model, name);
-                assert!((moved - expected).length() < 1e-5, "{name}: {moved} against {expected}");
-                assert!(expected.length() > 0.5 * v.step_length, "{name} moved");
-            }
-        }
-    }
-
-    #[test]
-    fn a_move_too_far_is_refused_and_leaves_the_views_consistent() {
-        let (mut v, _) = viewer(EvalMode::Cached);
-        let model = |v: &Viewer| v.session.scene().model.clone();
-        let start = model(&v).node(model(&v).find("left").unwrap()).bounds;
-        // Far past where a model may reach (a thousand times its size).
-        v.step_length = 1.0e5;
-        v.act(Action::Move(0, 1.0)).unwrap();
-        v.settle();
-        let now = model(&v).node(model(&v).find("left").unwrap()).bounds;
-        assert!((now.center() - start.center()).length() < 0.02, "{start:?} -> {now:?}");
-        let s = &v.session;
-        let full = render_model(&s.scene().model, EvalMode::Cached, s.settings(), &|_| {}).0;
-        assert!(full.same_image(s.field_frame()));
-    }
-
-    #[test]
-    fn the_overlay_fits_every_window_and_overlaps_nothing_in_every_view_and_help_page() {
-        for (w, h) in [(160, 120), (320, 240), (640, 480), (1920, 1080)] {
-            let scene = Scene::parse(SCENE, "inline").unwrap();
-            let polygonize = PolygonizeSettings { res: 16, ..Default::default() };
-            let session = EditSession::begin(scene, EvalMode::Indexed, Size(w, h), &polygonize).unwrap();
-            let mut v = Viewer::new(session, Script::default(), None, PathBuf::from("unused.png")).unwrap();
-            v.act(Action::Move(0, 1.0)).unwrap();
-            let mut checked = 0;
-            for view in 0..6 {
-                let slice_views = if v.view == View::Slice { 4 } else { 1 };
-                for _ in 0..slice_views {
-                    let (_, key) = v.view();
-                    let what = format!("{w}x{h} {:?} {:?}", v.view, v.slice.shows);
-                    hud::tests::assert_fits(&v.overlay(key.as_ref()), w, h, &what);
-                    assert_eq!(
-                        v.overlay(key.as_ref()).len(),
-                        1 + usize::from(key.is_some()),
-                        "{what}: a bar when a key"
-                    );
-                    v.act(Action::NextSliceView).unwrap();
-                    checked += 1;
-                }
-                if view == 0 {
-                    // Every page of the help card, then hidden again.
-                    let pages = v.help_card().pages();
-                    for page in 0..pages {
-                        v.act(Action::ToggleHelp).unwrap();
-                        assert_eq!(v.help, Some(page));
-                        hud::tests::assert_fits(&v.overlay(None), w, h, &format!("{w}x{h} help page {page}"));
-                    }
-                    v.act(Action::ToggleHelp).unwrap();
-                    assert_eq!(v.help, None, "{w}x{h}: H after the last page hides the card");
-                    assert!(w > 320 || pages > 1, "{w}x{h}: a small window pages the card");
-                }
-                v.act(Action::NextView).unwrap();
-            }
-            assert_eq!(checked, 9);
-        }
-    }
-
-    #[test]
-    fn the_help_card_names_every_key_and_the_screen_draws_over_the_view() {
-        let listed: Vec<String> =
-            Action::help().iter().flat_map(|(names, _)| names.split(", ").map(String::from)).collect();
-        for (name, ..) in KEYS {
-            assert!(listed.iter().any(|l| l == name), "{name} is on the help card");
-        }
-        let (mut v, _) = viewer(EvalMode::Indexed);
-        let (plain, screen) = (v.image(), v.screen());
-        assert_eq!((plain.width, plain.height), (screen.width, screen.height));
-        let row = |img: &Rgb8Image, y: u32| {
-            img.pixels[(3 * y * img.width) as usize..(3 * (y + 1) * img.width) as usize].to_vec()
-        };
-        assert_ne!(row(&plain, 2), row(&screen, 2), "the status line");
-        assert!(v.status().iter().any(|p| p.contains("moving left")), "{:?}", v.status());
-        v.act(Action::named("h").unwrap()).unwrap();
-        let with_help = v.screen();
-        assert_ne!(row(&with_help, screen.height / 2), row(&screen, screen.height / 2), "the card");
-        // F1 turns the pages as H does, and after the last hides the card.
-        for _ in 1..v.help_card().pages() {
-            v.act(Action::named("f1").unwrap()).unwrap();
-            assert!(v.screen().pixels != screen.pixels, "the next page");
-        }
-        v.act(Action::named("f1").unwrap()).unwrap();
-        assert!(v.screen().pixels == screen.pixels, "f1 hides it again");
-        v.act(Action::named("a").unwrap()).unwrap();
-        assert!(v.status().iter().any(|p| p.starts_with("camera: first pass")), "{:?}", v.status());
-        v.settle();
-        assert!(v.status().iter().any(|p| p.contains("refined")), "{:?}", v.status());
-    }
-
-    #[test]
-    fn the_slice_view_moves_its_plane_and_shows_f_sharp_error_and_gradient() {
-        let (mut v, _) = viewer(EvalMode::Indexed);
-        for _ in 0..5 {
-            v.act(Action::NextView).unwrap();
-        }
-        let shows = |v: &Viewer| v.status().iter().any(|p| p.contains(" at depth "));
-        assert!(shows(&v), "{:?}", v.status());
-        // Through the blobs' centres, f reaches its peak and the contour is drawn in white.
-        let through = v.image();
-        let white = |img: &Rgb8Image| img.pixels.chunks(3).filter(|p| p == &[255, 255, 255]).count();
-        assert!(white(&through) > 10, "the iso-contour");
-        // Far behind the model the plane shows nothing; back again, the same picture.
-        for _ in 0..60 {
-            v.act(Action::named("period").unwrap()).unwrap();
-        }
-        assert_eq!(white(&v.image()), 0, "no contour beyond the model");
-        for _ in 0..60 {
-            v.act(Action::named("comma").unwrap()).unwrap();
-        }
-        assert!(v.image().pixels == through.pixels, "the plane comes back");
-        // n: the sharp view, then (the model has a cache) error_C and the gradient error, then f.
-        let mut seen = vec![through.pixels.clone()];
-        for expected in ["sharp:", "error_C", "gradient error", "f at"] {
-            v.act(Action::named("n").unwrap()).unwrap();
-            assert!(v.status().iter().any(|p| p.starts_with(expected)), "{expected}: {:?}", v.status());
-            seen.push(v.image().pixels);
-        }
-        assert!(seen[1] != seen[0] && seen[2] != seen[1] && seen[3] != seen[2]);
-        assert!(seen[4] == seen[0], "n comes back to f");
-        // The heat maps carry a colour bar on screen.
-        assert!(v.screen().pixels != v.image().pixels);
-    }
-
-    #[test]
-    fn mouse_gestures_orbit_zoom_pan_and_select() {
-        assert_eq!(Action::named("drag:10:-5").unwrap(), Action::Orbit(-4.0, -2.0));
-        assert_eq!(Action::named("wheel:1").unwrap(), Action::Zoom(ZOOM_FACTOR));
-        for bad in ["drag:1", "wheel:x", "click:-1:2", "drag:nan:0", "pan:1:2:3", "spin:1"] {
-            assert!(Action::named(bad).is_err(), "{bad} is refused");
-        }
-        // A wheel notch in is the zoom key.
-        let (mut by_wheel, _) = viewer(EvalMode::Indexed);
-        let (mut by_key, _) = viewer(EvalMode::Indexed);
-        by_wheel.act(Action::named("wheel:1").unwrap()).unwrap();
-        by_key.act(Action::named("z").unwrap()).unwrap();
-        assert_eq!(by_wheel.image().pixels, by_key.image().pixels);
-        // However far the wheel turns, the camera stays usable.
-        let (mut far, _) = viewer(EvalMode::Indexed);
-        for gesture in ["wheel:-1000", "wheel:1000", "wheel:1000"] {
-            far.act(Action::named(gesture).unwrap()).unwrap();
-            assert!(far.session.settings().camera.eye.is_finite(), "after {gesture}");
-        }
-        // A pan and its opposite bring the camera back.
-        let (mut v, _) = viewer(EvalMode::Indexed);
-        let before = v.session.settings().camera;
-        v.act(Action::Pan(15.0, -4.0)).unwrap();
-        assert!((v.session.settings().camera.eye - before.eye).length() > 1e-3, "the pan moved the camera");
-        v.act(Action::Pan(-15.0, 4.0)).unwrap();
-        v.settle();
-        assert!((v.session.settings().camera.eye - before.eye).length() < 1e-4);
-        // A click on either blob selects it; a click on the background keeps the selection.
-        let frame = v.session.field_frame();
-        let (w, h) = (frame.width, frame.height);
-        let hit_in =
-            |xs: std::ops::Range<u32>| xs.into_iter().find(|&x| frame.depth[(h / 2 * w + x) as usize].is_finite());
-        let (left_x, right_x) = (hit_in(0..w / 2 - 4).unwrap(), hit_in(w / 2 + 4..w).map(|x| x + 2).unwrap());
-        v.act(Action::SelectAt(right_x, h / 2)).unwrap();
-        assert_eq!(v.names[v.selected], "right");
-        v.act(Action::SelectAt(0, 0)).unwrap();
-        assert_eq!(v.names[v.selected], "right", "the background selects nothing");
-        v.act(Action::named(&format!("click:{left_x}:{}", h / 2)).unwrap()).unwrap();
-        assert_eq!(v.names[v.selected], "left");
-    }
-
-    #[test]
-    fn the_views_cycle_and_differ_and_unknown_keys_are_refused() {
-        let (mut v, _) = viewer(EvalMode::Indexed);
-        let field = v.image();
-        v.act(Action::NextView).unwrap();
-        let mesh = v.image();
-        v.act(Action::NextView).unwrap();
-        let difference = v.image();
-        v.act(Action::NextView).unwrap();
-        let normals = v.image();
-        v.act(Action::NextView).unwrap();
-        let cost = v.image();
-        assert!(v.status()[0] == "cost", "{:?}", v.status());
-        v.act(Action::NextView).unwrap();
-        let slice = v.image();
-        assert!(v.status()[0] == "slice", "{:?}", v.status());
-        v.act(Action::NextView).unwrap();
-        assert!(v.image().pixels == field.pixels, "six presses come back to the field");
-        assert!(normals.pixels != cost.pixels && slice.pixels != cost.pixels);
-        for other in [&mesh, &difference, &cost, &slice] {
-            assert!(other.pixels != field.pixels);
-        }
-        for image in [&field, &mesh, &difference, &normals, &cost, &slice] {
-            assert_eq!((image.width, image.height), (48, 36));
-        }
-        v.act(Action::Move(0, 1.0)).unwrap();
-        v.settle();
-        let moved = v.image();
-        v.act(Action::ToggleRectangles).unwrap();
-        let outlined = v.image();
-        let yellow = |img: &Rgb8Image| img.pixels.chunks(3).filter(|p| p == &[255, 220, 0]).count();
-        assert!(yellow(&outlined) > yellow(&moved), "r outlines the move's dirty rectangles");
-        v.act(Action::Snapshot).unwrap();
-        let snapshot = numbered(&v.snapshots.0, 1);
-        let written = image::open(&snapshot).expect("p writes a snapshot").to_rgb8();
-        assert_eq!(written.as_raw(), &outlined.pixels, "the snapshot is the view");
-        std::fs::remove_file(snapshot).unwrap();
-        let err = Action::named("F13").unwrap_err().to_string();
-        assert!(err.contains("unknown key") && err.contains("f13"), "{err}");
-    }
 }
