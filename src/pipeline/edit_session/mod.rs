@@ -3,13 +3,21 @@
 //! rectangles of the field image, the mesh cells near the change, their
 //! triangles in the BVH2, the mesh image and the depth difference in those
 //! rectangles — and checkable, frame by frame, against work from scratch.
+//! Its parts beside this file: `samples` (smoothing a still image while
+//! idle), `tidy` (keeping a long session's cost a fresh one's) and `verify`
+//! (the check against work from scratch).
 
+mod samples;
 mod tidy;
+mod verify;
+
+pub use samples::IDLE_SAMPLES;
+use samples::Samples;
+pub use verify::Verification;
 
 use std::borrow::Cow;
 use std::time::Instant;
 
-use glam::Vec3;
 use serde::Serialize;
 
 use super::error::{PipelineError, Result};
@@ -20,11 +28,11 @@ use crate::compare::{Metric, Rgb8Image, difference_at, differences};
 use crate::field::{Edit, EmptySpace, EvalMode, Model, ModelField};
 use crate::frame::{Frame, Size};
 use crate::geom::{Aabb, Support};
-use crate::mesh::{Lattice, Polygonizer, canonical_triangles, skeleton_seeds};
+use crate::mesh::{Lattice, Polygonizer, skeleton_seeds};
 use crate::scene::Scene;
 use crate::trace::{
     ChangedSpace, Coverage, PixelRect, PixelState, Refinement, RenderSettings, blank_field_frame, changed_space,
-    merge_rects, refine, render_model, screen_rect, trace_sample_rows,
+    merge_rects, refine, screen_rect,
 };
 
 /// One frame's measurements.
@@ -74,17 +82,6 @@ pub struct FrameUpdate {
     pub dirty: Vec<PixelRect>,
 }
 
-/// A check of the session against a render and a polygonization from scratch.
-#[derive(Clone, Debug)]
-pub struct Verification {
-    /// Seconds the full render took.
-    pub render_s: f64,
-    /// Seconds the full render and polygonization took together.
-    pub full_s: f64,
-    /// How the session's field image or mesh differ from them, if they do.
-    pub mismatch: Option<String>,
-}
-
 /// A scene with its field render, mesh, BVH2, mesh render and depth
 /// difference, updated incrementally by each edit.
 pub struct EditSession {
@@ -108,22 +105,6 @@ pub struct EditSession {
     /// The pixels to trace again once idle, so their counts are a fresh session's.
     tidy: tidy::Tidy,
 }
-
-/// Samples added to each pixel of a still, refined field image while the
-/// previewer is idle (see [`crate::trace::samples`]), so that it converges to
-/// the image of `render --spp`.
-struct Samples {
-    /// Per pixel, the sum of its samples' colours, in sample order.
-    sum: Vec<Vec3>,
-    /// Samples summed in every pixel.
-    count: u32,
-    /// The first row of sample `count` not yet summed.
-    row: u32,
-    coverage: Coverage,
-}
-
-/// Samples per pixel the previewer takes at most while idle.
-pub const IDLE_SAMPLES: u32 = 16;
 
 /// What the last edits and camera moves left to do, in the order
 /// [`EditSession::refine`] does it: the field image's stale pixels, the
@@ -421,81 +402,11 @@ impl EditSession {
         }
     }
 
-    /// Adds samples to the pixels of the refined field image for about
-    /// `budget` (at least a batch of rows); returns whether it takes more
-    /// (up to [`IDLE_SAMPLES`] per pixel). Nothing while refinement is left.
-    pub fn supersample(&mut self, budget: std::time::Duration) -> bool {
-        if self.pending().is_some() {
-            return true;
-        }
-        let start = Instant::now();
-        while self.samples_taken() < IDLE_SAMPLES {
-            let left = budget.saturating_sub(start.elapsed()).as_secs_f64();
-            self.add_sample_rows((self.work.sample_rays_per_second * left) as usize);
-            if start.elapsed() >= budget {
-                break;
-            }
-        }
-        self.samples_taken() < IDLE_SAMPLES
-    }
-
     /// Field rays traced, whole or in part, per second of tracing since the
     /// last edit or camera move began.
     #[must_use]
     pub fn rays_per_second(&self) -> f64 {
         self.work.traced.0 as f64 / self.work.traced.1.max(1e-9)
-    }
-
-    /// Samples per pixel summed into the field image's colours (1: its own).
-    #[must_use]
-    pub fn samples_taken(&self) -> u32 {
-        self.samples.as_ref().map_or(1, |s| s.count)
-    }
-
-    /// Traces the next rows, about `max_rays` rays, of the next sample of every pixel.
-    fn add_sample_rows(&mut self, max_rays: usize) {
-        let (w, h) = (self.settings.width, self.settings.height);
-        if self.samples.is_none() {
-            let coverage = self.coverage();
-            self.samples = Some(Samples { sum: self.field_frame.color.clone(), count: 1, row: 0, coverage });
-        }
-        let samples = self.samples.as_mut().expect("just made");
-        let rows = (max_rays.max(MIN_BATCH_RAYS) / w.max(1) as usize).max(1) as u32;
-        let (first, end) = (samples.row, (samples.row + rows).min(h));
-        let field = ModelField::new(&self.scene.model, self.mode);
-        let clock = Instant::now();
-        let traced = trace_sample_rows(
-            &field.skipping(&self.empty),
-            &self.settings,
-            Some(&samples.coverage),
-            samples.count,
-            first..end,
-        );
-        let seconds = clock.elapsed().as_secs_f64();
-        self.work.sample_rays_per_second = traced.len() as f64 / seconds.max(1e-6);
-        let offset = (first * w) as usize;
-        for (sum, p) in samples.sum[offset..offset + traced.len()].iter_mut().zip(&traced) {
-            *sum += p.color;
-        }
-        samples.row = end;
-        if end == h {
-            (samples.count, samples.row) = (samples.count + 1, 0);
-        }
-    }
-
-    /// The field image's colours as they stand: the preview's while it
-    /// refines, the mean of the samples taken since.
-    #[must_use]
-    pub fn field_colors(&self) -> Cow<'_, [Vec3]> {
-        match &self.samples {
-            // Rows before `row` hold one sample more: the one under way.
-            Some(s) if s.count > 1 || s.row > 0 => {
-                let done_rows = (s.row * self.settings.width) as usize;
-                let mean = |(i, &c): (usize, &Vec3)| c / (s.count + u32::from(i < done_rows)) as f32;
-                Cow::Owned(s.sum.iter().enumerate().map(mean).collect())
-            }
-            _ => self.work.field.preview_values(&self.field_frame.color),
-        }
     }
 
     /// The work left, `None` once everything is up to date.
@@ -628,26 +539,6 @@ impl EditSession {
     pub fn is_refined(&self) -> bool {
         self.pending().is_none()
     }
-
-    /// Renders and polygonizes from scratch, on a copy of the model with cold
-    /// caches on the same lattices (so a sample an edit should have cleared and
-    /// did not shows), and compares the session's images and mesh with them
-    /// (as [`Self::finish`] leaves them).
-    #[must_use]
-    pub fn verify(&self) -> Verification {
-        let fresh_model = self.scene.model.clone();
-        let clock = Instant::now();
-        let full = render_model(&fresh_model, self.mode, &self.settings, &|_| {}).0;
-        let render_s = clock.elapsed().as_secs_f64();
-        let mesh =
-            polygonizer_on(&fresh_model, self.mode, self.polygonizer.lattice(), self.polygonize.options()).mesh();
-        let full_s = clock.elapsed().as_secs_f64();
-        let mut mismatch = image_mismatch(&full, &self.field_frame);
-        if mesh.triangle_set() != canonical_triangles(self.dynamic.triangles()) {
-            mismatch = Some(mismatch.map_or(String::new(), |m| m + "; ") + "the meshes differ");
-        }
-        Verification { render_s, full_s, mismatch }
-    }
 }
 
 /// The fewest field rays a batch of [`EditSession::refine`] traces: fewer
@@ -677,27 +568,6 @@ fn update_depth_diff(diff: &mut [f32], mesh: &Frame, field: &Frame, rects: &[Pix
             }
         }
     }
-}
-
-/// How the incremental image `kept` differs from the full render `full`, if it does.
-fn image_mismatch(full: &Frame, kept: &Frame) -> Option<String> {
-    if full.same_image(kept) {
-        return None;
-    }
-    let differs = |i: usize| {
-        full.color[i] != kept.color[i]
-            || full.depth[i].to_bits() != kept.depth[i].to_bits()
-            || full.normal[i] != kept.normal[i]
-    };
-    let pixels: Vec<usize> = (0..full.len()).filter(|&i| differs(i)).collect();
-    let first = pixels.first().copied().unwrap_or(0);
-    let (x, y) = (first as u32 % full.width, first as u32 / full.width);
-    Some(format!(
-        "{} pixels, the first at ({x}, {y}) with depth {} incrementally against {}",
-        pixels.len(),
-        kept.depth[first],
-        full.depth[first]
-    ))
 }
 
 /// Draws the edges of `rects` on `img`, in yellow.
