@@ -24,7 +24,8 @@ use anyhow::Context;
 use glam::Vec3;
 
 use crate::camera::{CameraMove, Orbit};
-use crate::compare::{ColourKey, Metric, Rgb8Image, Scale, SpecialLabels, differences};
+use crate::compare::{Metric, differences};
+use crate::draw::{ColourKey, Rgb8Image, Scale, SpecialLabels};
 use crate::field::Edit;
 use crate::frame::srgb8_of;
 use crate::pipeline::{EditSession, IDLE_SAMPLES, PlaneView, SliceView, outline_dirty, plane_view};
