@@ -13,16 +13,16 @@ mod flip_linear;
 mod hdr_flip;
 mod idiff_stats;
 mod load;
+mod thresholds;
 
 pub use cache_error::{CacheErrorStats, cache_error_at, cache_error_stats};
 pub use channel_diff::compare_channels;
 pub use channels::{ChannelImage, Decoding, load_channels};
-pub use diff::{
-    DiffReport, MaxAt, Metric, Thresholds, Totals, Verdict, difference_at, differences, edge_mask, judge, report,
-};
+pub use diff::{DiffReport, MaxAt, Metric, Totals, Verdict, difference_at, differences, edge_mask, judge, report};
 pub use difference_image::{DifferenceForm, difference_planes, planes_png_bytes};
 pub use flip::{FLIP_BUCKETS, FlipStats, default_pixels_per_degree, flip_errors, flip_stats, flip_whole};
 pub use flip_linear::flip_linear;
 pub use hdr_flip::{Exposures, hdr_flip};
 pub use idiff_stats::{IdiffAccumulator, IdiffStats};
 pub use load::{LoadedImage, load_image};
+pub use thresholds::Thresholds;
