@@ -6,7 +6,8 @@
 //! tracer ([`trace`]) queries it through the [`field::Field`] interface and
 //! writes a [`frame::Frame`] of colour and AOVs; the polygonizer ([`mesh`])
 //! meshes it and [`bvh`] ray casts the mesh; [`compare`] measures where they
-//! differ. [`pipeline`] joins the stages into the jobs a user runs (render,
+//! differ, and [`draw`] turns what it measures into heat maps, plots and
+//! panels. [`pipeline`] joins the stages into the jobs a user runs (render,
 //! polygonize, compare, an edit session, regression), with plain settings
 //! and a [`progress`] hook; the command line (`cli`) and the previewer
 //! (`viewer`) are thin layers over it. Below, one stage by hand:
@@ -42,6 +43,7 @@ pub mod camera;
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod compare;
+pub mod draw;
 pub mod field;
 pub mod frame;
 pub mod geom;

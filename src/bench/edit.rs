@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 
-use crate::compare::line_plot;
+use crate::draw::line_plot;
 use crate::field::EvalMode;
 use crate::frame::Size;
 use crate::pipeline::{

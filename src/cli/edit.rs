@@ -9,7 +9,7 @@ use clap::Args;
 
 use super::args::{CameraArgs, EvalOptions, LatticeArgs, create_dir, load_scene, parse_size, print_json, with_threads};
 use super::progress::Bars;
-use crate::compare::{frame_image, line_plot};
+use crate::draw::{frame_image, line_plot};
 use crate::frame::{Frame, Size};
 use crate::output::FileSet;
 use crate::pipeline::{EditReport, EditSession, PipelineError, check_names, outline_dirty};

@@ -10,7 +10,7 @@ use super::args::{
 };
 use super::exit::UsageError;
 use super::progress::Bars;
-use crate::compare::Rgb8Image;
+use crate::draw::Rgb8Image;
 use crate::field::EvalMode;
 use crate::frame::{Frame, Size};
 use crate::output::FileSet;

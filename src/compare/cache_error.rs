@@ -4,9 +4,7 @@
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
-use super::Scale;
 use crate::field::{EvalMode, Field, Model, ModelField};
-use crate::frame::srgb8_to_linear;
 
 /// Statistics of error_C over a set of points.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
@@ -51,19 +49,6 @@ pub fn cache_error_stats(errors: &[f32], threshold: f32) -> CacheErrorStats {
     }
 }
 
-/// Linear RGB colours of `errors` on magma over `0..=scale`.
-#[must_use]
-pub fn error_colors(errors: &[f32], scale: f32) -> Vec<Vec3> {
-    let s = Scale::Magnitude { max: scale };
-    errors
-        .iter()
-        .map(|&e| {
-            let [r, g, b] = s.color(e);
-            Vec3::new(srgb8_to_linear(r), srgb8_to_linear(g), srgb8_to_linear(b))
-        })
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -73,7 +58,5 @@ mod tests {
         let s = cache_error_stats(&[0.01, 0.03], 0.5);
         assert!((s.mean - 0.02).abs() < 1e-7 && (s.mean_relative - 0.04).abs() < 1e-6);
         assert_eq!((s.max, s.points), (0.03, 2));
-        let c = error_colors(&[0.0, 1.0], 0.5);
-        assert!(c[1].length() > c[0].length());
     }
 }

@@ -12,8 +12,9 @@
 //! infinite or NaN (idiff's would).
 
 use super::channels::ChannelImage;
-use super::diff::{DiffReport, MaxAt, Metric, Thresholds, Totals, report};
+use super::diff::{DiffReport, MaxAt, Metric, Totals, report};
 use super::idiff_stats::IdiffAccumulator;
+use super::thresholds::Thresholds;
 
 /// OpenImageIO sums differences in batches of this many pixels.
 const BATCH: usize = 4096;

@@ -11,7 +11,7 @@
 //! thresholds and the peak. One mismatch therefore leaves the mean finite and
 //! the pixel uncounted; two make the mean infinite (or NaN) and the PSNR NaN.
 
-use super::diff::Thresholds;
+use super::thresholds::Thresholds;
 
 /// What idiff computes and prints for a pair of images.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]

@@ -11,9 +11,9 @@ use super::error::{PipelineError, Result};
 use super::polygonize::{PolygonizeSettings, color_by_cache_error, polygonize_checked};
 use super::render::{MeshRenderReport, RenderReport, render_field, render_mesh};
 use crate::compare::{
-    DiffReport, FlipStats, Metric, Rgb8Image, Scale, Thresholds, default_pixels_per_degree, differences, flip_errors,
-    flip_stats, frame_image, heat_map, judge, panel, silhouette_map,
+    DiffReport, FlipStats, Metric, Thresholds, default_pixels_per_degree, differences, flip_errors, flip_stats, judge,
 };
+use crate::draw::{Rgb8Image, Scale, frame_image, heat_map, panel, silhouette_map};
 use crate::field::EvalMode;
 use crate::frame::{Frame, Size};
 use crate::output::FileSet;

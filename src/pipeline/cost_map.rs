@@ -3,7 +3,7 @@
 //! each on magma with its scale, from the render's work AOVs.
 
 use super::error::{PipelineError, Result};
-use crate::compare::{Rgb8Image, Scale, SpecialLabels, heat_map_labelled, panel};
+use crate::draw::{Rgb8Image, Scale, SpecialLabels, heat_map_labelled, panel};
 use crate::frame::Frame;
 
 /// The work counters drawn, by AOV name, with their titles and units.

@@ -11,10 +11,11 @@ use std::path::{Path, PathBuf};
 
 use super::error::PipelineError;
 use crate::compare::{
-    ChannelImage, Decoding, DiffReport, DifferenceForm, Exposures, Metric, Scale, SpecialLabels, Thresholds, Verdict,
-    compare_channels, default_pixels_per_degree, difference_planes, differences, edge_mask, flip_errors, flip_stats,
-    hdr_flip, heat_map_labelled, histogram_plot, judge, load_channels, load_image, planes_png_bytes,
+    ChannelImage, Decoding, DiffReport, DifferenceForm, Exposures, Metric, Thresholds, Verdict, compare_channels,
+    default_pixels_per_degree, difference_planes, differences, edge_mask, flip_errors, flip_stats, hdr_flip, judge,
+    load_channels, load_image, planes_png_bytes,
 };
+use crate::draw::{Scale, SpecialLabels, heat_map_labelled, histogram_plot};
 use crate::frame::channels_exr_bytes;
 use crate::output::FileSet;
 

@@ -46,7 +46,6 @@ mod edit_session;
 mod error;
 mod eval;
 mod image_diff;
-mod junit;
 mod mesh_repair;
 mod polygonize;
 mod regress;
@@ -67,14 +66,13 @@ pub use edit_session::{EditSession, FrameRow, FrameUpdate, IDLE_SAMPLES, Pending
 pub use error::{PipelineError, Result};
 pub use eval::{EvalSettings, ExactLookup, FieldChoice, MB};
 pub use image_diff::{DiffOutput, ImageDiffError, ImageDiffSettings, diff_images};
-pub use junit::junit_xml;
 pub use mesh_repair::{MAX_SNAP, MeshRepair, RepairReport, SnapEffect, repair_mesh};
 pub use polygonize::{
     MAX_REFINE, MAX_RES, MeshReport, PolygonizeSettings, cells_name, color_by_cache_error, polygonize, polygonizer_on,
     vertex_name,
 };
 pub use regress::{
-    Entry, Kind, Manifest, RegressRow, RegressSettings, RegressSummary, load_manifest, regress, render_entry,
+    Entry, Kind, Manifest, RegressRow, RegressSettings, RegressSummary, junit_xml, load_manifest, regress, render_entry,
 };
 pub use render::{MeshRenderReport, RenderReport, render_field, render_mesh};
 pub use replay::{EditReport, ScratchFrame, check_names, replay_from_scratch};

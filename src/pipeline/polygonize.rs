@@ -9,7 +9,8 @@ use serde::Serialize;
 use super::cache_report::CacheReport;
 use super::error::{PipelineError, Result};
 use super::mesh_repair::{MeshRepair, RepairReport, repair_mesh};
-use crate::compare::{CacheErrorStats, cache_error_at, cache_error_stats, error_colors};
+use crate::compare::{CacheErrorStats, cache_error_at, cache_error_stats};
+use crate::draw::error_colors;
 use crate::field::{EvalMode, Model, ModelField};
 use crate::mesh::{
     CellShape, Lattice, Mesh, PolygonizeOptions, PolygonizeStats, Polygonizer, VertexPlacement, quality::MeshQuality,

@@ -7,7 +7,7 @@ use glam::Vec3A;
 
 use super::error::{PipelineError, Result};
 use crate::cache::Filter;
-use crate::compare::{ColourKey, Rgb8Image, Scale, SpecialLabels, heat_map, heat_map_labelled, panel};
+use crate::draw::{ColourKey, Rgb8Image, Scale, SpecialLabels, heat_map, heat_map_labelled, panel};
 use crate::field::{EvalMode, Field, ModelField};
 use crate::progress::Progress;
 use crate::scene::{Scene, parse_desc};

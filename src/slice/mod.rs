@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 pub use plane::{PlaneError, SlicePlane};
 
-use crate::compare::Rgb8Image;
+use crate::draw::Rgb8Image;
 
 /// Samples `f` at every pixel centre of `plane`, rows in parallel.
 pub fn sample(plane: &SlicePlane, f: impl Fn(Vec3A) -> f32 + Sync) -> Vec<f32> {
@@ -43,7 +43,7 @@ pub fn sharp_image(values: &[f32], width: u32, height: u32, threshold: f32) -> R
 /// mean: the red band around the iso-value and the grey ramp of `sin(11π f)`.
 #[must_use]
 pub fn with_sharp_legend(view: &Rgb8Image, threshold: f32) -> Rgb8Image {
-    use crate::compare::LINE_HEIGHT;
+    use crate::draw::LINE_HEIGHT;
     let strip = 2 * LINE_HEIGHT + 12;
     let mut img = Rgb8Image::filled(view.width, view.height + strip, [255, 255, 255]);
     img.pixels[..view.pixels.len()].copy_from_slice(&view.pixels);

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use super::changed_space::ChangedSpace;
 use super::coverage::Coverage;
 use super::progressive::{PixelState, Refinement};
-use super::samples::{combine, sample_offset};
+use super::samples::{PixelSample, combine, sample_offset};
 use super::segment::{Crossing, TraceOptions, march, snap_reach, trace_ray_from};
 use super::shade::Lighting;
 use crate::camera::Camera;
@@ -51,30 +51,6 @@ impl RenderSettings {
             trace: TraceOptions::for_bounds(&model.sizing_bounds()),
             samples: 1,
         }
-    }
-}
-
-/// One traced pixel: what it shows and two per-pixel work counters.
-#[derive(Clone, Copy, Debug)]
-pub struct PixelSample {
-    /// Shaded colour (linear RGB).
-    pub color: Vec3,
-    /// Distance to the hit; `+inf` on a miss.
-    pub depth: f32,
-    /// Unit world normal at the hit; zero on a miss.
-    pub normal: Vec3,
-    /// Coverage: 1 on a hit, 0 on a miss, the fraction of rays that hit
-    /// for several samples.
-    pub alpha: f32,
-    /// Work counters, written to the frame's extra channels.
-    pub counts: [u32; 2],
-}
-
-impl PixelSample {
-    /// A missed pixel.
-    #[must_use]
-    pub fn miss(background: Vec3, counts: [u32; 2]) -> Self {
-        Self { color: background, depth: f32::INFINITY, normal: Vec3::ZERO, alpha: 0.0, counts }
     }
 }
 

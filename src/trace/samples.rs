@@ -1,9 +1,9 @@
 //! Where in a pixel each of its rays goes, and how a pixel's samples make
-//! one. Sample 0 is the pixel's centre, so one sample per pixel is the plain
-//! render references are made of; sample k ≥ 1 is the k-th point of the
-//! Halton sequence in bases 2 and 3, shifted by a per-pixel offset taken
-//! from a hash of the pixel (a Cranley–Patterson rotation, so neighbouring
-//! pixels do not alias alike). Every prefix of the sequence is spread
+//! one [`PixelSample`]. Sample 0 is the pixel's centre, so one sample per
+//! pixel is the plain render references are made of; sample k ≥ 1 is the
+//! k-th point of the Halton sequence in bases 2 and 3, shifted by a
+//! per-pixel offset taken from a hash of the pixel (a Cranley–Patterson
+//! rotation, so neighbouring pixels do not alias alike). Every prefix of the sequence is spread
 //! evenly over the pixel, so N samples are stratified for any N, and a
 //! previewer that adds one sample at a time ends where a render of N does.
 //! The offsets depend on the pixel and the sample index only: the image is
@@ -11,7 +11,29 @@
 
 use glam::{Vec2, Vec3};
 
-use super::render::PixelSample;
+/// One traced pixel: what it shows and two per-pixel work counters.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelSample {
+    /// Shaded colour (linear RGB).
+    pub color: Vec3,
+    /// Distance to the hit; `+inf` on a miss.
+    pub depth: f32,
+    /// Unit world normal at the hit; zero on a miss.
+    pub normal: Vec3,
+    /// Coverage: 1 on a hit, 0 on a miss, the fraction of rays that hit
+    /// for several samples.
+    pub alpha: f32,
+    /// Work counters, written to the frame's extra channels.
+    pub counts: [u32; 2],
+}
+
+impl PixelSample {
+    /// A missed pixel.
+    #[must_use]
+    pub fn miss(background: Vec3, counts: [u32; 2]) -> Self {
+        Self { color: background, depth: f32::INFINITY, normal: Vec3::ZERO, alpha: 0.0, counts }
+    }
+}
 
 /// Most samples per pixel a render takes.
 pub const MAX_SAMPLES: u32 = 1024;

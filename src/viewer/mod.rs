@@ -35,7 +35,7 @@ use anyhow::Context;
 use glam::Vec3;
 
 use crate::camera::Orbit;
-use crate::compare::{ColourKey, Rgb8Image};
+use crate::draw::{ColourKey, Rgb8Image};
 use crate::field::Edit;
 use crate::pipeline::{EditSession, IDLE_SAMPLES, SliceView, outline_dirty};
 use crate::scene::Script;

@@ -3,7 +3,8 @@
 //! Adding a view is a variant, a row and its drawing.
 
 use super::Viewer;
-use crate::compare::{ColourKey, Metric, Rgb8Image, Scale, SpecialLabels, differences};
+use crate::compare::{Metric, differences};
+use crate::draw::{ColourKey, Rgb8Image, Scale, SpecialLabels};
 use crate::frame::srgb8_of;
 
 /// What the window shows.

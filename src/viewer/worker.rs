@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use super::input::Event;
 use super::{Action, Viewer};
-use crate::compare::Rgb8Image;
+use crate::draw::Rgb8Image;
 
 /// How long the viewer refines before it looks for events again.
 const REFINE_BUDGET: Duration = Duration::from_millis(25);

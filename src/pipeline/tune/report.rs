@@ -5,7 +5,7 @@
 use glam::Vec3A;
 
 use super::TuneReport;
-use crate::compare::{Rgb8Image, Scale, heat_map, panel};
+use crate::draw::{Rgb8Image, Scale, heat_map, panel};
 use crate::field::{EvalMode, Field, ModelField, NodeKind};
 use crate::geom::Aabb;
 use crate::pipeline::error::{PipelineError, Result};

@@ -5,7 +5,7 @@
 //! one). Where the window is too short, the special colours' lines go first.
 
 use super::{Item, LINE_STEP, Mark, PAD, Panel, Rect, TEXT, chars_across, panel_around, wrapped};
-use crate::compare::{CHAR_WIDTH, ColourKey, LINE_HEIGHT, OVER_RANGE, Rgb8Image, Scale};
+use crate::draw::{CHAR_WIDTH, ColourKey, LINE_HEIGHT, OVER_RANGE, Rgb8Image, Scale};
 
 /// The bar's height.
 const BAR_HEIGHT: u32 = 8;
@@ -126,7 +126,7 @@ mod tests {
     #[test]
     fn the_bar_draws_its_ends_and_labels_the_special_colours_its_view_shows() {
         let scale = Scale::Magnitude { max: 10.0 };
-        let labels = crate::compare::SpecialLabels { no_value: "a gradient vanishes", infinite: "infinite" };
+        let labels = crate::draw::SpecialLabels { no_value: "a gradient vanishes", infinite: "infinite" };
         let shown = ColourKey::of(&[1.0, f32::NAN, 20.0], scale, ("angle", "deg"), &labels);
         let plain = ColourKey::of(&[1.0], scale, ("angle", "deg"), &labels);
         let (with, without) = (colour_bar(300, 200, 16, &shown).unwrap(), colour_bar(300, 200, 16, &plain).unwrap());

@@ -5,7 +5,7 @@
 //! window goes on under itself.
 
 use super::{HEADING, Item, LINE_STEP, PAD, Panel, TEXT, chars_across, panel_around, wrapped};
-use crate::compare::CHAR_WIDTH;
+use crate::draw::CHAR_WIDTH;
 
 /// Characters between two columns.
 const GUTTER: u32 = 3;

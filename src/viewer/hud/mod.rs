@@ -15,7 +15,7 @@ pub use colour_bar::colour_bar;
 pub use help::{HelpCard, help};
 pub use status::{BAND_HEIGHT, StatusPart, status};
 
-use crate::compare::{LINE_HEIGHT, Rgb8Image, Scale};
+use crate::draw::{LINE_HEIGHT, Rgb8Image, Scale};
 
 /// Space around text, in pixels.
 const PAD: u32 = 4;
@@ -151,7 +151,7 @@ fn wrapped(text: &str, chars: usize) -> Vec<String> {
 
 /// Characters of text that fit across `width` pixels inside a panel's padding.
 fn chars_across(width: u32) -> usize {
-    (width.saturating_sub(2 * PAD) / crate::compare::CHAR_WIDTH) as usize
+    (width.saturating_sub(2 * PAD) / crate::draw::CHAR_WIDTH) as usize
 }
 
 #[cfg(test)]

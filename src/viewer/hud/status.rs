@@ -5,7 +5,7 @@
 //! picture.
 
 use super::{Item, PAD, Panel, Rect, TEXT, chars_across};
-use crate::compare::LINE_HEIGHT;
+use crate::draw::LINE_HEIGHT;
 
 /// One part of the status, whole and shortened.
 #[derive(Clone, Debug, PartialEq)]

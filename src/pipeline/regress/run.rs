@@ -1,28 +1,23 @@
-//! Regression against reference renders: render every entry of a manifest,
-//! compare each with its stored reference under the entry's tolerances (the
-//! `diff` rules), keep images of the failures and one HTML page; or bless,
-//! rewriting the references from the current renders.
-//!
-//! The report folder describes the last run alone: its page, its failures'
-//! images and the JUnit file are written together, all or none, and images
-//! an earlier run left there are removed. A filter or shard that selects no
-//! entry is an error (a typo must not pass CI) unless empty runs are allowed.
+//! Running the regression: select the manifest's entries, render each, judge
+//! it against its reference, and write the report folder (page, failures'
+//! images, JUnit file) all or none; or bless the references.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use serde::Deserialize;
-
-use super::error::{PipelineError, Result};
 use super::junit::junit_xml;
-use super::polygonize::{MAX_RES, PolygonizeSettings, polygonize};
-use super::render::{render_field, render_mesh};
-use crate::compare::{DiffReport, Metric, Scale, Thresholds, Verdict, differences, heat_map, judge, load_image};
+use super::manifest::{Entry, Kind, load_manifest};
+use super::summary::{RegressRow, RegressSummary};
+use crate::compare::{Metric, Thresholds, Verdict, differences, judge, load_image};
+use crate::draw::{Scale, heat_map};
 use crate::field::EvalMode;
-use crate::frame::{Frame, Size};
+use crate::frame::Frame;
 use crate::output::FileSet;
+use crate::pipeline::error::{PipelineError, Result};
+use crate::pipeline::polygonize::{PolygonizeSettings, polygonize};
+use crate::pipeline::render::{render_field, render_mesh};
 use crate::progress::{Progress, Silent};
-use crate::scene::{Scene, SceneError, entry_positions, syntax_error, values};
+use crate::scene::Scene;
 
 /// Where a regression run reads and writes.
 #[derive(Clone, Debug)]
@@ -73,122 +68,6 @@ impl RegressSettings {
             _ => Ok(()),
         }
     }
-}
-
-/// The manifest: which renders are guarded, and how strictly.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Manifest {
-    /// The guarded renders.
-    pub entries: Vec<Entry>,
-}
-
-/// One guarded render.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Entry {
-    /// Scene file name in the scenes directory.
-    pub scene: String,
-    /// Image size.
-    pub size: Size,
-    /// Field trace (`Field`) or mesh ray cast (`Mesh(res)`).
-    pub kind: Kind,
-    /// Evaluate through the caches (default: exact, indexed).
-    #[serde(default)]
-    pub cached: bool,
-    /// A pixel differing by more than this (largest linear RGB difference) fails…
-    #[serde(default = "default_fail", deserialize_with = "values::non_negative")]
-    pub fail: f32,
-    /// …when more than this percentage of pixels do.
-    #[serde(default, deserialize_with = "values::percentage")]
-    pub failpercent: f64,
-    /// Any pixel above this fails.
-    #[serde(default = "default_hardfail", deserialize_with = "values::non_negative")]
-    pub hardfail: f32,
-}
-
-/// What an entry renders.
-#[derive(Clone, Copy, Debug, Deserialize)]
-pub enum Kind {
-    /// The field ray trace.
-    Field,
-    /// The mesh polygonized at this resolution, ray cast.
-    Mesh(u32),
-}
-
-fn default_fail() -> f32 {
-    // Two 8-bit steps near mid-grey: tolerant of last-bit float differences across machines.
-    0.01
-}
-
-fn default_hardfail() -> f32 {
-    0.25
-}
-
-impl Entry {
-    /// The reference file name: scene stem, kind, size.
-    #[must_use]
-    pub fn file_name(&self) -> String {
-        let stem = self.scene.trim_end_matches(".ron");
-        let kind = match self.kind {
-            Kind::Field => "field".to_string(),
-            Kind::Mesh(res) => format!("mesh{res}"),
-        };
-        let mode = if self.cached { "-cached" } else { "" };
-        format!("{stem}-{kind}{mode}-{}x{}.png", self.size.0, self.size.1)
-    }
-}
-
-/// One entry's outcome: its reference name and its judgement (`None`: no readable reference).
-pub type RegressRow = (String, Option<DiffReport>);
-
-/// What a regression run found.
-#[derive(Debug)]
-pub struct RegressSummary {
-    /// Each entry compared (none when blessing).
-    pub rows: Vec<RegressRow>,
-    /// References written (when blessing).
-    pub blessed: Vec<PathBuf>,
-}
-
-impl RegressSummary {
-    /// Entries that failed, a missing reference counted.
-    #[must_use]
-    pub fn failed(&self) -> usize {
-        self.rows.iter().filter(|r| r.1.as_ref().is_none_or(|d| d.verdict == Verdict::Fail)).count()
-    }
-}
-
-/// Reads `refs/manifest.ron`, and checks that every scene it names loads,
-/// before anything is rendered: a scene missing is reported at its entry.
-pub fn load_manifest(refs: &Path, scenes: &Path) -> Result<Manifest> {
-    let path = refs.join("manifest.ron");
-    let label = path.display().to_string();
-    let text = std::fs::read_to_string(&path).map_err(|cause| match cause.kind() {
-        std::io::ErrorKind::NotFound => PipelineError::Unsuitable(format!(
-            "{label}: no manifest here; a reference folder starts from one (copy images/ref/manifest.ron, keep the entries to guard, then --bless)"
-        )),
-        _ => SceneError::Io { path: label.clone(), cause }.into(),
-    })?;
-    let syntax =
-        |line, column, message| PipelineError::Scene(SceneError::Syntax { path: label.clone(), line, column, message });
-    let manifest: Manifest = ron::from_str(&text).map_err(|e| PipelineError::Scene(syntax_error(&label, &text, &e)))?;
-    let positions = entry_positions(&text);
-    for (k, entry) in manifest.entries.iter().enumerate() {
-        let scene = scenes.join(&entry.scene);
-        if !scene.is_file() {
-            let (line, column) = positions.get(k).copied().unwrap_or((1, 1));
-            return Err(syntax(line, column, format!("no scene {:?} in {}", entry.scene, scenes.display())));
-        }
-        if let Kind::Mesh(res) = entry.kind
-            && !(1..=MAX_RES).contains(&res)
-        {
-            let (line, column) = positions.get(k).copied().unwrap_or((1, 1));
-            return Err(syntax(line, column, format!("Mesh({res}): the resolution must be between 1 and {MAX_RES}")));
-        }
-        Scene::load(&scene)?;
-    }
-    Ok(manifest)
 }
 
 /// Renders every entry of the manifest and compares it with its reference,

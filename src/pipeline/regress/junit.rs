@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use super::regress::RegressRow;
+use super::summary::RegressRow;
 use crate::compare::Verdict;
 
 /// The JUnit XML of `rows`, as the suite `suite`.
