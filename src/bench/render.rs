@@ -9,11 +9,12 @@ use std::time::Instant;
 use glam::Vec3A;
 use serde::Serialize;
 
-use crate::field::{EvalMode, Model, NodeId, NodeKind};
+use crate::field::{EvalMode, Model, NodeId, NodeKind, TracerChoice};
 use crate::frame::{Frame, Size};
 use crate::pipeline::{PipelineError, RenderReport, Result, Silent, render_field, with_threads};
 use crate::progress::Progress;
 use crate::scene::Scene;
+use crate::trace::kernel::KernelSupports;
 
 /// What `bench eval` and `bench cache` render.
 #[derive(Clone, Debug)]
@@ -57,39 +58,83 @@ impl Fastest {
 /// What `bench eval --json` prints.
 #[derive(Debug, Serialize)]
 pub struct EvalBenchReport {
-    /// The naive render.
+    /// The kernel tracer's render (exact, indexed), where the model is a sum of kernels.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kernel: Option<RenderReport>,
+    /// The segment tracer's render, exact and indexed.
+    pub segment: RenderReport,
+    /// The segment tracer's render through the naive tree traversal: the baseline.
     pub naive: RenderReport,
-    /// The indexed render.
-    pub indexed: RenderReport,
-    /// Seconds of the naive render over seconds of the indexed render.
-    pub speedup: f64,
-    /// Pixels whose hit/miss differs between the two renders.
+    /// Seconds of the segment render over seconds of the kernel render.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kernel_vs_segment: Option<f64>,
+    /// Seconds of the naive render over seconds of the kernel render.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kernel_vs_naive: Option<f64>,
+    /// Seconds of the naive render over seconds of the segment render.
+    pub segment_vs_naive: f64,
+    /// Pixels whose hit/miss differs between the segment render and the naive one.
     pub mismatch_px: usize,
-    /// Seconds of each round's naive render.
-    pub naive_runs_s: Vec<f64>,
-    /// Seconds of each round's indexed render.
-    pub indexed_runs_s: Vec<f64>,
+    /// Pixels whose hit/miss differs between the kernel render and the segment one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kernel_mismatch_px: Option<usize>,
+    /// Seconds of each round's renders, by kind.
+    pub runs_s: EvalBenchRuns,
 }
 
-/// Renders `settings.scene` exact, indexed and naive, in interleaved rounds.
+/// Seconds of each round's renders in `bench eval`.
+#[derive(Debug, Serialize)]
+pub struct EvalBenchRuns {
+    /// Kernel renders (none where the kernel tracer does not apply).
+    pub kernel: Vec<f64>,
+    /// Segment renders.
+    pub segment: Vec<f64>,
+    /// Naive segment renders.
+    pub naive: Vec<f64>,
+}
+
+/// Renders `settings.scene` exact three ways, in interleaved rounds: by
+/// the kernel tracer (where it applies) and the segment tracer with indexed
+/// evaluation, and by the segment tracer through the naive tree traversal.
 pub fn bench_eval(settings: &RenderBenchSettings, progress: &dyn Progress) -> Result<EvalBenchReport> {
     let scene = Scene::load(&settings.scene)?;
     let size = settings.size.unwrap_or(scene.size);
-    let (mut indexed, mut naive) = (Fastest::new(), Fastest::new());
+    let with = |tracer| {
+        let mut s = scene.clone();
+        s.model.set_tracer(tracer);
+        s
+    };
+    let kernel_scene =
+        KernelSupports::of(&scene.model, EvalMode::Indexed).is_ok().then(|| with(TracerChoice::Kernel));
+    let segment_scene = with(TracerChoice::Segment);
+    let (mut kernel, mut segment, mut naive) = (Fastest::new(), Fastest::new(), Fastest::new());
+    let render = |s: &Scene, mode| with_threads(settings.threads, || render_field(s, (size, 1), mode, &Silent));
     for round in 0..settings.repeat {
         progress.update("benchmark rounds", u64::from(round), u64::from(settings.repeat));
-        indexed.offer(with_threads(settings.threads, || render_field(&scene, (size, 1), EvalMode::Indexed, &Silent))?);
-        naive.offer(with_threads(settings.threads, || render_field(&scene, (size, 1), EvalMode::Naive, &Silent))?);
+        if let Some(s) = &kernel_scene {
+            kernel.offer(render(s, EvalMode::Indexed)?);
+        }
+        segment.offer(render(&segment_scene, EvalMode::Indexed)?);
+        naive.offer(render(&segment_scene, EvalMode::Naive)?);
     }
-    let ((indexed_frame, indexed, indexed_runs_s), (naive_frame, naive, naive_runs_s)) = (indexed.take(), naive.take());
-    let mismatch_px = indexed_frame.alpha.iter().zip(&naive_frame.alpha).filter(|(a, b)| a != b).count();
+    let kernel = kernel_scene.map(|_| kernel.take());
+    let ((segment_frame, segment, segment_runs), (naive_frame, naive, naive_runs)) = (segment.take(), naive.take());
+    let hit_mismatch = |a: &Frame, b: &Frame| a.alpha.iter().zip(&b.alpha).filter(|(a, b)| a != b).count();
+    let ratio = |slow: &RenderReport, fast: &RenderReport| slow.seconds / fast.seconds.max(1e-9);
     Ok(EvalBenchReport {
-        speedup: naive.seconds / indexed.seconds.max(1e-9),
+        kernel_vs_segment: kernel.as_ref().map(|(_, k, _)| ratio(&segment, k)),
+        kernel_vs_naive: kernel.as_ref().map(|(_, k, _)| ratio(&naive, k)),
+        segment_vs_naive: ratio(&naive, &segment),
+        mismatch_px: hit_mismatch(&segment_frame, &naive_frame),
+        kernel_mismatch_px: kernel.as_ref().map(|(frame, _, _)| hit_mismatch(frame, &segment_frame)),
+        runs_s: EvalBenchRuns {
+            kernel: kernel.as_ref().map_or_else(Vec::new, |(_, _, runs)| runs.clone()),
+            segment: segment_runs,
+            naive: naive_runs,
+        },
+        kernel: kernel.map(|(_, k, _)| k),
+        segment,
         naive,
-        indexed,
-        mismatch_px,
-        naive_runs_s,
-        indexed_runs_s,
     })
 }
 

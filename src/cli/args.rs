@@ -9,7 +9,7 @@ use glam::Vec3;
 use serde::Serialize;
 
 use super::exit::UsageError;
-use crate::field::{EvalMode, Model};
+use crate::field::{EvalMode, Model, TracerChoice};
 use crate::frame::Size;
 use crate::mesh::{CellShape, VertexPlacement};
 use crate::pipeline::{self, EvalSettings, ExactLookup, FieldChoice, MeshRepair, PolygonizeSettings};
@@ -49,6 +49,24 @@ pub struct EvalOptions {
     /// blocks are evicted and re-evaluated on demand; the image does not change).
     #[arg(long, value_name = "MB")]
     pub cache_budget: Option<f64>,
+    /// Ray tracer: kernel (hits as roots of each ray's polynomial, for sums of
+    /// points and segments), segment (marching, for any model), or auto: kernel
+    /// where it applies and pays (`info` shows the decision).
+    #[arg(long, value_enum, default_value_t = TracerArg::Auto)]
+    pub tracer: TracerArg,
+}
+
+/// The `--tracer` choices.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum TracerArg {
+    /// The kernel tracer where the model is a sum of polynomial kernels that
+    /// overlap little, else the segment tracer.
+    #[default]
+    Auto,
+    /// The kernel tracer (refused where the model is not a sum of polynomial kernels).
+    Kernel,
+    /// The segment tracer.
+    Segment,
 }
 
 impl EvalOptions {
@@ -66,6 +84,11 @@ impl EvalOptions {
                 EvalArg::Naive => ExactLookup::Naive,
             },
             cache_budget_mb: self.cache_budget,
+            tracer: match self.tracer {
+                TracerArg::Auto => TracerChoice::Auto,
+                TracerArg::Kernel => TracerChoice::Kernel,
+                TracerArg::Segment => TracerChoice::Segment,
+            },
         }
     }
 

@@ -139,7 +139,7 @@ pub fn run(c: &BenchCommand) -> anyhow::Result<()> {
     match c {
         BenchCommand::Eval(a) => {
             let report = bench_eval(&a.settings(), &Bars::new())?;
-            emit(a.json, &report, |r| print_eval(a, size_of(&r.indexed), r))
+            emit(a.json, &report, |r| print_eval(a, size_of(&r.segment), r))
         }
         BenchCommand::Cache(a) => {
             let report = bench_cache(&a.settings(), &Bars::new())?;
@@ -238,20 +238,36 @@ impl EditBenchArgs {
 }
 
 fn print_eval(a: &EvalBenchArgs, size: String, report: &EvalBenchReport) {
-    println!("{} at {size}, {} threads, fastest of {} rounds", a.scene.display(), report.indexed.threads, a.repeat);
-    for (name, r, runs) in
-        [("naive", &report.naive, &report.naive_runs_s), ("indexed", &report.indexed, &report.indexed_runs_s)]
-    {
+    println!("{} at {size}, {} threads, fastest of {} rounds", a.scene.display(), report.segment.threads, a.repeat);
+    let runs = &report.runs_s;
+    let rows = [
+        ("kernel", report.kernel.as_ref(), &runs.kernel),
+        ("segment", Some(&report.segment), &runs.segment),
+        ("naive", Some(&report.naive), &runs.naive),
+    ];
+    for (name, r, runs) in rows {
+        let Some(r) = r else {
+            println!("  {name:8} does not apply: the model is not a sum of polynomial kernels");
+            continue;
+        };
         println!(
-            "  {name:8} {:8.3} s  {:10.0} rays/s  {:6.1} evals/ray  {:6.1} steps/ray   rounds: {}",
+            "  {name:8} {:8.3} s  {:10.0} rays/s  {:6.0} ns/ray  {:6.1} evals/ray  {:6.1} {}/ray   rounds: {}",
             r.seconds,
             r.rays_per_second,
+            1e9 * r.seconds / r.stats.rays.max(1) as f64 * r.threads as f64,
             r.evals_per_ray,
             r.stats.steps as f64 / r.stats.rays.max(1) as f64,
+            if r.tracer == "kernel" { "supports" } else { "steps" },
             seconds_list(runs)
         );
     }
-    println!("  indexed is {:.1}x faster; {} pixels differ in hit/miss", report.speedup, report.mismatch_px);
+    if let (Some(k), Some(n), Some(px)) = (report.kernel_vs_segment, report.kernel_vs_naive, report.kernel_mismatch_px) {
+        println!("  kernel is {k:.1}x the segment tracer, {n:.1}x naive; {px} pixels differ in hit/miss from segment");
+    }
+    println!(
+        "  segment is {:.1}x naive; {} pixels differ in hit/miss",
+        report.segment_vs_naive, report.mismatch_px
+    );
 }
 
 fn print_cache_report(a: &EvalBenchArgs, size: String, r: &CacheBenchReport, rays: u64) {

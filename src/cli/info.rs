@@ -7,7 +7,9 @@ use clap::Args;
 use serde::Serialize;
 
 use crate::field::{CacheDecision, ModelCounts};
+use crate::pipeline::EvalSettings;
 use crate::scene::Scene;
+use crate::trace::kernel::{self, TracerDecision};
 
 /// Options of `blobtrace info`.
 #[derive(Debug, Args)]
@@ -35,11 +37,15 @@ pub struct InfoReport {
     pub size: [u32; 2],
     /// What auto mode decides for each cache, and the estimate behind it.
     pub cache_decisions: Vec<CacheDecision>,
+    /// Which ray tracer `--tracer auto` picks, and why.
+    pub tracer: TracerDecision,
 }
 
 /// Runs `blobtrace info`.
 pub fn run(a: &InfoArgs) -> anyhow::Result<()> {
-    let scene = Scene::load(&a.scene)?;
+    let mut scene = Scene::load(&a.scene)?;
+    // The tracer is chosen for the field auto mode shows.
+    let mode = EvalSettings::default().apply(&mut scene.model)?;
     let m = &scene.model;
     let b = m.bounds();
     let report = InfoReport {
@@ -49,6 +55,7 @@ pub fn run(a: &InfoArgs) -> anyhow::Result<()> {
         bounds: [b.min.to_array(), b.max.to_array()],
         size: [scene.size.0, scene.size.1],
         cache_decisions: m.cache_decisions(),
+        tracer: kernel::decide(m, mode).1,
     };
     if a.json {
         println!("{}", serde_json::to_string_pretty(&report).context("encoding the report")?);
@@ -67,6 +74,8 @@ pub fn run(a: &InfoArgs) -> anyhow::Result<()> {
         println!("  names       {}", report.names.join(", "));
     }
     print_decisions(&report.cache_decisions);
+    let t = &report.tracer;
+    println!("  tracer      {} in --tracer auto: {}", t.tracer, t.reason);
     Ok(())
 }
 

@@ -35,7 +35,7 @@ pub use eight_wide_sums::SUMS_ENV;
 pub use empty::EmptySpace;
 pub use index::{BlendIndex, IndexedLeaf, Leaf};
 pub use kernel::Kernel;
-pub use model::{Change, Model, ModelBuilder, ModelCounts, ModelError};
+pub use model::{Change, Model, ModelBuilder, ModelCounts, ModelError, TracerChoice};
 pub use node::{Node, NodeKind, Placement};
 pub use node_id::NodeId;
 pub use primitive::{Primitive, Skeleton};

@@ -5,7 +5,8 @@
 use super::error::{PipelineError, Result};
 use crate::cache::SLOT_BYTES;
 use crate::cache::pool::MIN_BUDGET_SLOTS;
-use crate::field::{EvalMode, Model};
+use crate::trace::kernel::KernelSupports;
+use crate::field::{EvalMode, Model, TracerChoice};
 
 /// Which field to show: the true one, or the one the scene's caches reconstruct.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -39,6 +40,8 @@ pub struct EvalSettings {
     /// Cap on the caches' sample storage, in megabytes (least-recently-used
     /// blocks are evicted and re-evaluated on demand; images do not change).
     pub cache_budget_mb: Option<f64>,
+    /// Which ray tracer renders the model.
+    pub tracer: TracerChoice,
 }
 
 /// Bytes per megabyte, as the cache budget counts them.
@@ -47,6 +50,18 @@ pub const MB: f64 = 1024.0 * 1024.0;
 impl EvalSettings {
     /// The evaluation mode for `model`; applies the cache budget to it.
     pub fn apply(&self, model: &mut Model) -> Result<EvalMode> {
+        let mode = self.apply_field(model)?;
+        model.set_tracer(self.tracer);
+        if self.tracer == TracerChoice::Kernel {
+            KernelSupports::of(model, mode).map_err(|why| {
+                PipelineError::setting("tracer", format!("the kernel tracer does not apply: {why} (try --tracer auto)"))
+            })?;
+        }
+        Ok(mode)
+    }
+
+    /// The evaluation mode for `model`, its caches' lattices put in use or not.
+    fn apply_field(&self, model: &mut Model) -> Result<EvalMode> {
         // Asking for the naive baseline asks for exact evaluation.
         let default = if self.lookup == ExactLookup::Naive { FieldChoice::Exact } else { FieldChoice::Auto };
         if let Some(mb) = self.cache_budget_mb {

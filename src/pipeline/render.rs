@@ -8,7 +8,7 @@ use serde::Serialize;
 use super::cache_report::CacheReport;
 use super::polygonize::MeshReport;
 use crate::bvh::{MeshBvh, MeshRenderStats, StaticMesh, render_mesh as cast_mesh};
-use crate::field::EvalMode;
+use crate::field::{EmptySpace, EvalMode};
 use crate::frame::{Frame, Size};
 use crate::mesh::Mesh;
 use crate::progress::{Progress, rows};
@@ -27,10 +27,15 @@ impl Scene {
 /// Statistics of a field render.
 #[derive(Clone, Debug, Serialize)]
 pub struct RenderReport {
-    /// Wall-clock seconds spent tracing, marking the empty space included.
+    /// Wall-clock seconds spent tracing, marking the empty space or listing
+    /// the supports of each screen tile included.
     pub seconds: f64,
-    /// Fraction of the empty-space grid's cells where the surface cannot be.
-    pub empty_fraction: f64,
+    /// The ray tracer: `kernel` or `segment`.
+    pub tracer: &'static str,
+    /// Fraction of the empty-space grid's cells where the surface cannot be
+    /// (the segment tracer's marks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub empty_fraction: Option<f64>,
     /// Image width.
     pub width: u32,
     /// Image height.
@@ -44,6 +49,11 @@ pub struct RenderReport {
     pub rays_per_second: f64,
     /// Field evaluations per ray.
     pub evals_per_ray: f64,
+    /// Field evaluations per ray that hit.
+    pub evals_per_hit: f64,
+    /// Supports crossed per ray (the kernel tracer's steps).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub supports_per_ray: Option<f64>,
     /// Evaluation mode: naive, indexed or cached.
     pub eval: String,
     /// Threads used.
@@ -96,13 +106,17 @@ pub fn render_field(
     frame.add_planar_depth(&settings.camera);
     let report = RenderReport {
         seconds,
-        empty_fraction: empty.empty_fraction(),
+        // Only the segment tracer marks empty space.
+        tracer: if empty.is_some() { "segment" } else { "kernel" },
+        empty_fraction: empty.as_ref().map(EmptySpace::empty_fraction),
         width: size.0,
         height: size.1,
         samples,
         stats,
         rays_per_second: stats.rays as f64 / seconds.max(1e-9),
         evals_per_ray: stats.field_evals as f64 / stats.rays.max(1) as f64,
+        evals_per_hit: stats.field_evals as f64 / stats.hits.max(1) as f64,
+        supports_per_ray: empty.is_none().then(|| stats.steps as f64 / stats.rays.max(1) as f64),
         eval: format!("{mode:?}").to_lowercase(),
         threads: rayon::current_num_threads(),
         point_sum_lanes: crate::field::point_sum_lanes(),

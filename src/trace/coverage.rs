@@ -10,10 +10,15 @@
 //! with no evaluation at all. Marching from a point the field is known to
 //! stay outside before finds the same snapped hit as marching from the
 //! eye, so the image does not change; only the work does.
+//!
+//! For a model the kernel tracer traces, the coverage is its screen tiles'
+//! lists of supports instead (see [`super::kernel`]): a pixel whose tile
+//! lists none is a miss with no evaluation, and the rest are traced by kernels.
 
 use rayon::prelude::*;
 
 use super::dirty_rects::{PixelRect, screen_rect};
+use super::kernel::KernelTracer;
 use crate::camera::Camera;
 use crate::field::EmptySpace;
 use crate::geom::Aabb;
@@ -29,8 +34,11 @@ const DISTANCE_SLACK: f32 = 1e-4;
 #[derive(Clone, Debug)]
 pub struct Coverage {
     width: u32,
-    /// Per pixel, row-major; `+inf` where no box covers the pixel.
+    /// Per pixel, row-major; `+inf` where no box covers the pixel. Empty
+    /// with a kernel tracer.
     near: Vec<f32>,
+    /// The kernel tracer and its tiles, for a model it traces.
+    kernel: Option<Box<KernelTracer>>,
 }
 
 impl Coverage {
@@ -75,19 +83,38 @@ impl Coverage {
                 }
             }
         });
-        Self { width, near }
+        Self { width, near, kernel: None }
+    }
+
+    /// The coverage of a model the kernel tracer traces: its tiles' lists.
+    #[must_use]
+    pub fn of_kernels(tracer: KernelTracer, width: u32) -> Self {
+        Self { width, near: vec![], kernel: Some(Box::new(tracer)) }
+    }
+
+    /// The kernel tracer, where the model is traced by kernels.
+    #[must_use]
+    pub fn kernel(&self) -> Option<&KernelTracer> {
+        self.kernel.as_deref()
     }
 
     /// The distance along pixel (`x`, `y`)'s ray before which it meets no
     /// surface; `+inf` when it meets none.
     #[must_use]
     pub fn near(&self, x: u32, y: u32) -> f32 {
-        self.near[(y * self.width + x) as usize]
+        match &self.kernel {
+            Some(k) if k.misses(x, y) => f32::INFINITY,
+            Some(_) => 0.0,
+            None => self.near[(y * self.width + x) as usize],
+        }
     }
 
     /// The fraction of the pixels no box covers: misses known before tracing.
     #[must_use]
     pub fn uncovered_fraction(&self) -> f64 {
+        if let Some(k) = &self.kernel {
+            return k.missed_fraction();
+        }
         self.near.iter().filter(|d| d.is_infinite()).count() as f64 / self.near.len().max(1) as f64
     }
 }

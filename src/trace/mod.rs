@@ -5,6 +5,7 @@
 mod changed_space;
 mod coverage;
 mod dirty_rects;
+pub mod kernel;
 pub mod progressive;
 mod render;
 pub mod samples;
@@ -17,7 +18,7 @@ pub use dirty_rects::{PixelRect, merge_rects, screen_rect};
 pub use progressive::{PASS_STEPS, PixelState, Refinement};
 pub use render::{
     CENTRE, KeptPixel, RenderSettings, RenderStats, Rerendered, Retrace, assemble, blank_field_frame, blank_frame,
-    changed_space, hits_of, outward_normal, refine, render, render_covered, render_model, render_pixels, rerender,
+    changed_space, hits_of, kernel_tracer, outward_normal, refine, render, render_covered, render_model, render_pixels, rerender,
     rerender_pixels, retrace_listed, retrace_whole, trace_sample_rows,
 };
 pub use samples::PixelSample;

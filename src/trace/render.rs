@@ -14,6 +14,7 @@ use super::samples::{PixelSample, combine, sample_offset};
 use super::segment::{Crossing, TraceOptions, march, snap_reach, trace_ray_from};
 use super::shade::Lighting;
 use crate::camera::Camera;
+use super::kernel::KernelTracer;
 use crate::field::{EmptySpace, EvalMode, Field, Model, ModelField};
 use crate::frame::{Frame, Size};
 use crate::geom::{Ray, Support};
@@ -112,20 +113,35 @@ pub fn render_covered<F: Field + ?Sized>(
     (assemble(&samples, settings, FIELD_COUNTERS), RenderStats::of(&samples, settings.samples.max(1)))
 }
 
-/// Renders `model` in `mode`, marking its empty space first to skip it and
-/// to start each ray where it can first meet the surface; returns the marks
-/// too, to update after edits.
+/// Renders `model` in `mode`: by kernels where the model's tracer choice
+/// allows and its field is a sum of them; else by segments, marking its
+/// empty space first to skip it and to start each ray where it can first
+/// meet the surface. Returns the marks too, to update after edits (none
+/// for the kernel tracer, which needs none).
 pub fn render_model(
     model: &Model,
     mode: EvalMode,
     settings: &RenderSettings,
     progress: &(dyn Fn(usize) + Sync),
-) -> (Frame, RenderStats, EmptySpace) {
+) -> (Frame, RenderStats, Option<EmptySpace>) {
     let field = ModelField::new(model, mode);
+    if let Some(kernel) = kernel_tracer(model, mode, settings) {
+        let coverage = Coverage::of_kernels(kernel, settings.width);
+        let (frame, stats) = render_covered(&field, settings, Some(&coverage), progress);
+        return (frame, stats, None);
+    }
     let empty = EmptySpace::build(&field);
     let coverage = Coverage::of(&empty, &model.bounds(), &settings.camera, settings.width, settings.height);
     let (frame, stats) = render_covered(&field.skipping(&empty), settings, Some(&coverage), progress);
-    (frame, stats, empty)
+    (frame, stats, Some(empty))
+}
+
+/// The kernel tracer for `model` in `mode` seen with `settings`, where the
+/// model's tracer choice allows it and it applies.
+#[must_use]
+pub fn kernel_tracer(model: &Model, mode: EvalMode, settings: &RenderSettings) -> Option<KernelTracer> {
+    let (supports, _) = super::kernel::decide(model, mode);
+    Some(KernelTracer::of_supports(supports?, &settings.camera, (settings.width, settings.height)))
 }
 
 /// The space an edit changed, as the tracer must see it: `regions` (holding
@@ -226,6 +242,13 @@ fn retrace_pixel<F: Field + ?Sized>(
     }))
 }
 
+/// True when the ray of pixel (`x`, `y`), which hit at distance `before`,
+/// can meet `changed` before or at that hit: what it shows may change.
+fn reaches(changed: &ChangedSpace, s: &RenderSettings, (x, y): (u32, u32), before: f32) -> bool {
+    let ray = s.camera.ray(x, y, s.width, s.height);
+    changed.span(&ray).is_some_and(|(t_in, _)| before >= t_in)
+}
+
 /// Calls `pixel` with the hit distance each pixel inside `rects` had (in
 /// parallel) and writes the samples it changes into `frame`, counters into the
 /// extra channels named `counters`; returns what it traced again.
@@ -257,7 +280,12 @@ pub fn refine<F: Field + ?Sized>(
     max_rays: usize,
 ) -> RenderStats {
     let batch = refinement.next_batch(max_rays);
+    let kernel = coverage.and_then(Coverage::kernel).is_some();
     let done = retrace_listed(frame, &batch, FIELD_COUNTERS, |x, y, state, before| match (state, changed) {
+        // A kernel-traced ray's hit depends on the ray and the model alone:
+        // traced again whole, it is what a full render finds.
+        (PixelState::Retrace, Some(changed)) if kernel => reaches(changed, settings, (x, y), before)
+            .then(|| Retrace::Changed(trace_pixel(field, settings, (x, y, CENTRE), coverage))),
         (PixelState::Retrace, Some(changed)) => retrace_pixel(field, settings, x, y, before, changed),
         _ => Some(Retrace::Changed(trace_pixel(field, settings, (x, y, CENTRE), coverage))),
     });
@@ -412,7 +440,10 @@ fn trace_pixel<F: Field + ?Sized>(
         return PixelSample::miss(s.background, [0, 0]);
     }
     let ray = s.camera.ray_at(x as f32 + at.x, y as f32 + at.y, s.width, s.height);
-    let r = trace_ray_from(field, &ray, &s.trace, near);
+    let r = match coverage.and_then(Coverage::kernel) {
+        Some(kernel) => kernel.trace(field, &ray, (x, y), &s.trace),
+        None => trace_ray_from(field, &ray, &s.trace, near),
+    };
     match r.hit {
         Some(t) => shade_hit(field, s, &ray, t, [r.steps, r.evals]),
         None => PixelSample::miss(s.background, [r.steps, r.evals]),

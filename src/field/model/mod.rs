@@ -137,6 +137,23 @@ pub struct Model {
     /// Per lattice: whether its cache answers from it in cached evaluation
     /// (all, unless auto mode's decisions say otherwise).
     in_use: Vec<bool>,
+    /// Which ray tracer renders the model.
+    tracer: TracerChoice,
+}
+
+/// Which ray tracer renders a model: the kernel tracer finds hits as roots
+/// of each ray's polynomial where the field is a sum of polynomial kernels,
+/// the segment tracer marches any field.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TracerChoice {
+    /// The kernel tracer wherever it applies, else the segment tracer.
+    #[default]
+    Auto,
+    /// The kernel tracer (where it cannot apply, the choice is refused before rendering).
+    Kernel,
+    /// The segment tracer.
+    Segment,
 }
 
 impl Clone for Model {
@@ -156,6 +173,7 @@ impl Clone for Model {
             rebuilt: Vec::new(),
             reindexed: Vec::new(),
             in_use: self.in_use.clone(),
+            tracer: self.tracer,
         }
     }
 }
@@ -204,6 +222,7 @@ impl ModelBuilder {
             rebuilt: Vec::new(),
             reindexed: Vec::new(),
             in_use: Vec::new(),
+            tracer: TracerChoice::Auto,
         };
         model.link()?;
         model.refresh();
@@ -223,6 +242,17 @@ impl Model {
     #[must_use]
     pub fn threshold(&self) -> f32 {
         self.threshold
+    }
+
+    /// Which ray tracer renders the model.
+    #[must_use]
+    pub fn tracer(&self) -> TracerChoice {
+        self.tracer
+    }
+
+    /// Chooses the ray tracer that renders the model.
+    pub fn set_tracer(&mut self, tracer: TracerChoice) {
+        self.tracer = tracer;
     }
 
     /// A node by id.

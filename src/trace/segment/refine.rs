@@ -48,7 +48,7 @@ pub(super) const MAX_SNAP_WALK: u32 = 64;
 
 /// Where a crossing snapped to on the ray's lattice.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) enum Snapped {
+pub(crate) enum Snapped {
     /// The first lattice point inside.
     Hit(f32),
     /// No lattice point near the crossing is inside: the field touched the
@@ -62,13 +62,25 @@ pub(super) enum Snapped {
 /// the narrow bracket `[a, b]`: bisection on the integers `k`, so the answer
 /// depends only on the field at lattice points near the crossing. Returns it
 /// (or where to march on from, when none is inside) and the evaluations spent.
-pub(super) fn snap<F: Field + ?Sized>(field: &F, ray: &Ray, a: f32, b: f32, q: f32) -> (Snapped, u32) {
+pub(crate) fn snap<F: Field + ?Sized>(field: &F, ray: &Ray, a: f32, b: f32, q: f32) -> (Snapped, u32) {
     let iso = field.threshold();
     let mut evals = 0;
-    let mut margin = |k: i64| {
-        evals += 1;
-        field.value(ray.at(k as f32 * q)) - iso
-    };
+    let snapped = snap_on(
+        |t| {
+            evals += 1;
+            field.value(ray.at(t)) - iso
+        },
+        a,
+        b,
+        q,
+    );
+    (snapped, evals)
+}
+
+/// [`snap`] with the field's value less `T` at distance `t` along the ray
+/// given by `margin(t)`, which only its sign need get right.
+pub(crate) fn snap_on(mut margin: impl FnMut(f32) -> f32, a: f32, b: f32, q: f32) -> Snapped {
+    let mut margin = |k: i64| margin(k as f32 * q);
     let (mut lo, mut hi) = ((a / q).floor() as i64, (b / q).ceil() as i64);
     // Rounding outwards may have stepped across the crossing: walk back out.
     let mut walk = 0;
@@ -79,7 +91,7 @@ pub(super) fn snap<F: Field + ?Sized>(field: &F, ray: &Ray, a: f32, b: f32, q: f
     let mut at_hi = margin(hi);
     while at_hi <= 0.0 {
         if walk == 2 * MAX_SNAP_WALK {
-            return (Snapped::Past(hi as f32 * q, at_hi), evals);
+            return Snapped::Past(hi as f32 * q, at_hi);
         }
         hi += 1;
         walk += 1;
@@ -93,7 +105,7 @@ pub(super) fn snap<F: Field + ?Sized>(field: &F, ray: &Ray, a: f32, b: f32, q: f
             lo = mid;
         }
     }
-    (Snapped::Hit(hi as f32 * q), evals)
+    Snapped::Hit(hi as f32 * q)
 }
 
 #[cfg(test)]

@@ -1,0 +1,372 @@
+//! The kernel tracer: for a model whose field is a sum of Wyvill points and
+//! segments, each ray's first hit is found by isolating the first root of
+//! the ray's piecewise polynomial, not by marching through field evaluations
+//! (Nishita and Nakamae's Bézier clipping for metaballs, 1994).
+//!
+//! Along a ray each support's field is `w·s³` with `s` quadratic in `t`
+//! (see [`supports`]), so between the places where the ray enters or leaves
+//! a support the sum is one polynomial of degree 6. The ray's crossings are
+//! sorted by entry and swept; each stretch between two events whose sum can
+//! reach `T` is put in Bernstein form and the first place it can rise to `T`
+//! isolated ([`bernstein`]). That place is then confirmed by the field
+//! itself: the segment tracer's snap to the ray's lattice, which finds the
+//! first lattice point inside (or marches on past a touch between lattice
+//! points), so hits mean what they mean for the segment tracer.
+//!
+//! **The margin.** A stretch is passed over only where every Bernstein
+//! coefficient is below `T - m`, with `m` = [`outside_margin`]`(T)` plus,
+//! for each support summed there, `|w| (3 e + 512 ε)`: `e` bounds how far
+//! `s` computed from the ray's quadratic may stray from `s` computed by the
+//! field at the same point (both round a position of magnitude up to the
+//! ray's reach; see `supports::rounding`), `3 e` what that does to `s³`
+//! (`|s| <= 1` inside a support), and `512 ε` the rounding of Bernstein
+//! coefficients of magnitude at most 8 through the conversion and up to
+//! forty halvings. So no lattice point whose computed field exceeds `T` is
+//! passed over; what the polynomial only nearly reaches costs a snap that
+//! finds nothing and marches on.
+//!
+//! Screen tiles list the supports their rays can cross ([`tiles`]); a ray
+//! tests only those. A ray's crossings are found and summed in the
+//! supports' order whatever tile holds them, so its hit depends on the ray
+//! and the model alone: images are the same for any thread count, and a
+//! dirty rectangle traced again equals a full render.
+
+mod bernstein;
+mod supports;
+mod tiles;
+
+use std::cell::RefCell;
+
+use crate::camera::Camera;
+use crate::field::{EvalMode, Field, Model, TracerChoice, outside_margin};
+use crate::geom::Ray;
+use bernstein::{Bernstein, Rise, add_cube, first_rise};
+pub use supports::{Crossing, KernelSupports, NotKernel};
+use supports::LocalRay;
+pub use tiles::{TILE, TileLists};
+
+use super::segment::{Snapped, TraceOptions, TraceResult, snap_on};
+
+/// A model's supports and the screen's lists of them: what the kernel
+/// tracer needs besides the field, for one camera.
+#[derive(Clone, Debug)]
+pub struct KernelTracer {
+    supports: KernelSupports,
+    tiles: TileLists,
+    size: (u32, u32),
+}
+
+impl KernelTracer {
+    /// The tracer for `model` in `mode` seen through `camera` at `size`, or
+    /// why the model is not a sum of polynomial kernels.
+    pub fn new(model: &Model, mode: EvalMode, camera: &Camera, size: (u32, u32)) -> Result<Self, NotKernel> {
+        Ok(Self::of_supports(KernelSupports::of(model, mode)?, camera, size))
+    }
+
+    /// The tracer for `supports` seen through `camera` at `size`.
+    #[must_use]
+    pub fn of_supports(supports: KernelSupports, camera: &Camera, size: (u32, u32)) -> Self {
+        let tiles = TileLists::new(&supports, camera, size.0, size.1);
+        Self { supports, tiles, size }
+    }
+
+    /// The same model seen through another camera.
+    pub fn look_through(&mut self, camera: &Camera) {
+        self.tiles = TileLists::new(&self.supports, camera, self.size.0, self.size.1);
+    }
+
+    /// The supports.
+    #[must_use]
+    pub fn supports(&self) -> &KernelSupports {
+        &self.supports
+    }
+
+    /// The tile lists.
+    #[must_use]
+    pub fn tiles(&self) -> &TileLists {
+        &self.tiles
+    }
+
+    /// True when no support can be crossed by the rays of pixel (`x`, `y`).
+    #[inline]
+    #[must_use]
+    pub fn misses(&self, x: u32, y: u32) -> bool {
+        self.tiles.at(x, y).0.is_empty()
+    }
+
+    /// The fraction of the pixels whose tiles list no support.
+    #[must_use]
+    pub fn missed_fraction(&self) -> f64 {
+        let (w, h) = self.size;
+        let missed = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).filter(|&(x, y)| self.misses(x, y)).count();
+        missed as f64 / (u64::from(w) * u64::from(h)).max(1) as f64
+    }
+
+    /// Traces `ray`, one of pixel (`x`, `y`)'s, through `field` (the model's
+    /// field in the tracer's mode): the first entry into `f > T`, with the
+    /// supports it crossed as its steps and the field evaluations spent
+    /// confirming the hit as its evaluations.
+    pub fn trace<F: Field + ?Sized>(&self, field: &F, ray: &Ray, (x, y): (u32, u32), opts: &TraceOptions) -> TraceResult {
+        let (candidates, cones) = self.tiles.at(x, y);
+        let dir = ray.dir.extend(0.0);
+        let mut met = candidates.iter().zip(cones).filter(|(_, cone)| dir.dot(**cone) >= cone.w).peekable();
+        if met.peek().is_none() {
+            return TraceResult::default();
+        }
+        let Some(span) = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY) else {
+            return TraceResult::default();
+        };
+        SCRATCH.with_borrow_mut(|crossings| {
+            crossings.clear();
+            let mut local = LocalRay::new(span.1);
+            for (&i, _) in met {
+                self.supports.crossings(i as usize, ray, &mut local, span, crossings);
+            }
+            let mut out = TraceResult { steps: crossings.len() as u32, ..TraceResult::default() };
+            if crossings.is_empty() || !can_reach(crossings, field.threshold()) {
+                return out;
+            }
+            sort_by_entry(crossings);
+            let (hit, evals) = Sweep::new(field, ray, opts, span, crossings).first_hit(&self.supports);
+            (out.hit, out.evals) = (hit, evals);
+            out
+        })
+    }
+}
+
+/// Sorts crossings by entry, keeping the supports' order among equal
+/// entries: by insertion, as a ray crosses few.
+fn sort_by_entry(crossings: &mut [Crossing]) {
+    if crossings.len() > 32 {
+        crossings.sort_by(|a, b| a.t_in.total_cmp(&b.t_in));
+        return;
+    }
+    for i in 1..crossings.len() {
+        let mut j = i;
+        while j > 0 && crossings[j - 1].t_in > crossings[j].t_in {
+            crossings.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+}
+
+/// Above this many supports overlapping on average (see
+/// [`KernelSupports::overlap`]) `auto` leaves a model to the segment
+/// tracer: a ray through it crosses hundreds, and sums them stretch by
+/// stretch, where the segment tracer's few evaluations each sum the
+/// supports at a point eight at a time. Measured with `bench eval`: the
+/// particles (overlap 4.6) trace 2.5–3× faster by kernels, Medusa (overlap
+/// in the hundreds) about 30× slower.
+pub const MAX_AUTO_OVERLAP: f32 = 24.0;
+
+/// Which tracer renders a model, and why: `info` prints it, `render --json` reports it.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct TracerDecision {
+    /// `kernel` or `segment`.
+    pub tracer: &'static str,
+    /// The model's kernel supports, where it is a sum of them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub supports: Option<usize>,
+    /// Their mean overlap (see [`KernelSupports::overlap`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub overlap: Option<f32>,
+    /// Why, in words.
+    pub reason: String,
+}
+
+/// The supports of `model` in `mode` when its tracer choice lets the kernel
+/// tracer render it, with the decision behind that.
+#[must_use]
+pub fn decide(model: &Model, mode: EvalMode) -> (Option<KernelSupports>, TracerDecision) {
+    let segment = |reason: String, supports: Option<&KernelSupports>| TracerDecision {
+        tracer: "segment",
+        supports: supports.map(KernelSupports::len),
+        overlap: supports.map(KernelSupports::overlap),
+        reason,
+    };
+    if model.tracer() == TracerChoice::Segment {
+        return (None, segment("--tracer segment".into(), None));
+    }
+    let supports = match KernelSupports::of(model, mode) {
+        Ok(s) => s,
+        Err(why) => return (None, segment(why.0, None)),
+    };
+    let overlap = supports.overlap();
+    if model.tracer() == TracerChoice::Auto && overlap > MAX_AUTO_OVERLAP {
+        let why = format!("supports overlap {overlap:.0} deep, past {MAX_AUTO_OVERLAP:.0}: summing each ray's crossings costs more than marching");
+        return (None, segment(why, Some(&supports)));
+    }
+    let reason = if model.tracer() == TracerChoice::Kernel {
+        "--tracer kernel".to_string()
+    } else {
+        format!("a sum of {} polynomial kernels overlapping {overlap:.1} deep", supports.len())
+    };
+    let decision = TracerDecision { tracer: "kernel", supports: Some(supports.len()), overlap: Some(overlap), reason };
+    (Some(supports), decision)
+}
+
+thread_local! {
+    /// Each thread's crossings of the ray it traces.
+    static SCRATCH: RefCell<Vec<supports::Crossing>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Most supports a lattice point's sign is summed over from the ray's
+/// crossings; past them the field answers.
+const MAX_SUMMED: usize = 32;
+
+/// What each support summed over a stretch adds to the margin, per unit of
+/// weight, besides three times its own rounding bound (see the module doc).
+const BERNSTEIN_ROUNDING: f32 = 512.0 * f32::EPSILON;
+
+/// The margin below `T` of a stretch summing `c`'s support.
+#[inline]
+fn slack(c: &Crossing) -> f32 {
+    c.weight.abs() * (3.0 * c.err + BERNSTEIN_ROUNDING)
+}
+
+/// False when even every support at its peak together stays below `T`
+/// (less the margin): the ray misses without a sweep.
+fn can_reach(crossings: &[Crossing], iso: f32) -> bool {
+    let (mut peak, mut margin) = (0.0f32, outside_margin(iso));
+    for c in crossings {
+        peak += c.weight.max(0.0) * c.a0 * c.a0 * c.a0;
+        margin += slack(c);
+    }
+    peak >= iso - margin
+}
+
+/// A sweep along one ray's sorted crossings.
+struct Sweep<'a, F: ?Sized> {
+    field: &'a F,
+    ray: &'a Ray,
+    crossings: &'a [Crossing],
+    iso: f32,
+    /// Where the ray enters and leaves the field's bounds.
+    span: (f32, f32),
+    /// The step of the ray's lattice.
+    quantum: f32,
+    /// Field evaluations spent.
+    evals: u32,
+}
+
+impl<'a, F: Field + ?Sized> Sweep<'a, F> {
+    fn new(field: &'a F, ray: &'a Ray, opts: &TraceOptions, span: (f32, f32), crossings: &'a [Crossing]) -> Self {
+        let tol = (opts.tolerance * field.bounds().diagonal()).max(f32::EPSILON * span.1.abs());
+        let quantum = opts.quantum.unwrap_or(tol);
+        Self { field, ray, crossings, iso: field.threshold(), span, quantum, evals: 0 }
+    }
+
+    /// The first hit along the crossings, and the evaluations spent.
+    fn first_hit(mut self, supports: &KernelSupports) -> (Option<f32>, u32) {
+        let crossings = self.crossings;
+        let mut active: Vec<usize> = Vec::with_capacity(16);
+        let mut next = 0;
+        let mut t0 = self.span.0;
+        loop {
+            while next < crossings.len() && crossings[next].t_in <= t0 {
+                active.push(next);
+                next += 1;
+            }
+            active.retain(|&i| crossings[i].t_out > t0);
+            if active.is_empty() {
+                let Some(c) = crossings.get(next) else { return (None, self.evals) };
+                t0 = c.t_in;
+                continue;
+            }
+            let entry = crossings.get(next).map_or(f32::INFINITY, |c| c.t_in);
+            let t1 = active.iter().map(|&i| crossings[i].t_out).fold(entry, f32::min);
+            match self.stretch(supports, &active, (t0, t1)) {
+                Ok(Some(hit)) => return (Some(hit), self.evals),
+                // A touch between lattice points: go on past where the snap left off.
+                Err(t_past) => t0 = t_past.max(t0),
+                Ok(None) => t0 = t1,
+            }
+        }
+    }
+
+    /// The hit on stretch `[t0, t1]` summing the `active` crossings:
+    /// `Ok(None)` where the sum stays below `T`, `Err` with where to go on
+    /// from where the snap found no lattice point inside.
+    fn stretch(
+        &mut self,
+        supports: &KernelSupports,
+        active: &[usize],
+        (t0, t1): (f32, f32),
+    ) -> Result<Option<f32>, f32> {
+        let mut peak = 0.0f32;
+        let mut margin = outside_margin(self.iso);
+        for &i in active {
+            let c = &self.crossings[i];
+            let s = c.s_max(t0, t1);
+            peak += c.weight.max(0.0) * s * s * s;
+            margin += slack(c);
+        }
+        if peak < self.iso - margin {
+            return Ok(None);
+        }
+        let mut sum: Bernstein = [-self.iso; 7];
+        for &i in active {
+            add_cube(&mut sum, &self.crossings[i], t0, t1);
+        }
+        match first_rise(&sum, (t0, t1), margin, self.quantum / 16.0) {
+            Rise::Never => Ok(None),
+            Rise::Within(a, b) => self.confirm(supports, a, b),
+        }
+    }
+
+    /// Confirms a rise on `[a, b]`: the first lattice point inside after it,
+    /// or where to go on from. The snap asks the sign of `f - T` at lattice
+    /// points; the sum of the crossed supports at the point, computed as the
+    /// field computes each, answers where it is farther from `T` than two
+    /// evaluations' rounding (the field, computed, has the same sign there),
+    /// the field elsewhere.
+    fn confirm(&mut self, supports: &KernelSupports, a: f32, b: f32) -> Result<Option<f32>, f32> {
+        if a <= self.span.0 {
+            // Inside where the ray enters the field's bounds, as the segment tracer says it.
+            self.evals += 1;
+            if self.field.value(self.ray.at(self.span.0)) > self.iso {
+                return Ok(Some(self.span.0));
+            }
+        }
+        let quantum = self.quantum;
+        let snapped = snap_on(|t| self.sign_at(supports, t), a, b, quantum);
+        match snapped {
+            Snapped::Hit(t) => Ok(Some(t)),
+            Snapped::Past(t, _) if t < self.span.1 => Err(t),
+            Snapped::Past(..) => Err(f32::INFINITY),
+        }
+    }
+
+    /// `f - T` at distance `t`, or a value of its sign: the crossed
+    /// supports' sum where it decides, else the field's value (an evaluation).
+    fn sign_at(&mut self, supports: &KernelSupports, t: f32) -> f32 {
+        let p = self.ray.at(t);
+        let (mut sum, mut margin) = (-f64::from(self.iso), outside_margin(self.iso));
+        // A segment's stretches share one support: its value counts once.
+        let mut counted = [u32::MAX; MAX_SUMMED];
+        let mut n = 0;
+        for c in self.crossings.iter().take_while(|c| c.t_in <= t + self.quantum) {
+            if t > c.t_out + self.quantum || counted[..n].contains(&c.support) {
+                continue;
+            }
+            if n == MAX_SUMMED {
+                (sum, margin) = (0.0, f32::INFINITY);
+                break;
+            }
+            counted[n] = c.support;
+            n += 1;
+            sum += f64::from(supports.value(c.support as usize, p));
+            if c.placed {
+                margin += slack(c);
+            }
+        }
+        if sum.abs() > f64::from(margin) {
+            return sum as f32;
+        }
+        self.evals += 1;
+        self.field.value(p) - self.iso
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,412 @@
+//! The kernel supports of a model: every Wyvill point and segment it sums,
+//! flattened out of its blends, names, exact caches and affine transforms,
+//! and where a ray crosses each.
+//!
+//! Along a ray `p(t) = o + t·d` seen in a support's own frame (`o'`, `d'`
+//! after its placement's inverse), the squared distance to a point is
+//! `|d'|² (t - t_m)² + h²`, so Wyvill's `s = 1 - r²/R²` is the quadratic
+//! `a₀ - k (t - t_m)²` with `a₀ = 1 - h²/R²`, `k = |d'|²/R²`, and the field
+//! `w·s³` a polynomial of degree 6 between the roots of `s`. A segment's
+//! distance is a point's beyond either end and the line's in between, where
+//! the projection onto the axis (linear in `t`) lies on the segment: up to
+//! three such quadratics, each on its own stretch of the ray.
+
+use glam::{Affine3A, Vec3A};
+
+use crate::field::{EvalMode, Kernel, Model, NodeId, NodeKind, Primitive, Skeleton};
+use crate::geom::{Aabb, Ray};
+
+/// Why a model is not a sum of polynomial kernels, for `info` and errors.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct NotKernel(pub String);
+
+impl std::fmt::Display for NotKernel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// A skeleton in its placement's frame.
+#[derive(Clone, Copy, Debug)]
+enum Shape {
+    Point { center: Vec3A },
+    /// From `a` along the unit `axis` for `length`.
+    Segment { a: Vec3A, axis: Vec3A, length: f32 },
+}
+
+/// One primitive of the sum.
+#[derive(Clone, Copy, Debug)]
+struct Support {
+    shape: Shape,
+    /// The primitive itself, for its value at a point exactly as the field computes it.
+    primitive: Primitive,
+    /// `1/R²`.
+    inv_r2: f32,
+    weight: f32,
+    /// Index into [`KernelSupports::placements`].
+    placement: u32,
+}
+
+/// Every kernel primitive of a model, in the tree's order (which fixes the
+/// order a ray's crossings are summed in, so a ray's sum does not depend on
+/// how the supports were found).
+#[derive(Clone, Debug, Default)]
+pub struct KernelSupports {
+    supports: Vec<Support>,
+    /// World-to-local maps; the first is the identity.
+    placements: Vec<Affine3A>,
+    /// The world box of each support, for binning onto the screen.
+    boxes: Vec<Aabb>,
+    /// A world sphere (centre, radius) holding each support, for the cone
+    /// test each ray makes before it solves for a crossing.
+    spheres: Vec<(Vec3A, f32)>,
+}
+
+/// Where a ray is inside one support: `w·(a₀ - k (t - t_m)²)³` on `[t_in, t_out]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Crossing {
+    /// Where the ray enters the support (or the stretch of it).
+    pub t_in: f32,
+    /// Where it leaves.
+    pub t_out: f32,
+    /// `s` at its peak along the ray's line.
+    pub a0: f32,
+    /// The curvature of `s` along the ray, `|d'|²/R²`.
+    pub k: f32,
+    /// Where along the ray's line `s` peaks.
+    pub tm: f32,
+    /// The primitive's weight.
+    pub weight: f32,
+    /// Which support it crosses.
+    pub support: u32,
+    /// Whether the support is placed by a transform.
+    pub placed: bool,
+    /// A bound on how far `s` computed from the ray here may stray from
+    /// `s` computed by the field at a point of the ray (see [`super::margin`]).
+    pub err: f32,
+}
+
+impl Crossing {
+    /// `s` at `t`.
+    #[inline]
+    #[must_use]
+    pub fn s(&self, t: f32) -> f32 {
+        let u = t - self.tm;
+        self.a0 - self.k * u * u
+    }
+
+    /// The largest `s` over `[t0, t1]`.
+    #[inline]
+    #[must_use]
+    pub fn s_max(&self, t0: f32, t1: f32) -> f32 {
+        self.s(self.tm.clamp(t0, t1))
+    }
+}
+
+impl KernelSupports {
+    /// The supports of `model` evaluated in `mode`, or why its field is not
+    /// a sum of Wyvill points and segments under blends, names, transforms
+    /// and caches answering exactly.
+    pub fn of(model: &Model, mode: EvalMode) -> Result<Self, NotKernel> {
+        let mut out = Self { placements: vec![Affine3A::IDENTITY], ..Self::default() };
+        out.gather(model, model.root(), mode, (0, Affine3A::IDENTITY, Affine3A::IDENTITY))?;
+        Ok(out)
+    }
+
+    /// How many supports overlap a point inside the model, on average: the
+    /// supports' total volume over the volume of the cells (as wide as the
+    /// median support radius) that hold their centres. A ray through the
+    /// model crosses about this many at a time, and the sweep's work per
+    /// stretch grows with it.
+    #[must_use]
+    pub fn overlap(&self) -> f32 {
+        if self.spheres.is_empty() {
+            return 0.0;
+        }
+        let mut radii: Vec<f32> = self.spheres.iter().map(|s| s.1).collect();
+        let mid = radii.len() / 2;
+        let cell = *radii.select_nth_unstable_by(mid, f32::total_cmp).1;
+        let volume: f64 = self.spheres.iter().map(|s| 4.0 / 3.0 * std::f64::consts::PI * f64::from(s.1).powi(3)).sum();
+        let mut cells: Vec<[i32; 3]> =
+            self.spheres.iter().map(|s| (s.0 / cell).floor().as_ivec3().to_array()).collect();
+        cells.sort_unstable();
+        cells.dedup();
+        (volume / (cells.len() as f64 * f64::from(cell).powi(3))) as f32
+    }
+
+    /// Number of primitives.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.supports.len()
+    }
+
+    /// True when the model sums no primitive.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.supports.is_empty()
+    }
+
+    /// The world box of support `i`.
+    #[must_use]
+    pub fn world_box(&self, i: usize) -> &Aabb {
+        &self.boxes[i]
+    }
+
+    /// A world sphere (centre, radius) holding support `i`.
+    #[must_use]
+    pub fn world_sphere(&self, i: usize) -> (Vec3A, f32) {
+        self.spheres[i]
+    }
+
+    /// Appends what lies below node `id`, seen through placement
+    /// `(index, to_local, to_world)`.
+    fn gather(
+        &mut self,
+        model: &Model,
+        id: NodeId,
+        mode: EvalMode,
+        frame: (u32, Affine3A, Affine3A),
+    ) -> Result<(), NotKernel> {
+        let refuse = |what: &str| {
+            let place = model.name_above(id).map_or_else(String::new, |name| format!(" in \"{name}\""));
+            Err(NotKernel(format!("{what}{place} is not a sum of polynomial kernels")))
+        };
+        match &model.node(id).kind {
+            NodeKind::Primitive(p) => self.push(p, frame).or_else(|()| refuse("a circle")),
+            NodeKind::Blend { children, .. } => {
+                children.iter().try_for_each(|&c| self.gather(model, c, mode, frame))
+            }
+            NodeKind::Named { child, .. } => self.gather(model, *child, mode, frame),
+            NodeKind::Cache { child, grid, .. } if !model.answers_from_lattice(*grid, mode) => {
+                self.gather(model, *child, mode, frame)
+            }
+            NodeKind::Cache { .. } => refuse("a cache answering from its lattice"),
+            NodeKind::Transform { placement, child } if placement.is_identity() => {
+                self.gather(model, *child, mode, frame)
+            }
+            NodeKind::Transform { placement, child } => {
+                let to_local = placement.to_local * frame.1;
+                let to_world = frame.2 * placement.to_world;
+                self.placements.push(to_local);
+                let index = (self.placements.len() - 1) as u32;
+                self.gather(model, *child, mode, (index, to_local, to_world))
+            }
+            NodeKind::Union(_) => refuse("a union"),
+            NodeKind::Intersection(_) => refuse("an intersection"),
+            NodeKind::Difference(..) => refuse("a difference"),
+            NodeKind::Ricci { .. } => refuse("a Ricci blend"),
+            NodeKind::Warp { .. } => refuse("a warp"),
+        }
+    }
+
+    /// Appends primitive `p`; `Err` for a skeleton no quadratic describes.
+    fn push(&mut self, p: &Primitive, (placement, _, to_world): (u32, Affine3A, Affine3A)) -> Result<(), ()> {
+        let Kernel::Wyvill = p.kernel;
+        let shape = match p.skeleton {
+            Skeleton::Point { center } => Shape::Point { center },
+            Skeleton::Segment { a, b } => {
+                let length = (b - a).length();
+                if length > 0.0 {
+                    Shape::Segment { a, axis: (b - a) / length, length }
+                } else {
+                    Shape::Point { center: a }
+                }
+            }
+            Skeleton::Circle { .. } => return Err(()),
+        };
+        let inv_r2 = 1.0 / (p.radius * p.radius);
+        self.supports.push(Support { shape, primitive: *p, inv_r2, weight: p.weight, placement });
+        self.boxes.push(p.bounds().transformed(&to_world));
+        let (centre, radius) = match shape {
+            Shape::Point { center } => (center, p.radius),
+            Shape::Segment { a, axis, length } => (a + axis * (0.5 * length), 0.5 * length + p.radius),
+        };
+        // The Frobenius norm bounds how far the map stretches any direction.
+        let m = to_world.matrix3;
+        let stretch = if placement == 0 { 1.0 } else { (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt() };
+        self.spheres.push((to_world.transform_point3a(centre), radius * stretch));
+        Ok(())
+    }
+
+    /// Appends to `out` where `ray` crosses support `i` within `[t_min, t_max]`.
+    /// `local` caches the ray seen in the last placement asked for.
+    #[inline]
+    pub fn crossings(&self, i: usize, ray: &Ray, local: &mut LocalRay, span: (f32, f32), out: &mut Vec<Crossing>) {
+        let s = &self.supports[i];
+        let (o, d, scale) = local.get(self, s.placement, ray);
+        let first = out.len();
+        match s.shape {
+            Shape::Point { center } => {
+                if let Some(c) = point_quadratic(o - center, d, s, scale + center.length()) {
+                    clip_push(c, span, out);
+                }
+            }
+            Shape::Segment { a, axis, length } => segment_crossings(s, (a, axis, length), (o, d, scale), span, out),
+        }
+        for c in &mut out[first..] {
+            c.support = i as u32;
+        }
+    }
+
+    /// The value of support `i` at world point `p`, as the field computes
+    /// it (through a transform, by the composed map rather than each in turn).
+    #[inline]
+    #[must_use]
+    pub fn value(&self, i: usize, p: Vec3A) -> f32 {
+        let s = &self.supports[i];
+        let local = if s.placement == 0 { p } else { self.placements[s.placement as usize].transform_point3a(p) };
+        s.primitive.value(local)
+    }
+}
+
+/// A ray seen in one placement's frame, kept while consecutive supports share it.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LocalRay {
+    placement: Option<u32>,
+    origin: Vec3A,
+    dir: Vec3A,
+    /// The farthest distance along the ray a crossing is looked for.
+    reach: f32,
+    /// `|o'| + reach·|d'|`: the largest magnitude of a local point of the
+    /// ray, for rounding bounds.
+    scale: f32,
+}
+
+impl LocalRay {
+    /// A cache that holds nothing yet, for rays looked along up to distance `reach`.
+    #[must_use]
+    pub fn new(reach: f32) -> Self {
+        Self { reach, ..Self::default() }
+    }
+
+    #[inline]
+    fn get(&mut self, supports: &KernelSupports, placement: u32, ray: &Ray) -> (Vec3A, Vec3A, f32) {
+        if self.placement != Some(placement) {
+            let m = &supports.placements[placement as usize];
+            self.origin = m.transform_point3a(ray.origin);
+            self.dir = m.transform_vector3a(ray.dir);
+            self.placement = Some(placement);
+            self.scale = self.origin.length() + self.reach * self.dir.length();
+        }
+        (self.origin, self.dir, self.scale)
+    }
+}
+
+/// The quadratic of a point support at offset `oc = o' - c` from the ray's
+/// local origin, along local direction `d`; `None` where the ray's line
+/// misses the support. `scale` bounds the magnitudes of the points involved.
+#[inline]
+fn point_quadratic(oc: Vec3A, d: Vec3A, s: &Support, scale: f32) -> Option<Crossing> {
+    let dd = d.length_squared();
+    let tm = -d.dot(oc) / dd;
+    // The perpendicular offset directly, not |oc|² - (oc·d)²: that would
+    // cancel to nothing for a support far from the eye.
+    let perp = oc + d * tm;
+    let a0 = 1.0 - perp.length_squared() * s.inv_r2;
+    if a0 <= 0.0 {
+        return None;
+    }
+    let k = dd * s.inv_r2;
+    let half = (a0 / k).sqrt();
+    Some(Crossing {
+        t_in: tm - half,
+        t_out: tm + half,
+        a0,
+        k,
+        tm,
+        weight: s.weight,
+        support: 0,
+        placed: s.placement != 0,
+        err: rounding(scale, s.inv_r2),
+    })
+}
+
+/// A bound on `|s_ray - s_field|` for points of magnitude up to `scale`:
+/// each side computes a point's position with a relative error of a few
+/// units in the last place, so the squared distance differs by at most
+/// `2 r δp + δp²` with `r <= R` (inside the support) and `δp = 8 ε scale`;
+/// over `R²` that is `2 δp / R`, plus a few units in the last place of `s`.
+#[inline]
+fn rounding(scale: f32, inv_r2: f32) -> f32 {
+    let dp = 8.0 * f32::EPSILON * scale;
+    2.0 * dp * inv_r2.sqrt() + dp * dp * inv_r2 + 16.0 * f32::EPSILON
+}
+
+/// Pushes `c` clipped to `[t0, t1]`, if anything of it is left.
+#[inline]
+fn clip_push(mut c: Crossing, (t0, t1): (f32, f32), out: &mut Vec<Crossing>) {
+    c.t_in = c.t_in.max(t0);
+    c.t_out = c.t_out.min(t1);
+    if c.t_in < c.t_out {
+        out.push(c);
+    }
+}
+
+/// The crossings of a segment support from `a` along unit `axis` for
+/// `length`: the caps' point quadratics beyond its ends, the line's between.
+fn segment_crossings(
+    s: &Support,
+    (a, axis, length): (Vec3A, Vec3A, f32),
+    (o, d, scale): (Vec3A, Vec3A, f32),
+    span: (f32, f32),
+    out: &mut Vec<Crossing>,
+) {
+    let w0 = o - a;
+    let scale = scale + a.length() + length;
+    // The projection onto the axis, λ(t) = λ0 + t λd, splits the ray.
+    let (l0, ld) = (w0.dot(axis), d.dot(axis));
+    let (before, after) = if ld.abs() > f32::MIN_POSITIVE {
+        let (t_a, t_b) = (-l0 / ld, (length - l0) / ld);
+        if ld > 0.0 { (t_a, t_b) } else { (t_b, t_a) }
+    } else if l0 < 0.0 {
+        (f32::INFINITY, f32::INFINITY)
+    } else if l0 > length {
+        (f32::NEG_INFINITY, f32::NEG_INFINITY)
+    } else {
+        (f32::NEG_INFINITY, f32::INFINITY)
+    };
+    // The end met first along the ray (λ falling: the far end `b`).
+    let (first_end, last_end) = if ld >= 0.0 { (a, a + axis * length) } else { (a + axis * length, a) };
+    let stretches = [
+        (span.0, before.min(span.1), Some(first_end)),
+        (before.max(span.0), after.min(span.1), None),
+        (after.max(span.0), span.1, Some(last_end)),
+    ];
+    for (t0, t1, end) in stretches {
+        if t0 >= t1 {
+            continue;
+        }
+        let quadratic = match end {
+            Some(c) => point_quadratic(o - c, d, s, scale),
+            None => line_quadratic(w0 - axis * l0, d - axis * ld, d, s, scale),
+        };
+        if let Some(c) = quadratic {
+            clip_push(c, (t0, t1), out);
+        }
+    }
+}
+
+/// The quadratic of the distance to a segment's line: `w0p` and `dp` are the
+/// ray's origin offset and direction perpendicular to the axis, `d` the
+/// whole direction (for a ray along the axis, where the distance is fixed).
+#[inline]
+fn line_quadratic(w0p: Vec3A, dp: Vec3A, d: Vec3A, s: &Support, scale: f32) -> Option<Crossing> {
+    let dd = dp.length_squared();
+    if dd <= f32::EPSILON * f32::EPSILON * d.length_squared() {
+        let a0 = 1.0 - w0p.length_squared() * s.inv_r2;
+        let err = rounding(scale, s.inv_r2);
+        return (a0 > 0.0).then_some(Crossing {
+            t_in: f32::NEG_INFINITY,
+            t_out: f32::INFINITY,
+            a0,
+            k: 0.0,
+            tm: 0.0,
+            weight: s.weight,
+            support: 0,
+            placed: s.placement != 0,
+            err,
+        });
+    }
+    // Only the motion across the axis changes the distance to the line.
+    point_quadratic(w0p, dp, s, scale)
+}

@@ -1,0 +1,109 @@
+//! Each screen tile's list of the supports its rays can cross (Kanamori,
+//! Szego and Nishita 2008): every support's world box is projected onto
+//! the rectangle of pixels whose rays can meet it (as dirty rectangles are,
+//! with a pixel of slack, so any ray through any point of a pixel is
+//! covered), and listed in every tile that rectangle touches.
+//!
+//! Each entry carries the cone from the eye that holds its support's
+//! bounding sphere: every ray of a pinhole camera starts at the eye, so a
+//! ray whose direction falls outside the cone misses the support, known
+//! from one dot product.
+//!
+//! A list is in the supports' own order, so a ray finds its crossings in
+//! the same order whatever tile it is traced from and whatever else a tile holds.
+
+use glam::{Vec3A, Vec4};
+use rayon::prelude::*;
+
+use super::supports::KernelSupports;
+use crate::camera::Camera;
+use crate::trace::{PixelRect, screen_rect};
+
+/// Pixels along a tile's side.
+pub const TILE: u32 = 8;
+
+/// Supports listed per tile of `TILE × TILE` pixels.
+#[derive(Clone, Debug, Default)]
+pub struct TileLists {
+    columns: u32,
+    /// Where each tile's list starts in `items`; one more than the tiles.
+    starts: Vec<u32>,
+    items: Vec<u32>,
+    /// Per entry, the cone of its support (see [`Cone`]).
+    cones: Vec<Vec4>,
+}
+
+/// The cone from the eye holding a support's sphere: its unit axis and the
+/// cosine of its half-angle, lowered a little against rounding; a support
+/// around the eye gets a cosine no direction is below.
+fn cone(eye: Vec3A, (centre, radius): (Vec3A, f32)) -> Vec4 {
+    let v = centre - eye;
+    let distance = v.length();
+    // Widened by a part in 10⁵ and a little more than the rounding of a unit
+    // direction's dot product.
+    let r = radius * (1.0 + 1e-5);
+    if distance <= r {
+        return Vec4::new(0.0, 0.0, 1.0, -2.0);
+    }
+    let cos = (1.0 - (r / distance) * (r / distance)).max(0.0).sqrt() - 16.0 * f32::EPSILON;
+    (v / distance).extend(cos)
+}
+
+impl TileLists {
+    /// The lists of `supports` seen through `camera` at `width × height`.
+    #[must_use]
+    pub fn new(supports: &KernelSupports, camera: &Camera, width: u32, height: u32) -> Self {
+        let (columns, rows) = (width.div_ceil(TILE), height.div_ceil(TILE));
+        let tiles = (columns * rows) as usize;
+        let eye = Vec3A::from(camera.eye);
+        let projected: Vec<(Option<PixelRect>, Vec4)> = (0..supports.len())
+            .into_par_iter()
+            .map(|i| (screen_rect(camera, width, height, supports.world_box(i)), cone(eye, supports.world_sphere(i))))
+            .collect();
+        let rects: Vec<Option<PixelRect>> = projected.iter().map(|p| p.0).collect();
+        let tile_span = |r: &PixelRect| (r.x0 / TILE, r.y0 / TILE, (r.x1 - 1) / TILE + 1, (r.y1 - 1) / TILE + 1);
+        let mut starts = vec![0u32; tiles + 1];
+        for r in rects.iter().flatten() {
+            let (tx0, ty0, tx1, ty1) = tile_span(r);
+            for ty in ty0..ty1 {
+                for tx in tx0..tx1 {
+                    starts[(ty * columns + tx) as usize + 1] += 1;
+                }
+            }
+        }
+        for i in 0..tiles {
+            starts[i + 1] += starts[i];
+        }
+        let mut fill = starts.clone();
+        let mut items = vec![0u32; starts[tiles] as usize];
+        let mut cones = vec![Vec4::ZERO; starts[tiles] as usize];
+        for (i, r) in rects.iter().enumerate() {
+            let Some(r) = r else { continue };
+            let (tx0, ty0, tx1, ty1) = tile_span(r);
+            for ty in ty0..ty1 {
+                for tx in tx0..tx1 {
+                    let slot = &mut fill[(ty * columns + tx) as usize];
+                    items[*slot as usize] = i as u32;
+                    cones[*slot as usize] = projected[i].1;
+                    *slot += 1;
+                }
+            }
+        }
+        Self { columns, starts, items, cones }
+    }
+
+    /// The supports the rays through pixel (`x`, `y`) can cross, with their cones.
+    #[inline]
+    #[must_use]
+    pub fn at(&self, x: u32, y: u32) -> (&[u32], &[Vec4]) {
+        let tile = ((y / TILE) * self.columns + x / TILE) as usize;
+        let range = self.starts[tile] as usize..self.starts[tile + 1] as usize;
+        (&self.items[range.clone()], &self.cones[range])
+    }
+
+    /// Entries over all lists.
+    #[must_use]
+    pub fn entries(&self) -> usize {
+        self.items.len()
+    }
+}
