@@ -10,11 +10,9 @@ use super::args::{
 };
 use super::exit::UsageError;
 use super::progress::Bars;
-use crate::draw::Rgb8Image;
 use crate::field::EvalMode;
-use crate::frame::{Frame, Size};
-use crate::output::FileSet;
-use crate::pipeline::{cost_map, polygonize, render_field, render_mesh};
+use crate::frame::Size;
+use crate::pipeline::{RenderFiles, polygonize, render_field, render_mesh};
 use crate::scene::Scene;
 use crate::trace::samples::MAX_SAMPLES;
 
@@ -89,8 +87,7 @@ fn run_field(a: &RenderArgs, scene: &Scene, mode: EvalMode, size: Size, output: 
     let bars = Bars::new();
     let (frame, report) = with_threads(a.threads, || render_field(scene, (size, a.spp), mode, &bars))?;
     bars.finish();
-    let cost = a.cost_png.as_deref().map(|path| Ok::<_, anyhow::Error>((path, cost_map(&frame)?))).transpose()?;
-    save(&frame, output, a.exr.as_deref(), cost)?;
+    RenderFiles { png: output, exr: a.exr.as_deref(), cost_png: a.cost_png.as_deref() }.save(&frame)?;
     warn_if_empty(report.stats.hits);
     if a.json {
         return print_json(&report);
@@ -114,7 +111,7 @@ fn run_mesh(a: &RenderArgs, scene: &Scene, mode: EvalMode, size: Size, output: &
         Ok(render_mesh(scene, &mesh, mesh_report, (size, a.spp), &bars))
     })??;
     bars.finish();
-    save(&frame, output, a.exr.as_deref(), None)?;
+    RenderFiles { png: output, exr: a.exr.as_deref(), cost_png: None }.save(&frame)?;
     warn_if_empty(report.stats.hits);
     if a.json {
         return print_json(&report);
@@ -140,17 +137,4 @@ fn warn_if_empty(hits: u64) {
             "warning: no ray hit the surface (is the threshold above the field's maximum, or the camera looking away?)"
         );
     }
-}
-
-/// Writes the PNG and, when asked, the EXR and the cost picture: all or none.
-fn save(frame: &Frame, png: &Path, exr: Option<&Path>, cost: Option<(&Path, Rgb8Image)>) -> anyhow::Result<()> {
-    let mut files = FileSet::new();
-    files.add(png, frame.png_bytes_for(png)?);
-    if let Some(exr) = exr {
-        files.add(exr, frame.exr_bytes(exr)?);
-    }
-    if let Some((path, image)) = cost {
-        files.add(path, image.png_bytes_for(path)?);
-    }
-    Ok(files.commit()?)
 }
