@@ -6,32 +6,23 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 
-use super::args::{CameraArgs, EvalOptions, LatticeArgs, load_scene, parse_size, print_json, with_threads};
+use super::args::{LatticeArgs, LoadedScene, RunArgs, SceneArgs, print_json, with_threads};
 use super::progress::Bars;
-use crate::frame::Size;
 use crate::pipeline::{EditReport, EditSession, KeptFrames, check_names};
 use crate::scene::load_script;
 
 /// Options of `blobtrace edit`.
 #[derive(Debug, Args)]
 pub struct EditArgs {
-    /// Scene file (RON).
-    pub scene: PathBuf,
+    /// The scene, its image size, camera and field evaluation.
+    #[command(flatten)]
+    pub input: SceneArgs,
     /// Edit script (RON), e.g. scenes/scripts/medusa-head.ron.
     #[arg(long)]
     pub script: PathBuf,
-    /// Image size WIDTHxHEIGHT (default: the scene's).
-    #[arg(long, value_parser = parse_size)]
-    pub size: Option<Size>,
-    /// Camera overrides.
-    #[command(flatten)]
-    pub camera: CameraArgs,
     /// Polygonizer options.
     #[command(flatten)]
     pub polygonize: LatticeArgs,
-    /// Field evaluation.
-    #[command(flatten)]
-    pub field: EvalOptions,
     /// Directory for frames.csv, timing.png and, with --save-frames, every frame.
     #[arg(long, default_value = "edit")]
     pub out_dir: PathBuf,
@@ -43,23 +34,18 @@ pub struct EditArgs {
     /// outlined (frame-NNNN.png), with the rest once the whole script has played.
     #[arg(long)]
     pub save_frames: bool,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
-    /// Print one JSON object on stdout.
-    #[arg(long)]
-    pub json: bool,
+    /// Threads and the JSON report.
+    #[command(flatten)]
+    pub run: RunArgs,
 }
 
 /// Runs `blobtrace edit`.
 pub fn run(a: &EditArgs) -> anyhow::Result<()> {
-    let mut scene = load_scene(&a.scene, &a.camera)?;
-    let mode = a.field.apply(&mut scene.model)?;
+    let LoadedScene { scene, mode, size } = a.input.load()?;
     let script = load_script(&a.script)?;
     check_names(&scene.model, &script)?;
-    let size = a.size.unwrap_or(scene.size);
     let bars = Bars::new();
-    let (report, frames) = with_threads(a.threads, || -> anyhow::Result<(EditReport, KeptFrames)> {
+    let (report, frames) = with_threads(a.run.threads, || -> anyhow::Result<(EditReport, KeptFrames)> {
         let mut session = EditSession::new(scene, mode, size, &a.polygonize.settings())?;
         let mut frames = KeptFrames::default();
         let report = session.replay(&script, a.verify, &bars, |i, frame, rects| match a.save_frames {
@@ -70,7 +56,7 @@ pub fn run(a: &EditArgs) -> anyhow::Result<()> {
     })??;
     bars.finish();
     report.save(&a.out_dir, frames)?;
-    if a.json {
+    if a.run.json {
         return print_json(&report);
     }
     print_summary(&a.out_dir, &report);

@@ -5,8 +5,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::args::{
-    CameraArgs, EvalOptions, PolygonizeArgs, check_output_file, load_scene, output_or_default, parse_size, print_json,
-    with_threads,
+    LoadedScene, PolygonizeArgs, RunArgs, SceneArgs, check_output_file, output_or_default, print_json, with_threads,
 };
 use super::exit::UsageError;
 use super::progress::Bars;
@@ -19,26 +18,15 @@ use crate::trace::samples::MAX_SAMPLES;
 /// Options of `blobtrace render`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// Scene file (RON), e.g. scenes/medusa.ron.
-    pub scene: PathBuf,
+    /// The scene, its image size, camera and field evaluation.
+    #[command(flatten)]
+    pub input: SceneArgs,
     /// Output PNG (8-bit sRGB). Defaults to SCENE's name with .png in the current directory.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
     /// Also write every AOV (R,G,B,A, Z, N.X/N.Y/N.Z, steps.Y, evals.Y) to this EXR.
     #[arg(long)]
     pub exr: Option<PathBuf>,
-    /// Image size WIDTHxHEIGHT, overriding the scene's `size`.
-    #[arg(long, value_parser = parse_size)]
-    pub size: Option<Size>,
-    /// Camera overrides.
-    #[command(flatten)]
-    pub camera: CameraArgs,
-    /// Worker threads (default: all cores). The image is identical for any count.
-    #[arg(long)]
-    pub threads: Option<usize>,
-    /// Field evaluation: exact or cached, and the cache budget.
-    #[command(flatten)]
-    pub field: EvalOptions,
     /// Also write where the time went: heat maps of field evaluations and
     /// tracing steps per pixel (magma, each with its scale), as a PNG. Field
     /// renders only.
@@ -56,16 +44,15 @@ pub struct RenderArgs {
     /// Polygonizer options, with --mesh.
     #[command(flatten)]
     pub polygonize: PolygonizeArgs,
-    /// Print one JSON object of statistics on stdout instead of a summary line.
-    #[arg(long)]
-    pub json: bool,
+    /// Threads and the JSON report.
+    #[command(flatten)]
+    pub run: RunArgs,
 }
 
 /// Runs `blobtrace render`.
 pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
-    let mut scene = load_scene(&a.scene, &a.camera)?;
-    let mode = a.field.apply(&mut scene.model)?;
-    let output = output_or_default(a.output.as_deref(), &a.scene, "png");
+    let LoadedScene { scene, mode, size } = a.input.load()?;
+    let output = output_or_default(a.output.as_deref(), &a.input.scene, "png");
     check_output_file(&output, "png")?;
     if let Some(exr) = &a.exr {
         check_output_file(exr, "exr")?;
@@ -79,17 +66,16 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     if !(1..=MAX_SAMPLES).contains(&a.spp) {
         return Err(UsageError(format!("--spp: {} rays per pixel; 1 to {MAX_SAMPLES}", a.spp)).into());
     }
-    let size = a.size.unwrap_or(scene.size);
     if a.mesh { run_mesh(a, &scene, mode, size, &output) } else { run_field(a, &scene, mode, size, &output) }
 }
 
 fn run_field(a: &RenderArgs, scene: &Scene, mode: EvalMode, size: Size, output: &Path) -> anyhow::Result<()> {
     let bars = Bars::new();
-    let (frame, report) = with_threads(a.threads, || render_field(scene, (size, a.spp), mode, &bars))?;
+    let (frame, report) = with_threads(a.run.threads, || render_field(scene, (size, a.spp), mode, &bars))?;
     bars.finish();
     RenderFiles { png: output, exr: a.exr.as_deref(), cost_png: a.cost_png.as_deref() }.save(&frame)?;
     warn_if_empty(report.stats.hits);
-    if a.json {
+    if a.run.json {
         return print_json(&report);
     }
     let s = &report.stats;
@@ -106,14 +92,14 @@ fn run_field(a: &RenderArgs, scene: &Scene, mode: EvalMode, size: Size, output: 
 
 fn run_mesh(a: &RenderArgs, scene: &Scene, mode: EvalMode, size: Size, output: &Path) -> anyhow::Result<()> {
     let bars = Bars::new();
-    let (frame, report) = with_threads(a.threads, || -> anyhow::Result<_> {
+    let (frame, report) = with_threads(a.run.threads, || -> anyhow::Result<_> {
         let (mesh, mesh_report) = polygonize(&scene.model, mode, &a.polygonize.settings(), &bars)?;
         Ok(render_mesh(scene, &mesh, mesh_report, (size, a.spp), &bars))
     })??;
     bars.finish();
     RenderFiles { png: output, exr: a.exr.as_deref(), cost_png: None }.save(&frame)?;
     warn_if_empty(report.stats.hits);
-    if a.json {
+    if a.run.json {
         return print_json(&report);
     }
     let (m, s) = (&report.mesh, &report.stats);
