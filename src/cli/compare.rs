@@ -13,7 +13,8 @@ use super::args::{
 use super::mesh::CacheErrorArgs;
 use super::progress::Bars;
 use crate::pipeline::{
-    COMPARE_OUTPUTS, CompareReport, CompareSettings, ErrorScales, PolygonizeSettings, Tolerances, compare,
+    COMPARE_OPTIONAL_OUTPUTS, COMPARE_OUTPUTS, CompareReport, CompareSettings, ErrorScales, PolygonizeSettings,
+    Tolerances, compare,
 };
 
 /// Options of `blobtrace compare`.
@@ -107,7 +108,7 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
 
 /// Checks that every name `compare` writes in `dir` can be written.
 fn check_outputs(dir: &std::path::Path) -> anyhow::Result<()> {
-    COMPARE_OUTPUTS.iter().try_for_each(|name| check_output_dir(&dir.join(name)))
+    COMPARE_OUTPUTS.iter().chain(&COMPARE_OPTIONAL_OUTPUTS).try_for_each(|name| check_output_dir(&dir.join(name)))
 }
 
 fn print_summary(dir: &std::path::Path, r: &CompareReport) {

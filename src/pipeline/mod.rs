@@ -59,8 +59,8 @@ mod tune;
 pub use crate::progress::{Progress, Silent, rows, stage};
 pub use cache_report::{CacheReport, NamedCacheStats};
 pub use compare::{
-    COMPARE_OUTPUTS, CompareReport, CompareSettings, Comparison, ErrorImages, ErrorScales, ErrorStats, StageSeconds,
-    Tolerances, UsedScales, compare,
+    COMPARE_OPTIONAL_OUTPUTS, COMPARE_OUTPUTS, CompareReport, CompareSettings, Comparison, ErrorImages, ErrorScales,
+    ErrorStats, StageSeconds, Tolerances, UsedScales, compare,
 };
 pub use cost_map::cost_map;
 pub use edit_output::KeptFrames;
