@@ -3,6 +3,7 @@
 mod common;
 
 use blobtrace::frame::read_exr_channels;
+use blobtrace::pipeline::{COMPARE_OPTIONAL_OUTPUTS, COMPARE_OUTPUTS};
 use common::{blobtrace, scratch};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -12,12 +13,31 @@ fn json(out: &Output) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).expect("stdout is one JSON object")
 }
 
+/// Runs blobtrace with `args`, checks it succeeded, and reads the JSON object it printed.
+fn run_json(args: &[&str]) -> serde_json::Value {
+    json(&blobtrace(args))
+}
+
+/// Runs blobtrace with `args` and checks it succeeded, showing its errors if not.
+fn run_ok(args: &[&str]) -> Output {
+    let out = blobtrace(args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    out
+}
+
+/// Checks that `v` has every one of `keys`.
+fn assert_keys(v: &serde_json::Value, keys: &[&str]) {
+    for key in keys {
+        assert!(v.get(key).is_some(), "missing key {key} in {v}");
+    }
+}
+
 #[test]
 fn render_writes_png_and_exr_and_reports_json() {
     let dir = scratch("render");
     let png = dir.join("pair.png");
     let exr = dir.join("pair.exr");
-    let out = blobtrace(&[
+    let v = run_json(&[
         "render",
         "scenes/pair.ron",
         "-o",
@@ -28,10 +48,7 @@ fn render_writes_png_and_exr_and_reports_json() {
         "64x48",
         "--json",
     ]);
-    let v = json(&out);
-    for key in ["seconds", "rays", "hits", "field_evals", "width", "height"] {
-        assert!(v.get(key).is_some(), "missing key {key} in {v}");
-    }
+    assert_keys(&v, &["seconds", "rays", "hits", "field_evals", "width", "height"]);
     assert_eq!(v["rays"], 64 * 48);
     assert_eq!((v["width"].as_u64(), v["height"].as_u64()), (Some(64), Some(48)));
     let img = image::open(&png).expect("a PNG was written").to_rgb8();
@@ -96,8 +113,7 @@ fn render_spp_smooths_edges_the_same_for_any_thread_count() {
 
 #[test]
 fn bench_view_times_each_kind_of_event() {
-    let out = blobtrace(&["bench", "view", "scenes/example.ron", "--size", "64x48", "--events", "3", "--json"]);
-    let v = json(&out);
+    let v = run_json(&["bench", "view", "scenes/example.ron", "--size", "64x48", "--events", "3", "--json"]);
     let kinds: Vec<&str> = v["events"].as_array().unwrap().iter().map(|e| e["kind"].as_str().unwrap()).collect();
     assert_eq!(kinds, ["orbit", "zoom", "move arm"]);
     for e in v["events"].as_array().unwrap() {
@@ -122,7 +138,7 @@ fn threads_option_does_not_change_the_image() {
     let dir = scratch("threads");
     let render = |threads: &str, name: &str| {
         let p = dir.join(name);
-        let out = blobtrace(&[
+        run_ok(&[
             "render",
             "scenes/sharp.ron",
             "--size",
@@ -134,7 +150,6 @@ fn threads_option_does_not_change_the_image() {
             "-o",
             dir.join(format!("{name}.png")).to_str().unwrap(),
         ]);
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
         std::fs::read(p).unwrap()
     };
     assert_eq!(render("1", "one.exr"), render("2", "two.exr"));
@@ -143,7 +158,7 @@ fn threads_option_does_not_change_the_image() {
 
 #[test]
 fn info_reports_counts() {
-    let v = json(&blobtrace(&["info", "scenes/medusa.ron", "--json"]));
+    let v = run_json(&["info", "scenes/medusa.ron", "--json"]);
     assert_eq!(v["primitives"], 9490);
     assert_eq!(v["caches"], 7);
     assert!(v["nodes"].as_u64().unwrap() > 9490);
@@ -186,8 +201,7 @@ fn good_scene_text_renders() {
     let dir = scratch("good");
     let scene = dir.join("good.ron");
     std::fs::write(&scene, GOOD).unwrap();
-    let out = blobtrace(&["render", scene.to_str().unwrap(), "-o", dir.join("g.png").to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    run_ok(&["render", scene.to_str().unwrap(), "-o", dir.join("g.png").to_str().unwrap()]);
     std::fs::remove_dir_all(dir).unwrap();
 }
 
@@ -304,7 +318,7 @@ fn camera_overrides_change_the_view_and_bad_ones_are_refused() {
         let png = dir.join(name);
         let mut args = vec!["render", "scenes/pair.ron", "--size", "40x30", "-o", png.to_str().unwrap(), "--json"];
         args.extend_from_slice(extra);
-        let v = json(&blobtrace(&args));
+        let v = run_json(&args);
         (std::fs::read(&png).unwrap(), v["hits"].as_u64().unwrap())
     };
     let (plain, plain_hits) = render("plain.png", &[]);
@@ -385,19 +399,20 @@ fn conflicting_or_bad_cache_options_are_refused() {
 
 #[test]
 fn bench_cache_reports_its_keys() {
-    let v = json(&blobtrace(&["bench", "cache", "--size", "32x24", "--repeat", "2", "--json"]));
-    for key in [
-        "exact_naive_s",
-        "exact_s",
-        "cached_cold_s",
-        "cached_warm_s",
-        "mismatch_px",
-        "mean_depth_err",
-        "p99_normal_err_deg",
-        "cache_bytes",
-    ] {
-        assert!(v.get(key).is_some(), "missing key {key} in {v}");
-    }
+    let v = run_json(&["bench", "cache", "--size", "32x24", "--repeat", "2", "--json"]);
+    assert_keys(
+        &v,
+        &[
+            "exact_naive_s",
+            "exact_s",
+            "cached_cold_s",
+            "cached_warm_s",
+            "mismatch_px",
+            "mean_depth_err",
+            "p99_normal_err_deg",
+            "cache_bytes",
+        ],
+    );
     assert!(v["mismatch_px"].as_u64() < Some(32 * 24 / 20), "{}", v["mismatch_px"]);
     assert_eq!(v["lookups"].as_array().map(Vec::len), Some(7));
     // The ratio's parts: both renders' statistics, the exact one the fastest round's.
@@ -419,7 +434,7 @@ fn bench_cache_reports_its_keys() {
 
 #[test]
 fn bench_eval_counts_the_fastest_of_its_rounds() {
-    let v = json(&blobtrace(&["bench", "eval", "scenes/pair.ron", "--size", "24x16", "--repeat", "3", "--json"]));
+    let v = run_json(&["bench", "eval", "scenes/pair.ron", "--size", "24x16", "--repeat", "3", "--json"]);
     for (runs, best) in [("naive_runs_s", "naive"), ("indexed_runs_s", "indexed")] {
         let runs: Vec<f64> = v[runs].as_array().unwrap().iter().map(|s| s.as_f64().unwrap()).collect();
         assert_eq!(runs.len(), 3);
@@ -434,11 +449,8 @@ fn mesh_writes_every_format_and_reports_json() {
     let dir = scratch("mesh");
     for ext in ["ply", "obj", "stl"] {
         let path = dir.join(format!("pair.{ext}"));
-        let out = blobtrace(&["mesh", "scenes/pair.ron", "--res", "24", "-o", path.to_str().unwrap(), "--json"]);
-        let v = json(&out);
-        for key in ["triangles", "vertices", "field_evals", "seconds", "evals_per_triangle", "quality"] {
-            assert!(v.get(key).is_some(), "missing key {key} in {v}");
-        }
+        let v = run_json(&["mesh", "scenes/pair.ron", "--res", "24", "-o", path.to_str().unwrap(), "--json"]);
+        assert_keys(&v, &["triangles", "vertices", "field_evals", "seconds", "evals_per_triangle", "quality"]);
         assert_eq!(v["closed_manifold"], true);
         let bytes = std::fs::read(&path).expect("the mesh was written");
         let triangles = v["triangles"].as_u64().unwrap();
@@ -494,7 +506,7 @@ fn bad_mesh_options_fail_before_any_work_and_keep_existing_outputs() {
 fn render_mesh_draws_the_polygonized_surface() {
     let dir = scratch("render-mesh");
     let png = dir.join("m.png");
-    let out = blobtrace(&[
+    let v = run_json(&[
         "render",
         "scenes/pair.ron",
         "--mesh",
@@ -506,7 +518,6 @@ fn render_mesh_draws_the_polygonized_surface() {
         png.to_str().unwrap(),
         "--json",
     ]);
-    let v = json(&out);
     assert!(v["hits"].as_u64().unwrap() > 300, "{v}");
     assert!(v["mesh"]["triangles"].as_u64().unwrap() > 100, "{v}");
     assert_eq!(image::open(&png).unwrap().to_rgb8().dimensions(), (64, 48));
@@ -648,7 +659,7 @@ fn diff_refuses_an_image_declaring_more_pixels_than_it_may_hold_before_decoding_
 #[test]
 fn compare_writes_renders_heat_maps_panel_and_stats() {
     let dir = scratch("compare");
-    let out = blobtrace(&[
+    let v = run_json(&[
         "compare",
         "scenes/pair.ron",
         "--size",
@@ -659,21 +670,11 @@ fn compare_writes_renders_heat_maps_panel_and_stats() {
         dir.to_str().unwrap(),
         "--json",
     ]);
-    let v = json(&out);
-    for name in [
-        "ray.png",
-        "mesh.png",
-        "ray.exr",
-        "mesh.exr",
-        "silhouette.png",
-        "depth_error.png",
-        "normal_error.png",
-        "color_error.png",
-        "flip_error.png",
-        "panel.png",
-        "stats.json",
-    ] {
+    for name in COMPARE_OUTPUTS {
         assert!(dir.join(name).exists(), "{name} missing");
+    }
+    for name in COMPARE_OPTIONAL_OUTPUTS {
+        assert!(!dir.join(name).exists(), "{name} written without --error");
     }
     for key in ["depth_error_cells", "normal_error_deg", "color_error"] {
         for stat in ["mean", "median", "p95", "p99", "max", "fraction_above_tolerance"] {
@@ -696,7 +697,7 @@ fn compare_writes_renders_heat_maps_panel_and_stats() {
     let mut all = vec!["compare", "scenes/pair.ron", "--size", "64x48", "--res", "24", "--json", "--out-dir"];
     all.push(fixed.to_str().unwrap());
     all.extend(args);
-    let v = json(&blobtrace(&all));
+    let v = run_json(&all);
     assert_eq!((v["scales"]["normal_deg"].as_f64(), v["tolerances"]["depth_cells"].as_f64()), (Some(0.5), Some(0.5)));
     let heat = image::open(fixed.join("normal_error.png")).unwrap().to_rgb8();
     assert!(heat.pixels().filter(|p| p.0 == [80, 255, 40]).count() > 10, "values beyond the scale are marked");
@@ -723,7 +724,7 @@ fn mesh_error_colours_vertices_by_the_cache_error() {
     assert!(!no_caches.status.success());
     assert!(String::from_utf8_lossy(&no_caches.stderr).contains("no Cache nodes"));
     let cmp = dir.join("cmp");
-    let out = blobtrace(&[
+    run_ok(&[
         "compare",
         "scenes/hair_point.ron",
         "--size",
@@ -734,8 +735,9 @@ fn mesh_error_colours_vertices_by_the_cache_error() {
         "--out-dir",
         cmp.to_str().unwrap(),
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(cmp.join("mesh_error.png").exists());
+    for name in COMPARE_OUTPUTS.iter().chain(&COMPARE_OPTIONAL_OUTPUTS) {
+        assert!(cmp.join(name).exists(), "{name} missing");
+    }
     std::fs::remove_dir_all(dir).unwrap();
 }
 
@@ -840,8 +842,7 @@ fn scenes_with_a_grown_radius(dir: &Path) -> PathBuf {
 fn regression_passes_on_the_bundled_references_and_fails_on_a_perturbed_model() {
     let dir = scratch("regress");
     let report = dir.join("report");
-    let out = blobtrace(&["regress", "--report", report.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    run_ok(&["regress", "--report", report.to_str().unwrap()]);
     assert!(std::fs::read_to_string(report.join("index.html")).unwrap().contains("Pass"));
     let scenes = scenes_with_a_grown_radius(&dir);
     let bad_report = dir.join("bad");
@@ -939,7 +940,7 @@ fn regress_shards_cover_every_entry_once_and_report_junit() {
 #[test]
 fn edit_replays_a_script_incrementally_and_verifies_every_frame() {
     let dir = scratch("edit");
-    let out = blobtrace(&[
+    let v = run_json(&[
         "edit",
         "scenes/hair_point.ron",
         "--script",
@@ -953,7 +954,6 @@ fn edit_replays_a_script_incrementally_and_verifies_every_frame() {
         dir.to_str().unwrap(),
         "--json",
     ]);
-    let v = json(&out);
     assert_eq!(v["frames"], 40);
     assert_eq!(v["verified_frames"], 40);
     for key in ["full_s", "incremental_s", "dirty_fraction"] {
@@ -1127,7 +1127,7 @@ fn outputs_must_be_named_for_their_format_and_are_checked_before_any_work() {
 
 #[test]
 fn bench_mesh_reports_table_1_and_both_cells_costs() {
-    let out = blobtrace(&[
+    let v = run_json(&[
         "bench",
         "mesh",
         "--res",
@@ -1140,7 +1140,6 @@ fn bench_mesh_reports_table_1_and_both_cells_costs() {
         "1",
         "--json",
     ]);
-    let v = json(&out);
     assert_eq!(v["threads"], 1);
     let rows = v["table1"].as_array().unwrap();
     assert_eq!(rows.iter().map(|r| r["res"].as_u64().unwrap()).collect::<Vec<_>>(), [8, 12]);
@@ -1164,7 +1163,7 @@ fn bench_edit_reports_figure_8_and_plots_it() {
     )
     .unwrap();
     let plot = dir.join("f8.png");
-    let out = blobtrace(&[
+    let v = run_json(&[
         "bench",
         "edit",
         "scenes/hair_point.ron",
@@ -1182,7 +1181,6 @@ fn bench_edit_reports_figure_8_and_plots_it() {
         plot.to_str().unwrap(),
         "--json",
     ]);
-    let v = json(&out);
     assert_eq!(v["frames"], 3);
     assert_eq!(v["threads"], 1);
     for key in ["local_polygonize_ratio", "dirty_render_speedup"] {
@@ -1407,7 +1405,7 @@ fn a_full_disk_leaves_every_old_output_as_it_was_and_no_temporaries() {
 #[test]
 fn warp_edit_scripts_verify_and_bad_warp_edits_name_their_line() {
     let dir = scratch("warp-scripts");
-    let out = blobtrace(&[
+    run_ok(&[
         "edit",
         "scenes/warps.ron",
         "--script",
@@ -1421,7 +1419,6 @@ fn warp_edit_scripts_verify_and_bad_warp_edits_name_their_line() {
         "--out-dir",
         dir.to_str().unwrap(),
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let rows = std::fs::read_to_string(dir.join("frames.csv")).unwrap().lines().count() - 1;
     let saved = std::fs::read_dir(&dir)
         .unwrap()
@@ -1735,7 +1732,7 @@ fn mesh_of_a_scene_without_a_surface_warns_and_claims_no_closed_surface() {
     assert!(v["evals_per_triangle"].is_null(), "{v}");
     assert_eq!((&v["closed_manifold"], &v["quality"]["watertight"]), (&false.into(), &false.into()), "{v}");
     // A mesh with a surface has neither warning nor gaps.
-    let v = json(&blobtrace(&["mesh", "scenes/sphere.ron", "--res", "16", "-o", args[5], "--json"]));
+    let v = run_json(&["mesh", "scenes/sphere.ron", "--res", "16", "-o", args[5], "--json"]);
     assert!(v.get("warning").is_none() && v["evals_per_triangle"].as_f64().unwrap() > 0.0, "{v}");
     std::fs::remove_dir_all(dir).unwrap();
 }
@@ -1746,8 +1743,7 @@ fn blessed_pair_refs(dir: &Path, size: &str) -> PathBuf {
     std::fs::create_dir_all(&refs).unwrap();
     let entry = format!("Manifest(entries: [Entry(scene: \"pair.ron\", size: ({size}), kind: Field)])");
     std::fs::write(refs.join("manifest.ron"), entry).unwrap();
-    let out = blobtrace(&["regress", "--refs", refs.to_str().unwrap(), "--bless"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    run_ok(&["regress", "--refs", refs.to_str().unwrap(), "--bless"]);
     refs
 }
 

@@ -9,11 +9,11 @@ use std::time::Duration;
 use obvhs::BvhBuildParams;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
-use obvhs::ray::RayHit;
 use obvhs::triangle::Triangle;
 use rustc_hash::FxHashMap;
 
-use super::{RayTarget, SurfaceHit, barycentric, surface_at};
+use super::traverse::closest_hit;
+use super::{RayTarget, SurfaceHit, surface_at};
 use crate::geom::Ray;
 use crate::mesh::{Cell, EdgeVertex, Polygonizer, Repolygonized};
 
@@ -150,20 +150,13 @@ impl RayTarget for DynamicMesh {
         if self.triangle_count() == 0 {
             return (None, 0);
         }
-        let r = obvhs::ray::Ray::new_inf(ray.origin, ray.dir);
-        let mut hit = RayHit::none();
-        let mut tests = 0;
-        let found = self.bvh.ray_traverse(r, &mut hit, |r, id| {
-            tests += 1;
-            self.triangles[self.bvh.primitive_indices[id] as usize].intersect(r)
-        });
-        let surface = found.then(|| {
-            let slot = self.bvh.primitive_indices[hit.primitive_id as usize];
-            let tri = &self.vertices[slot as usize];
-            let uv = barycentric(&self.triangles[slot as usize], ray.at(hit.t));
+        let slot = |leaf: usize| self.bvh.primitive_indices[leaf] as usize;
+        let (hit, tests) = closest_hit(&self.bvh, ray, |leaf| &self.triangles[slot(leaf)]);
+        let surface = hit.map(|h| {
+            let tri = &self.vertices[slot(h.leaf)];
             let (normal, albedo) =
-                surface_at(tri.map(|v| v.position), tri.map(|v| v.normal), Some(tri.map(|v| v.color)), uv, ray.dir);
-            SurfaceHit { t: hit.t, triangle: slot, normal, albedo }
+                surface_at(tri.map(|v| v.position), tri.map(|v| v.normal), Some(tri.map(|v| v.color)), h.uv, ray.dir);
+            SurfaceHit { t: h.t, triangle: slot(h.leaf) as u32, normal, albedo }
         });
         (surface, tests)
     }

@@ -4,6 +4,7 @@
 
 mod dynamic;
 mod mesh_render;
+mod traverse;
 
 use std::time::{Duration, Instant};
 
@@ -11,7 +12,6 @@ use glam::{Vec2, Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
-use obvhs::ray::RayHit;
 use obvhs::triangle::Triangle;
 
 pub use dynamic::{BvhUpdate, DynamicMesh};
@@ -19,6 +19,7 @@ pub use mesh_render::{MeshRenderStats, blank_mesh_frame, refine_mesh, render_mes
 
 use crate::geom::Ray;
 use crate::mesh::Mesh;
+use traverse::closest_hit;
 
 /// The closest intersection of a ray with a mesh.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -107,18 +108,9 @@ impl MeshBvh {
         if self.triangles.is_empty() {
             return (None, 0);
         }
-        let r = obvhs::ray::Ray::new_inf(ray.origin, ray.dir);
-        let mut hit = RayHit::none();
-        let mut tests = 0;
-        let found = self.bvh.ray_traverse(r, &mut hit, |r, id| {
-            tests += 1;
-            self.triangles[id].intersect(r)
-        });
-        let result = found.then(|| {
-            let id = hit.primitive_id as usize;
-            MeshHit { t: hit.t, triangle: self.mesh_index[id], uv: barycentric(&self.triangles[id], ray.at(hit.t)) }
-        });
-        (result, tests)
+        let (hit, tests) = closest_hit(&self.bvh, ray, |leaf| &self.triangles[leaf]);
+        let hit = hit.map(|h| MeshHit { t: h.t, triangle: self.mesh_index[h.leaf], uv: h.uv });
+        (hit, tests)
     }
 
     /// Checks the BVH's structure with obvhs's validator: every triangle

@@ -239,8 +239,58 @@ impl CameraArgs {
     }
 }
 
+/// The scene a rendering command works on and how it looks at it: shared
+/// by `render`, `compare`, `edit` and `view`.
+#[derive(Clone, Debug, Args)]
+pub struct SceneArgs {
+    /// Scene file (RON), e.g. scenes/medusa.ron.
+    pub scene: PathBuf,
+    /// Image size WIDTHxHEIGHT, overriding the scene's `size`.
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<Size>,
+    /// Camera overrides.
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    /// Field evaluation: exact or cached, and the cache budget.
+    #[command(flatten)]
+    pub field: EvalOptions,
+}
+
+/// A scene loaded as [`SceneArgs`] say: the camera overridden, the
+/// evaluation mode chosen (the cache budget applied), the image size.
+pub struct LoadedScene {
+    /// The scene.
+    pub scene: Scene,
+    /// How its field is evaluated.
+    pub mode: EvalMode,
+    /// The image size.
+    pub size: Size,
+}
+
+impl SceneArgs {
+    /// Loads the scene, applies the camera overrides and the evaluation options.
+    pub fn load(&self) -> anyhow::Result<LoadedScene> {
+        let mut scene = load_scene(&self.scene, &self.camera)?;
+        let mode = self.field.apply(&mut scene.model)?;
+        let size = self.size.unwrap_or(scene.size);
+        Ok(LoadedScene { scene, mode, size })
+    }
+}
+
+/// How a batch command runs and reports: shared by `render`, `compare` and
+/// `edit` (`view` runs its work beside a window, and prints no report).
+#[derive(Clone, Copy, Debug, Args)]
+pub struct RunArgs {
+    /// Worker threads (default: all cores). Images and meshes are identical for any count.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print the statistics as one JSON object on stdout instead of a summary line.
+    #[arg(long)]
+    pub json: bool,
+}
+
 /// Loads the scene at `path` and applies the camera overrides.
-pub fn load_scene(path: &Path, camera: &CameraArgs) -> anyhow::Result<Scene> {
+fn load_scene(path: &Path, camera: &CameraArgs) -> anyhow::Result<Scene> {
     let mut scene = Scene::load(path)?;
     camera.apply(&mut scene)?;
     Ok(scene)

@@ -8,36 +8,27 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::args::{
-    CameraArgs, EvalOptions, PolygonizeArgs, RepairArgs, check_output_dir, create_dir, load_scene, parse_size,
-    with_threads,
+    LoadedScene, PolygonizeArgs, RepairArgs, RunArgs, SceneArgs, check_output_dir, create_dir, with_threads,
 };
 use super::mesh::CacheErrorArgs;
 use super::progress::Bars;
-use crate::frame::Size;
 use crate::pipeline::{
-    COMPARE_OUTPUTS, CompareReport, CompareSettings, ErrorScales, PolygonizeSettings, Tolerances, compare,
+    COMPARE_OPTIONAL_OUTPUTS, COMPARE_OUTPUTS, CompareReport, CompareSettings, ErrorScales, PolygonizeSettings,
+    Tolerances, compare,
 };
 
 /// Options of `blobtrace compare`.
 #[derive(Debug, Args)]
 pub struct CompareArgs {
-    /// Scene file (RON), e.g. scenes/medusa.ron.
-    pub scene: PathBuf,
-    /// Image size WIDTHxHEIGHT, overriding the scene's `size`.
-    #[arg(long, value_parser = parse_size)]
-    pub size: Option<Size>,
-    /// Camera overrides.
+    /// The scene, its image size, camera and field evaluation.
     #[command(flatten)]
-    pub camera: CameraArgs,
+    pub input: SceneArgs,
     /// Polygonizer options.
     #[command(flatten)]
     pub polygonize: PolygonizeArgs,
     /// Mesh remedies, applied before the mesh is rendered.
     #[command(flatten)]
     pub repair: RepairArgs,
-    /// Field evaluation for both the tracer and the polygonizer.
-    #[command(flatten)]
-    pub field: EvalOptions,
     /// Also render the mesh coloured by error_C (needs Cache nodes).
     #[command(flatten)]
     pub error: CacheErrorArgs,
@@ -47,12 +38,9 @@ pub struct CompareArgs {
     /// Directory for the images and stats.json (created if missing).
     #[arg(long, default_value = "compare")]
     pub out_dir: PathBuf,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
-    /// Print stats.json on stdout too.
-    #[arg(long)]
-    pub json: bool,
+    /// Threads and the JSON report.
+    #[command(flatten)]
+    pub run: RunArgs,
 }
 
 /// The heat maps' full scales and the tolerances of the statistics.
@@ -90,10 +78,9 @@ impl JudgingArgs {
 
 /// Runs `blobtrace compare`.
 pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
-    let mut scene = load_scene(&a.scene, &a.camera)?;
-    let mode = a.field.apply(&mut scene.model)?;
+    let LoadedScene { scene, mode, size } = a.input.load()?;
     let settings = CompareSettings {
-        size: a.size.unwrap_or(scene.size),
+        size,
         polygonize: PolygonizeSettings { repair: a.repair.repair(), ..a.polygonize.settings() },
         error_scale: a.error.scale(),
         scales: a.judging.scales(),
@@ -106,12 +93,12 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
         check_outputs(&a.out_dir)?;
     }
     let bars = Bars::new();
-    let comparison = with_threads(a.threads, || compare(&scene, mode, &settings, &bars))??;
+    let comparison = with_threads(a.run.threads, || compare(&scene, mode, &settings, &bars))??;
     bars.finish();
     create_dir(&a.out_dir)?;
     check_outputs(&a.out_dir)?;
     let json = comparison.save(&a.out_dir)?;
-    if a.json {
+    if a.run.json {
         println!("{json}");
     } else {
         print_summary(&a.out_dir, &comparison.report);
@@ -121,7 +108,7 @@ pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
 
 /// Checks that every name `compare` writes in `dir` can be written.
 fn check_outputs(dir: &std::path::Path) -> anyhow::Result<()> {
-    COMPARE_OUTPUTS.iter().try_for_each(|name| check_output_dir(&dir.join(name)))
+    COMPARE_OUTPUTS.iter().chain(&COMPARE_OPTIONAL_OUTPUTS).try_for_each(|name| check_output_dir(&dir.join(name)))
 }
 
 fn print_summary(dir: &std::path::Path, r: &CompareReport) {

@@ -5,42 +5,28 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::args::{
-    CameraArgs, EvalOptions, PolygonizeArgs, check_output_file, load_scene, output_or_default, parse_size, print_json,
-    with_threads,
+    LoadedScene, PolygonizeArgs, RunArgs, SceneArgs, check_output_file, output_or_default, print_json, with_threads,
 };
 use super::exit::UsageError;
 use super::progress::Bars;
-use crate::draw::Rgb8Image;
 use crate::field::EvalMode;
-use crate::frame::{Frame, Size};
-use crate::output::FileSet;
-use crate::pipeline::{cost_map, polygonize, render_field, render_mesh};
+use crate::frame::Size;
+use crate::pipeline::{RenderFiles, polygonize, render_field, render_mesh};
 use crate::scene::Scene;
 use crate::trace::samples::MAX_SAMPLES;
 
 /// Options of `blobtrace render`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// Scene file (RON), e.g. scenes/medusa.ron.
-    pub scene: PathBuf,
+    /// The scene, its image size, camera and field evaluation.
+    #[command(flatten)]
+    pub input: SceneArgs,
     /// Output PNG (8-bit sRGB). Defaults to SCENE's name with .png in the current directory.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
     /// Also write every AOV (R,G,B,A, Z, N.X/N.Y/N.Z, steps.Y, evals.Y) to this EXR.
     #[arg(long)]
     pub exr: Option<PathBuf>,
-    /// Image size WIDTHxHEIGHT, overriding the scene's `size`.
-    #[arg(long, value_parser = parse_size)]
-    pub size: Option<Size>,
-    /// Camera overrides.
-    #[command(flatten)]
-    pub camera: CameraArgs,
-    /// Worker threads (default: all cores). The image is identical for any count.
-    #[arg(long)]
-    pub threads: Option<usize>,
-    /// Field evaluation: exact or cached, and the cache budget.
-    #[command(flatten)]
-    pub field: EvalOptions,
     /// Also write where the time went: heat maps of field evaluations and
     /// tracing steps per pixel (magma, each with its scale), as a PNG. Field
     /// renders only.
@@ -58,16 +44,15 @@ pub struct RenderArgs {
     /// Polygonizer options, with --mesh.
     #[command(flatten)]
     pub polygonize: PolygonizeArgs,
-    /// Print one JSON object of statistics on stdout instead of a summary line.
-    #[arg(long)]
-    pub json: bool,
+    /// Threads and the JSON report.
+    #[command(flatten)]
+    pub run: RunArgs,
 }
 
 /// Runs `blobtrace render`.
 pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
-    let mut scene = load_scene(&a.scene, &a.camera)?;
-    let mode = a.field.apply(&mut scene.model)?;
-    let output = output_or_default(a.output.as_deref(), &a.scene, "png");
+    let LoadedScene { scene, mode, size } = a.input.load()?;
+    let output = output_or_default(a.output.as_deref(), &a.input.scene, "png");
     check_output_file(&output, "png")?;
     if let Some(exr) = &a.exr {
         check_output_file(exr, "exr")?;
@@ -81,18 +66,16 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     if !(1..=MAX_SAMPLES).contains(&a.spp) {
         return Err(UsageError(format!("--spp: {} rays per pixel; 1 to {MAX_SAMPLES}", a.spp)).into());
     }
-    let size = a.size.unwrap_or(scene.size);
     if a.mesh { run_mesh(a, &scene, mode, size, &output) } else { run_field(a, &scene, mode, size, &output) }
 }
 
 fn run_field(a: &RenderArgs, scene: &Scene, mode: EvalMode, size: Size, output: &Path) -> anyhow::Result<()> {
     let bars = Bars::new();
-    let (frame, report) = with_threads(a.threads, || render_field(scene, (size, a.spp), mode, &bars))?;
+    let (frame, report) = with_threads(a.run.threads, || render_field(scene, (size, a.spp), mode, &bars))?;
     bars.finish();
-    let cost = a.cost_png.as_deref().map(|path| Ok::<_, anyhow::Error>((path, cost_map(&frame)?))).transpose()?;
-    save(&frame, output, a.exr.as_deref(), cost)?;
+    RenderFiles { png: output, exr: a.exr.as_deref(), cost_png: a.cost_png.as_deref() }.save(&frame)?;
     warn_if_empty(report.stats.hits);
-    if a.json {
+    if a.run.json {
         return print_json(&report);
     }
     let s = &report.stats;
@@ -109,14 +92,14 @@ fn run_field(a: &RenderArgs, scene: &Scene, mode: EvalMode, size: Size, output: 
 
 fn run_mesh(a: &RenderArgs, scene: &Scene, mode: EvalMode, size: Size, output: &Path) -> anyhow::Result<()> {
     let bars = Bars::new();
-    let (frame, report) = with_threads(a.threads, || -> anyhow::Result<_> {
+    let (frame, report) = with_threads(a.run.threads, || -> anyhow::Result<_> {
         let (mesh, mesh_report) = polygonize(&scene.model, mode, &a.polygonize.settings(), &bars)?;
         Ok(render_mesh(scene, &mesh, mesh_report, (size, a.spp), &bars))
     })??;
     bars.finish();
-    save(&frame, output, a.exr.as_deref(), None)?;
+    RenderFiles { png: output, exr: a.exr.as_deref(), cost_png: None }.save(&frame)?;
     warn_if_empty(report.stats.hits);
-    if a.json {
+    if a.run.json {
         return print_json(&report);
     }
     let (m, s) = (&report.mesh, &report.stats);
@@ -140,17 +123,4 @@ fn warn_if_empty(hits: u64) {
             "warning: no ray hit the surface (is the threshold above the field's maximum, or the camera looking away?)"
         );
     }
-}
-
-/// Writes the PNG and, when asked, the EXR and the cost picture: all or none.
-fn save(frame: &Frame, png: &Path, exr: Option<&Path>, cost: Option<(&Path, Rgb8Image)>) -> anyhow::Result<()> {
-    let mut files = FileSet::new();
-    files.add(png, frame.png_bytes_for(png)?);
-    if let Some(exr) = exr {
-        files.add(exr, frame.exr_bytes(exr)?);
-    }
-    if let Some((path, image)) = cost {
-        files.add(path, image.png_bytes_for(path)?);
-    }
-    Ok(files.commit()?)
 }

@@ -5,10 +5,9 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::args::{CameraArgs, EvalOptions, LatticeArgs, check_output_file, load_scene, parse_size, worker_pool};
+use super::args::{LatticeArgs, LoadedScene, SceneArgs, check_output_file, worker_pool};
 use super::exit::UsageError;
 use crate::field::Model;
-use crate::frame::Size;
 use crate::pipeline::{EditSession, check_names};
 use crate::scene::{Script, load_script};
 use crate::viewer::{Action, Viewer, background_pool, show};
@@ -16,14 +15,9 @@ use crate::viewer::{Action, Viewer, background_pool, show};
 /// Options of `blobtrace view`.
 #[derive(Debug, Args)]
 pub struct ViewArgs {
-    /// Scene file (RON).
-    pub scene: PathBuf,
-    /// Image size WIDTHxHEIGHT (default: the scene's).
-    #[arg(long, value_parser = parse_size)]
-    pub size: Option<Size>,
-    /// Camera overrides.
+    /// The scene, its image size, camera and field evaluation.
     #[command(flatten)]
-    pub camera: CameraArgs,
+    pub input: SceneArgs,
     /// Edit script (RON) whose frames Space steps through.
     #[arg(long)]
     pub script: Option<PathBuf>,
@@ -61,24 +55,19 @@ pub struct ViewArgs {
     /// Polygonizer options.
     #[command(flatten)]
     pub polygonize: LatticeArgs,
-    /// Field evaluation.
-    #[command(flatten)]
-    pub field: EvalOptions,
 }
 
 /// Runs `blobtrace view`.
 pub fn run(a: &ViewArgs) -> anyhow::Result<()> {
     let actions = parse_keys(&a.keys, a.script.is_some())?;
     check_output_file(&a.output, "png")?;
-    let mut scene = load_scene(&a.scene, &a.camera)?;
+    let LoadedScene { scene, mode, size } = a.input.load()?;
     check_node(&scene.model, a.node.as_deref())?;
-    let mode = a.field.apply(&mut scene.model)?;
     let script = match &a.script {
         Some(path) => load_script(path)?,
         None => Script::default(),
     };
     check_names(&scene.model, &script)?;
-    let size = a.size.unwrap_or(scene.size);
     // The window stays on this thread (some systems draw windows from the
     // main thread alone); the frames' work runs on the pool.
     // Below the window's thread, which must turn every few milliseconds.

@@ -9,6 +9,13 @@
 //! After an edit, the blocks of cells over the changed boxes are marked
 //! again, each when a ray first reaches it: the rays traced again after an
 //! edit reach the front of what changed, not all of its boxes.
+//!
+//! The marks live in `field`, not beside their siblings `trace::coverage`
+//! and `trace::changed_space`, because [`super::ModelField::skipping`] holds
+//! them to answer [`super::Field::skip_empty`]: moved into `trace`, they
+//! would make the field import the tracer, and the way round that — a field
+//! in `trace` wrapping `ModelField` with the marks — would forward every
+//! method of [`super::Field`] by hand for one of them.
 
 use std::sync::atomic::{AtomicU8, Ordering};
 

@@ -8,13 +8,14 @@
 //! [`Field`], so exact, indexed and cached evaluation stay interchangeable.
 
 mod cache_cost;
-mod edit;
+mod change_reach;
 mod eight_wide_sums;
 mod empty;
 mod eval;
 mod index;
 mod kernel;
 mod model;
+mod named_edit;
 mod node;
 mod node_id;
 mod primitive;
@@ -30,12 +31,12 @@ pub use crate::geom::Region;
 pub use cache_cost::{
     CacheDecision, LATTICE_COST, LOOKUP_COST, LOOSE_BOUND_STEPS, POWER_COST, RENDER_OVERHEAD, WARP_COST,
 };
-pub use edit::{Edit, Operator};
 pub use eight_wide_sums::SUMS_ENV;
 pub use empty::EmptySpace;
 pub use index::{BlendIndex, IndexedLeaf, Leaf};
 pub use kernel::Kernel;
 pub use model::{Change, Model, ModelBuilder, ModelCounts, ModelError, TracerChoice};
+pub use named_edit::{Edit, Operator};
 pub use node::{Node, NodeKind, Placement};
 pub use node_id::NodeId;
 pub use primitive::{Primitive, Skeleton};

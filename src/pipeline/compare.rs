@@ -309,8 +309,8 @@ fn error_stats(values: &[f32], width: u32, tolerance: f32) -> ErrorStats {
     ErrorStats::from(&judge(Metric::Abs, &both, &vec![false; both.len()], width, t))
 }
 
-/// Every file [`Comparison::save`] writes into its directory.
-pub const COMPARE_OUTPUTS: [&str; 12] = [
+/// The files [`Comparison::save`] writes into its directory every time.
+pub const COMPARE_OUTPUTS: [&str; 11] = [
     "ray.png",
     "mesh.png",
     "ray.exr",
@@ -321,9 +321,13 @@ pub const COMPARE_OUTPUTS: [&str; 12] = [
     "color_error.png",
     "flip_error.png",
     "panel.png",
-    "mesh_error.png",
     "stats.json",
 ];
+
+/// The files [`Comparison::save`] writes only when the comparison holds
+/// them: the mesh by error_C, only with a cache-error image
+/// ([`CompareSettings::error_scale`]).
+pub const COMPARE_OPTIONAL_OUTPUTS: [&str; 1] = ["mesh_error.png"];
 
 impl Comparison {
     /// Writes the renders, EXRs, heat maps, the panel and stats.json into

@@ -42,6 +42,7 @@
 mod cache_report;
 mod compare;
 mod cost_map;
+mod edit_output;
 mod edit_session;
 mod error;
 mod eval;
@@ -58,10 +59,11 @@ mod tune;
 pub use crate::progress::{Progress, Silent, rows, stage};
 pub use cache_report::{CacheReport, NamedCacheStats};
 pub use compare::{
-    COMPARE_OUTPUTS, CompareReport, CompareSettings, Comparison, ErrorImages, ErrorScales, ErrorStats, StageSeconds,
-    Tolerances, UsedScales, compare,
+    COMPARE_OPTIONAL_OUTPUTS, COMPARE_OUTPUTS, CompareReport, CompareSettings, Comparison, ErrorImages, ErrorScales,
+    ErrorStats, StageSeconds, Tolerances, UsedScales, compare,
 };
 pub use cost_map::cost_map;
+pub use edit_output::KeptFrames;
 pub use edit_session::{EditSession, FrameRow, FrameUpdate, IDLE_SAMPLES, Pending, Verification, outline_dirty};
 pub use error::{PipelineError, Result};
 pub use eval::{EvalSettings, ExactLookup, FieldChoice, MB};
@@ -74,7 +76,7 @@ pub use polygonize::{
 pub use regress::{
     Entry, Kind, Manifest, RegressRow, RegressSettings, RegressSummary, junit_xml, load_manifest, regress, render_entry,
 };
-pub use render::{MeshRenderReport, RenderReport, render_field, render_mesh};
+pub use render::{MeshRenderReport, RenderFiles, RenderReport, render_field, render_mesh};
 pub use replay::{EditReport, ScratchFrame, check_names, replay_from_scratch};
 pub use slice::{PlaneView, SliceSettings, SliceView, plane_view, slice, slice_warnings};
 pub use threads::{MAX_THREADS, with_threads, worker_pool};

@@ -1,16 +1,21 @@
 //! Rendering a scene: by tracing its field, or by ray casting a mesh of it
-//! through a BVH, each timed and reported.
+//! through a BVH, each timed and reported; and the files a render is written
+//! to (a PNG, an EXR of every AOV, the cost picture), all or none.
 
+use std::path::Path;
 use std::time::Instant;
 
 use serde::Serialize;
 
 use super::cache_report::CacheReport;
+use super::cost_map::cost_map;
+use super::error::Result;
 use super::polygonize::MeshReport;
 use crate::bvh::{MeshBvh, MeshRenderStats, StaticMesh, render_mesh as cast_mesh};
 use crate::field::{EmptySpace, EvalMode};
 use crate::frame::{Frame, Size};
 use crate::mesh::Mesh;
+use crate::output::FileSet;
 use crate::progress::{Progress, rows};
 use crate::scene::Scene;
 use crate::trace::{RenderSettings, RenderStats, render_model};
@@ -153,4 +158,31 @@ pub fn render_mesh(
         mesh: mesh_report,
     };
     (frame, report)
+}
+
+/// The files a render is written to: a PNG, and when asked an EXR of every
+/// AOV and the cost picture (which needs a field render's work counts).
+#[derive(Clone, Copy, Debug)]
+pub struct RenderFiles<'a> {
+    /// The 8-bit sRGB image.
+    pub png: &'a Path,
+    /// Every AOV, as floats.
+    pub exr: Option<&'a Path>,
+    /// Where the time went (see [`cost_map`]).
+    pub cost_png: Option<&'a Path>,
+}
+
+impl RenderFiles<'_> {
+    /// Writes `frame` to every file asked for, all of them or none.
+    pub fn save(&self, frame: &Frame) -> Result<()> {
+        let mut files = FileSet::new();
+        files.add(self.png, frame.png_bytes_for(self.png)?);
+        if let Some(exr) = self.exr {
+            files.add(exr, frame.exr_bytes(exr)?);
+        }
+        if let Some(path) = self.cost_png {
+            files.add(path, cost_map(frame)?.png_bytes_for(path)?);
+        }
+        Ok(files.commit()?)
+    }
 }

@@ -424,35 +424,18 @@ impl<'de> de::Visitor<'de> for RicciVisitor {
     }
 }
 
-impl NodeDesc {
-    /// The nodes right below this one, in the order the file writes them.
-    #[must_use]
-    pub fn children(&self) -> Vec<&NodeDesc> {
-        match self {
+/// The one match over which kinds of node have children and where they are:
+/// [`NodeDesc::children`] expands it with `iter`, [`NodeDesc::children_mut`]
+/// with `iter_mut` (Rust cannot be generic over a borrow's mutability), so a
+/// new kind of node is placed here once. The leaves are listed, not matched
+/// by `_`, so a new kind cannot be forgotten.
+macro_rules! child_slots {
+    ($node:expr, $iter:ident) => {
+        match $node {
             NodeDesc::Blend(c)
             | NodeDesc::Union(c)
             | NodeDesc::Intersection(c)
-            | NodeDesc::Ricci { children: c, .. } => c.0.iter().collect(),
-            NodeDesc::Difference(a, b) => vec![a, b],
-            NodeDesc::Transform { child, .. }
-            | NodeDesc::Twist { child, .. }
-            | NodeDesc::Taper { child, .. }
-            | NodeDesc::Bend { child, .. }
-            | NodeDesc::Named(_, child)
-            | NodeDesc::Cache { child, .. } => {
-                vec![child]
-            }
-            _ => vec![],
-        }
-    }
-
-    /// The nodes right below this one, to change them.
-    pub fn children_mut(&mut self) -> Vec<&mut NodeDesc> {
-        match self {
-            NodeDesc::Blend(c)
-            | NodeDesc::Union(c)
-            | NodeDesc::Intersection(c)
-            | NodeDesc::Ricci { children: c, .. } => c.0.iter_mut().collect(),
+            | NodeDesc::Ricci { children: c, .. } => c.0.$iter().collect(),
             NodeDesc::Difference(a, b) => vec![a, b],
             NodeDesc::Transform { child, .. }
             | NodeDesc::Twist { child, .. }
@@ -460,8 +443,24 @@ impl NodeDesc {
             | NodeDesc::Bend { child, .. }
             | NodeDesc::Named(_, child)
             | NodeDesc::Cache { child, .. } => vec![child],
-            _ => vec![],
+            NodeDesc::Point { .. }
+            | NodeDesc::Segment { .. }
+            | NodeDesc::Circle { .. }
+            | NodeDesc::SplinePoints { .. } => vec![],
         }
+    };
+}
+
+impl NodeDesc {
+    /// The nodes right below this one, in the order the file writes them.
+    #[must_use]
+    pub fn children(&self) -> Vec<&NodeDesc> {
+        child_slots!(self, iter)
+    }
+
+    /// The nodes right below this one, to change them.
+    pub fn children_mut(&mut self) -> Vec<&mut NodeDesc> {
+        child_slots!(self, iter_mut)
     }
 
     /// Nodes in this subtree, itself included.
@@ -499,27 +498,11 @@ impl NodeDesc {
     /// Calls `f` on the resolution and the value and gradient filters of every
     /// `Cache` in this subtree, so experiments can vary them.
     pub fn for_each_cache(&mut self, f: &mut impl FnMut(&mut Resolution, &mut Filter, &mut Filter)) {
-        match self {
-            NodeDesc::Cache { res, value, gradient, child, .. } => {
-                f(res, value, gradient);
-                child.for_each_cache(f);
-            }
-            NodeDesc::Blend(c)
-            | NodeDesc::Union(c)
-            | NodeDesc::Intersection(c)
-            | NodeDesc::Ricci { children: c, .. } => {
-                c.0.iter_mut().for_each(|n| n.for_each_cache(f));
-            }
-            NodeDesc::Difference(a, b) => {
-                a.for_each_cache(f);
-                b.for_each_cache(f);
-            }
-            NodeDesc::Transform { child, .. }
-            | NodeDesc::Twist { child, .. }
-            | NodeDesc::Taper { child, .. }
-            | NodeDesc::Bend { child, .. }
-            | NodeDesc::Named(_, child) => child.for_each_cache(f),
-            _ => {}
+        if let NodeDesc::Cache { res, value, gradient, .. } = self {
+            f(res, value, gradient);
+        }
+        for child in self.children_mut() {
+            child.for_each_cache(f);
         }
     }
 }

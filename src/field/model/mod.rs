@@ -1,14 +1,14 @@
 //! The model: an arena of nodes with parents, bounds and blend indices kept current.
 //!
-//! - `edits`: changes to the tree, each reported as a [`Change`];
+//! - `tree_changes`: the changes to the tree a named edit is carried out by, each reported as a [`Change`];
 //! - `caches`: the lattices of its `Cache` nodes, and what an edit clears in them;
 //! - `indices`: the blend indices over its clusters of nested blends;
 //! - `frames`: where a node sits in the world.
 
 mod caches;
-mod edits;
 mod frames;
 mod indices;
+mod tree_changes;
 
 use std::collections::HashMap;
 

@@ -1,6 +1,8 @@
-//! Changes to a model's tree: moving a frame, replacing a primitive, adding,
-//! removing or retyping an operator's children. Each brings bounds, indices
-//! and caches up to date and reports the [`Change`] it made.
+//! Changes to a model's tree, by node id: moving a frame, replacing a
+//! primitive, adding, removing or retyping an operator's children — the
+//! steps [`Model::apply`] carries an edit by name out with
+//! (`field/named_edit.rs`). Each brings bounds, indices and caches up to date
+//! and reports the [`Change`] it made.
 
 use glam::Vec3;
 
