@@ -4,7 +4,7 @@
 
 mod common;
 
-use blobtrace::field::{Edit, EvalMode, Field, ModelField};
+use blobtrace::field::{Edit, EvalMode, Field, ModelField, TracerChoice};
 use blobtrace::frame::Frame;
 
 use blobtrace::mesh::{PolygonizeOptions, Polygonizer, skeleton_seeds};
@@ -271,7 +271,10 @@ fn rays_traced_again_count_whether_or_not_their_pixels_change() {
     .unwrap();
     let settings = scene.render_settings(Size(64, 48));
     let mode = EvalMode::Indexed;
-    let (mut frame, _, mut empty) = render_model(&scene.model, mode, &settings, &|_| {});
+    // Rays traced again in part: the segment tracer's re-render.
+    scene.model.set_tracer(TracerChoice::Segment);
+    let (mut frame, _, empty) = render_model(&scene.model, mode, &settings, &|_| {});
+    let mut empty = empty.expect("the segment tracer marks empty space");
     let before = frame.clone();
     let change = scene.model.apply(&Edit::Translate { node: "faint".into(), by: Vec3::new(0.1, 0.0, 0.0) }).unwrap();
     let field = ModelField::new(&scene.model, mode);
@@ -397,4 +400,29 @@ fn bad_warp_edits_are_refused_and_change_nothing() {
     let now = render(&ModelField::new(&scene.model, EvalMode::Indexed), &settings, &|_| {}).0;
     let then = render(&ModelField::new(&before, EvalMode::Indexed), &settings, &|_| {}).0;
     assert!(now.same_image(&then));
+}
+
+#[test]
+fn kernel_traced_edits_equal_full_kernel_renders_for_any_thread_count() {
+    let mut scene = bundled("hair_point.ron");
+    scene.model.set_tracer(TracerChoice::Kernel);
+    let polygonize = PolygonizeSettings { res: 16, ..Default::default() };
+    let mut session = EditSession::new(scene, EvalMode::Indexed, Size(64, 48), &polygonize).unwrap();
+    let mut rng = Rng(48);
+    for step in 0..6 {
+        let (name, primitive) = [("probe", true), ("hair", false)][step % 2];
+        let edit = random_edit(&mut rng, name, primitive);
+        let before = session.field_frame().clone();
+        let rects = session.apply(std::slice::from_ref(&edit)).unwrap().dirty;
+        let (model, settings) = (&session.scene().model, session.settings());
+        let full = render_model(model, EvalMode::Indexed, settings, &|_| {});
+        assert!(full.2.is_none(), "the full render is traced by kernels");
+        assert!(session.field_frame().same_image(&full.0), "step {step} {edit:?}: incremental differs from full");
+        for (x, y) in changed_pixels(&before, &full.0) {
+            assert!(rects.iter().any(|r| r.contains(x, y)), "step {step} {edit:?}: pixel {x},{y} changed outside");
+        }
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let single = one.install(|| render_model(model, EvalMode::Indexed, settings, &|_| {}).0);
+        assert!(single.same_image(&full.0), "step {step}: one thread differs from many");
+    }
 }

@@ -13,7 +13,7 @@ mod view;
 pub use edit::{EditBenchReport, EditBenchSettings, ModeTotals, bench_edit};
 pub use mesh::{MeshBenchReport, MeshBenchSettings, PlacementCost, RayRate, TableRow, TriangleRate, bench_mesh};
 pub use render::{
-    CacheBenchReport, CacheBenchRuns, EvalBenchReport, EvalBenchRuns, LookupCost, RenderBenchSettings, bench_cache, bench_eval,
-    lookup_costs,
+    CacheBenchReport, CacheBenchRuns, EvalBenchReport, EvalBenchRuns, LookupCost, RenderBenchSettings, bench_cache,
+    bench_eval, lookup_costs,
 };
 pub use view::{EventLatency, Seconds, ViewBenchReport, ViewBenchSettings, bench_view};

@@ -104,8 +104,7 @@ pub fn bench_eval(settings: &RenderBenchSettings, progress: &dyn Progress) -> Re
         s.model.set_tracer(tracer);
         s
     };
-    let kernel_scene =
-        KernelSupports::of(&scene.model, EvalMode::Indexed).is_ok().then(|| with(TracerChoice::Kernel));
+    let kernel_scene = KernelSupports::of(&scene.model, EvalMode::Indexed).is_ok().then(|| with(TracerChoice::Kernel));
     let segment_scene = with(TracerChoice::Segment);
     let (mut kernel, mut segment, mut naive) = (Fastest::new(), Fastest::new(), Fastest::new());
     let render = |s: &Scene, mode| with_threads(settings.threads, || render_field(s, (size, 1), mode, &Silent));

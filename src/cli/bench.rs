@@ -261,13 +261,11 @@ fn print_eval(a: &EvalBenchArgs, size: String, report: &EvalBenchReport) {
             seconds_list(runs)
         );
     }
-    if let (Some(k), Some(n), Some(px)) = (report.kernel_vs_segment, report.kernel_vs_naive, report.kernel_mismatch_px) {
+    if let (Some(k), Some(n), Some(px)) = (report.kernel_vs_segment, report.kernel_vs_naive, report.kernel_mismatch_px)
+    {
         println!("  kernel is {k:.1}x the segment tracer, {n:.1}x naive; {px} pixels differ in hit/miss from segment");
     }
-    println!(
-        "  segment is {:.1}x naive; {} pixels differ in hit/miss",
-        report.segment_vs_naive, report.mismatch_px
-    );
+    println!("  segment is {:.1}x naive; {} pixels differ in hit/miss", report.segment_vs_naive, report.mismatch_px);
 }
 
 fn print_cache_report(a: &EvalBenchArgs, size: String, r: &CacheBenchReport, rays: u64) {

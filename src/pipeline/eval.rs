@@ -5,8 +5,8 @@
 use super::error::{PipelineError, Result};
 use crate::cache::SLOT_BYTES;
 use crate::cache::pool::MIN_BUDGET_SLOTS;
-use crate::trace::kernel::KernelSupports;
 use crate::field::{EvalMode, Model, TracerChoice};
+use crate::trace::kernel::KernelSupports;
 
 /// Which field to show: the true one, or the one the scene's caches reconstruct.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -9,12 +9,12 @@ use rayon::prelude::*;
 
 use super::changed_space::ChangedSpace;
 use super::coverage::Coverage;
+use super::kernel::KernelTracer;
 use super::progressive::{PixelState, Refinement};
 use super::samples::{PixelSample, combine, sample_offset};
 use super::segment::{Crossing, TraceOptions, march, snap_reach, trace_ray_from};
 use super::shade::Lighting;
 use crate::camera::Camera;
-use super::kernel::KernelTracer;
 use crate::field::{EmptySpace, EvalMode, Field, Model, ModelField};
 use crate::frame::{Frame, Size};
 use crate::geom::{Ray, Support};

@@ -33,7 +33,7 @@ use crate::mesh::{Lattice, Polygonizer, skeleton_seeds};
 use crate::scene::Scene;
 use crate::trace::{
     ChangedSpace, Coverage, PixelRect, PixelState, Refinement, RenderSettings, blank_field_frame, changed_space,
-    merge_rects, refine, screen_rect,
+    kernel::KernelTracer, kernel_tracer, merge_rects, refine, screen_rect,
 };
 
 /// One frame's measurements.
@@ -355,8 +355,12 @@ impl EditSession {
         row.dirty_fraction = rects.iter().map(PixelRect::area).sum::<u64>() as f64 / f64::from(w * h);
         self.work.field.mark(&rects, PixelState::Retrace);
         self.work.changed = Some(changed);
-        // Pixels to trace whole may be left from a camera move: the edit may have moved the surface nearer.
-        if self.work.coverage.is_some() {
+        // Pixels to trace whole may be left from a camera move: the edit may
+        // have moved the surface nearer. The kernel tracer's lists follow the
+        // supports wherever they moved, for every pixel it traces again.
+        if let Some(kernel) = self.kernel_tracer() {
+            self.work.coverage = Some(Coverage::of_kernels(kernel, w));
+        } else if self.work.coverage.is_some() {
             self.work.coverage = Some(self.coverage());
         }
         row.field_s = clock.elapsed().as_secs_f64();
@@ -466,10 +470,19 @@ impl EditSession {
         }
     }
 
-    /// The coverage of the model's possible surface, as the camera sees it now.
+    /// The coverage of the model's possible surface, as the camera sees it
+    /// now: the kernel tracer's lists where it traces the model.
     fn coverage(&self) -> Coverage {
         let (w, h) = (self.settings.width, self.settings.height);
-        Coverage::of(&self.empty, &self.scene.model.bounds(), &self.settings.camera, w, h)
+        match self.kernel_tracer() {
+            Some(kernel) => Coverage::of_kernels(kernel, w),
+            None => Coverage::of(&self.empty, &self.scene.model.bounds(), &self.settings.camera, w, h),
+        }
+    }
+
+    /// The kernel tracer for the model as it stands and the camera, where it traces the model.
+    fn kernel_tracer(&self) -> Option<KernelTracer> {
+        kernel_tracer(&self.scene.model, self.mode, &self.settings)
     }
 
     /// Casts a batch of the mesh image's stale pixels.

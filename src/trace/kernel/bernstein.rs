@@ -155,7 +155,17 @@ mod tests {
     use super::*;
 
     fn crossing(a0: f32, k: f32, tm: f32, weight: f32) -> Crossing {
-        Crossing { t_in: f32::NEG_INFINITY, t_out: f32::INFINITY, a0, k, tm, weight, err: 0.0 }
+        Crossing {
+            t_in: f32::NEG_INFINITY,
+            t_out: f32::INFINITY,
+            a0,
+            k,
+            tm,
+            weight,
+            support: 0,
+            placed: false,
+            err: 0.0,
+        }
     }
 
     #[test]
@@ -212,11 +222,12 @@ mod tests {
         for col in 0..n {
             let pivot = (col..n).max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs())).unwrap();
             m.swap(col, pivot);
-            for r in 0..n {
+            let pivot_row = m[col].clone();
+            for (r, row) in m.iter_mut().enumerate() {
                 if r != col {
-                    let factor = m[r][col] / m[col][col];
-                    for k in col..=n {
-                        m[r][k] -= factor * m[col][k];
+                    let factor = row[col] / pivot_row[col];
+                    for (cell, p) in row.iter_mut().zip(&pivot_row).skip(col) {
+                        *cell -= factor * p;
                     }
                 }
             }

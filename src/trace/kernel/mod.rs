@@ -41,8 +41,8 @@ use crate::camera::Camera;
 use crate::field::{EvalMode, Field, Model, TracerChoice, outside_margin};
 use crate::geom::Ray;
 use bernstein::{Bernstein, Rise, add_cube, first_rise};
-pub use supports::{Crossing, KernelSupports, NotKernel};
 use supports::LocalRay;
+pub use supports::{Crossing, KernelSupports, NotKernel};
 pub use tiles::{TILE, TileLists};
 
 use super::segment::{Snapped, TraceOptions, TraceResult, snap_on};
@@ -106,7 +106,13 @@ impl KernelTracer {
     /// field in the tracer's mode): the first entry into `f > T`, with the
     /// supports it crossed as its steps and the field evaluations spent
     /// confirming the hit as its evaluations.
-    pub fn trace<F: Field + ?Sized>(&self, field: &F, ray: &Ray, (x, y): (u32, u32), opts: &TraceOptions) -> TraceResult {
+    pub fn trace<F: Field + ?Sized>(
+        &self,
+        field: &F,
+        ray: &Ray,
+        (x, y): (u32, u32),
+        opts: &TraceOptions,
+    ) -> TraceResult {
         let (candidates, cones) = self.tiles.at(x, y);
         let dir = ray.dir.extend(0.0);
         let mut met = candidates.iter().zip(cones).filter(|(_, cone)| dir.dot(**cone) >= cone.w).peekable();
@@ -193,7 +199,9 @@ pub fn decide(model: &Model, mode: EvalMode) -> (Option<KernelSupports>, TracerD
     };
     let overlap = supports.overlap();
     if model.tracer() == TracerChoice::Auto && overlap > MAX_AUTO_OVERLAP {
-        let why = format!("supports overlap {overlap:.0} deep, past {MAX_AUTO_OVERLAP:.0}: summing each ray's crossings costs more than marching");
+        let why = format!(
+            "supports overlap {overlap:.0} deep, past {MAX_AUTO_OVERLAP:.0}: summing each ray's crossings costs more than marching"
+        );
         return (None, segment(why, Some(&supports)));
     }
     let reason = if model.tracer() == TracerChoice::Kernel {

@@ -29,9 +29,15 @@ impl std::fmt::Display for NotKernel {
 /// A skeleton in its placement's frame.
 #[derive(Clone, Copy, Debug)]
 enum Shape {
-    Point { center: Vec3A },
+    Point {
+        center: Vec3A,
+    },
     /// From `a` along the unit `axis` for `length`.
-    Segment { a: Vec3A, axis: Vec3A, length: f32 },
+    Segment {
+        a: Vec3A,
+        axis: Vec3A,
+        length: f32,
+    },
 }
 
 /// One primitive of the sum.
@@ -173,9 +179,7 @@ impl KernelSupports {
         };
         match &model.node(id).kind {
             NodeKind::Primitive(p) => self.push(p, frame).or_else(|()| refuse("a circle")),
-            NodeKind::Blend { children, .. } => {
-                children.iter().try_for_each(|&c| self.gather(model, c, mode, frame))
-            }
+            NodeKind::Blend { children, .. } => children.iter().try_for_each(|&c| self.gather(model, c, mode, frame)),
             NodeKind::Named { child, .. } => self.gather(model, *child, mode, frame),
             NodeKind::Cache { child, grid, .. } if !model.answers_from_lattice(*grid, mode) => {
                 self.gather(model, *child, mode, frame)
@@ -223,7 +227,11 @@ impl KernelSupports {
         };
         // The Frobenius norm bounds how far the map stretches any direction.
         let m = to_world.matrix3;
-        let stretch = if placement == 0 { 1.0 } else { (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt() };
+        let stretch = if placement == 0 {
+            1.0
+        } else {
+            (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt()
+        };
         self.spheres.push((to_world.transform_point3a(centre), radius * stretch));
         Ok(())
     }

@@ -1,4 +1,6 @@
-//! The kernel tracer against the segment tracer, ray by ray.
+//! The kernel tracer against the segment tracer and brute force, ray by ray.
+
+use glam::{Vec3, Vec3A};
 
 use super::*;
 use crate::field::ModelField;
@@ -10,13 +12,33 @@ fn bundled(name: &str) -> Scene {
     Scene::load(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)).unwrap()
 }
 
-/// Traces every pixel of `scene` at `size` both ways; returns the rays
-/// that hit either way and how many disagree past the bounds allowed.
+/// The first lattice point `k·q` of `ray` inside the surface, by trying
+/// every one from where the ray enters the field's bounds, and the field
+/// there less `T`: the hit both tracers snap to, found the slow way.
+fn brute_force<F: Field>(field: &F, ray: &Ray, q: f32) -> Option<(f32, f32)> {
+    let (t0, t1) = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY)?;
+    let iso = field.threshold();
+    if field.value(ray.at(t0)) > iso {
+        return Some((t0, field.value(ray.at(t0)) - iso));
+    }
+    ((t0 / q).floor() as i64..=(t1 / q).ceil() as i64)
+        .map(|k| k as f32 * q)
+        .map(|t| (t, field.value(ray.at(t)) - iso))
+        .find(|&(_, v)| v > 0.0)
+}
+
+/// Traces every pixel of `scene` at `size` by kernels and by segments;
+/// returns the rays that hit either way, and a line for each ray where the
+/// two disagree beyond what the bounds allow: where both hit, depths more
+/// than 1e-5 of the bounds' diagonal apart; where only one hits, a kernel
+/// answer other than the first lattice point inside found by brute force,
+/// unless that point is within rounding of `T` (a touch).
 fn agreement(scene: &Scene, size: (u32, u32)) -> (u32, Vec<String>) {
     let s = scene.render_settings(Size(size.0, size.1));
     let field = ModelField::new(&scene.model, EvalMode::Indexed);
     let kernel = KernelTracer::new(&scene.model, EvalMode::Indexed, &s.camera, size).unwrap();
     let diag = field.bounds().diagonal();
+    let q = s.trace.quantum.unwrap();
     let (mut hits, mut bad) = (0, vec![]);
     for y in 0..size.1 {
         for x in 0..size.0 {
@@ -27,16 +49,152 @@ fn agreement(scene: &Scene, size: (u32, u32)) -> (u32, Vec<String>) {
             match (k.hit, seg.hit) {
                 (Some(a), Some(b)) if (a - b).abs() <= 1e-5 * diag => {}
                 (None, None) => {}
-                (a, b) => bad.push(format!("pixel {x},{y}: kernel {a:?}, segment {b:?}")),
+                (a, b) => {
+                    let truth = brute_force(&field, &ray, q);
+                    let touch = truth.is_some_and(|(_, v)| v <= outside_margin(field.threshold()));
+                    if a != truth.map(|(t, _)| t) && !touch {
+                        bad.push(format!("pixel {x},{y}: kernel {a:?}, segment {b:?}, brute force {truth:?}"));
+                    }
+                }
             }
         }
     }
     (hits, bad)
 }
 
-#[test]
-fn the_particles_are_hit_where_the_segment_tracer_hits_them() {
-    let (hits, bad) = agreement(&bundled("particles.ron"), (200, 200));
-    assert!(hits > 4000, "{hits} hits");
+fn assert_agrees(scene: &Scene, size: (u32, u32), min_hits: u32) {
+    let (hits, bad) = agreement(scene, size);
+    assert!(hits >= min_hits, "{hits} hits");
     assert!(bad.is_empty(), "{} of {hits} disagree: {:?}", bad.len(), &bad[..bad.len().min(10)]);
+}
+
+#[test]
+fn bundled_sums_of_kernels_are_hit_where_the_segment_tracer_hits_them() {
+    assert_agrees(&bundled("particles.ron"), (200, 200), 4000);
+    assert_agrees(&bundled("pair.ron"), (96, 72), 1500);
+    assert_agrees(&bundled("sphere.ron"), (64, 48), 300);
+}
+
+/// A tiny generator of reproducible numbers (64-bit LCG).
+struct Numbers(u64);
+
+impl Numbers {
+    fn unit(&mut self) -> f32 {
+        self.0 = self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.unit()
+    }
+    fn vec(&mut self, lo: f32, hi: f32) -> String {
+        format!("({}, {}, {})", self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
+    }
+}
+
+/// A scene of a random blend of points and segments, some under random
+/// transforms (non-uniform scales among them), some with negative weights.
+fn random_blend(n: &mut Numbers) -> Scene {
+    let mut parts = vec![];
+    for _ in 0..(2 + (n.unit() * 6.0) as usize) {
+        let radius = n.range(0.4, 1.2);
+        let weight = if n.unit() < 0.15 { -n.range(0.1, 0.5) } else { n.range(0.6, 1.5) };
+        let primitive = if n.unit() < 0.5 {
+            format!("Point(center: {}, radius: {radius}, weight: {weight})", n.vec(-1.0, 1.0))
+        } else {
+            format!("Segment(a: {}, b: {}, radius: {radius}, weight: {weight})", n.vec(-1.0, 1.0), n.vec(-1.0, 1.0))
+        };
+        parts.push(if n.unit() < 0.5 {
+            format!(
+                "Transform(translate: {}, rotate: {}, scale: {}, child: {primitive})",
+                n.vec(-0.5, 0.5),
+                n.vec(-90.0, 90.0),
+                n.vec(0.5, 1.6)
+            )
+        } else {
+            primitive
+        });
+    }
+    let eye = Vec3::new(n.range(-1.0, 1.0), n.range(-1.0, 1.0), n.range(-1.0, 1.0)).normalize() * 6.0;
+    let text = format!(
+        "Scene(camera: Camera(eye: ({}, {}, {}), target: (0.0, 0.0, 0.0), up: (0.0, 1.0, 0.0), fov_y: 40.0), \
+         size: (24, 18), threshold: 0.5, model: Blend([{}]))",
+        eye.x,
+        eye.y,
+        eye.z,
+        parts.join(", ")
+    );
+    Scene::parse(&text, "random blend").unwrap()
+}
+
+#[test]
+fn random_blends_of_points_and_segments_under_transforms_agree_with_the_segment_tracer() {
+    let mut numbers = Numbers(7);
+    let mut hits = 0;
+    for case in 0..200 {
+        let scene = random_blend(&mut numbers);
+        let (h, bad) = agreement(&scene, (24, 18));
+        hits += h;
+        assert!(bad.is_empty(), "case {case}: {} disagree: {:?}", bad.len(), &bad[..bad.len().min(5)]);
+    }
+    assert!(hits > 200 * 24 * 18 / 10, "{hits} hits over 200 cases");
+}
+
+/// A lone point of support radius 1 and weight `weight` at the origin, and its kernel tracer for `camera`.
+fn lone_point(weight: f32) -> Scene {
+    let text = format!(
+        "Scene(camera: Camera(eye: (0.0, 0.0, 4.0), target: (0.0, 0.0, 0.0), up: (0.0, 1.0, 0.0), fov_y: 30.0), \
+         size: (32, 24), threshold: 0.5, model: Point(center: (0.0, 0.0, 0.0), radius: 1.0, weight: {weight}))"
+    );
+    Scene::parse(&text, "lone point").unwrap()
+}
+
+/// Traces one ray from `eye` through `through` with the kernel tracer.
+fn trace_one(scene: &Scene, eye: Vec3A, through: Vec3A) -> TraceResult {
+    let s = scene.render_settings(Size(1, 1));
+    let field = ModelField::new(&scene.model, EvalMode::Indexed);
+    let camera = crate::camera::Camera::look_at(eye.into(), through.into(), Vec3::Y, 1.0);
+    let kernel = KernelTracer::new(&scene.model, EvalMode::Indexed, &camera, (1, 1)).unwrap();
+    kernel.trace(&field, &Ray::new(eye, through - eye), (0, 0), &s.trace)
+}
+
+#[test]
+fn a_peak_barely_above_the_threshold_is_hit_from_every_direction() {
+    // Peak T·(1 + 1e-4): inside within r = sqrt(1 - (1 + 1e-4)^(-1/3)) ≈ 0.00577 of the centre.
+    let scene = lone_point(0.5 * (1.0 + 1e-4));
+    let inside = (1.0 - (1.0f32 + 1e-4).powf(-1.0 / 3.0)).sqrt();
+    let q = scene.render_settings(Size(1, 1)).trace.quantum.unwrap();
+    let mut numbers = Numbers(11);
+    for _ in 0..64 {
+        let dir = Vec3A::new(numbers.range(-1.0, 1.0), numbers.range(-1.0, 1.0), numbers.range(-1.0, 1.0)).normalize();
+        let eye = dir * 3.0;
+        // Through the centre, and half the inside radius off it (chords 0.0115 and 0.0100, ≫ q).
+        let off = dir.any_orthonormal_vector() * (0.5 * inside);
+        for through in [Vec3A::ZERO, off] {
+            let chord = 2.0 * (inside * inside - through.length_squared()).sqrt();
+            assert!(chord > 10.0 * q);
+            let r = trace_one(&scene, eye, through);
+            let t = r.hit.unwrap_or_else(|| panic!("from {eye}: missed the peak through {through}"));
+            let depth = (eye - through).length();
+            assert!((t - depth).abs() <= 0.5 * chord + q, "from {eye}: hit at {t}, the peak at {depth}");
+        }
+    }
+}
+
+#[test]
+fn a_ray_grazing_a_sphere_is_hit_and_depths_match_the_analytic_sphere() {
+    let scene = lone_point(1.0);
+    // Wyvill's surface of a lone point: (1 - r²)³ = T.
+    let radius = (1.0 - 0.5f32.powf(1.0 / 3.0)).sqrt();
+    let eye = Vec3A::new(0.0, 0.0, 4.0);
+    for offset in [0.0, 0.3, 0.6, 0.9, 0.99, 0.999] {
+        let h = offset * radius;
+        let r = trace_one(&scene, eye, Vec3A::new(h, 0.0, 0.0));
+        let t = r.hit.unwrap_or_else(|| panic!("a ray {offset} of the radius off the centre missed"));
+        // The ray towards (h, 0, 0): its closest approach and the entry chord.
+        let ray = Ray::new(eye, Vec3A::new(h, 0.0, 0.0) - eye);
+        let b = eye.dot(ray.dir);
+        let analytic = -b - (b * b - eye.length_squared() + radius * radius).sqrt();
+        assert!((t - analytic).abs() <= 1e-4 * 1.0, "offset {offset}: {t} against {analytic}");
+        assert!(r.evals <= 2, "offset {offset}: {} evaluations; the crossed supports' sum settles most snaps", r.evals);
+    }
 }

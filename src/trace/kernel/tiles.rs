@@ -55,7 +55,7 @@ impl TileLists {
     pub fn new(supports: &KernelSupports, camera: &Camera, width: u32, height: u32) -> Self {
         let (columns, rows) = (width.div_ceil(TILE), height.div_ceil(TILE));
         let tiles = (columns * rows) as usize;
-        let eye = Vec3A::from(camera.eye);
+        let eye = camera.eye;
         let projected: Vec<(Option<PixelRect>, Vec4)> = (0..supports.len())
             .into_par_iter()
             .map(|i| (screen_rect(camera, width, height, supports.world_box(i)), cone(eye, supports.world_sphere(i))))
