@@ -433,15 +433,42 @@ fn bench_cache_reports_its_keys() {
 }
 
 #[test]
+fn the_tracer_is_chosen_reported_and_refused_where_it_cannot_apply() {
+    let dir = scratch("tracer");
+    let png = dir.join("pair.png");
+    let args = ["render", "scenes/pair.ron", "--size", "64x48", "--json", "-o", png.to_str().unwrap()];
+    let auto = run_json(&args);
+    assert_eq!(auto["tracer"], "kernel");
+    assert!(auto["supports_per_ray"].as_f64().unwrap() > 0.5 && auto["evals_per_hit"].as_f64().unwrap() >= 2.0);
+    let segment = run_json(&[&args[..], &["--tracer", "segment"]].concat());
+    assert_eq!(segment["tracer"], "segment");
+    assert!(segment.get("supports_per_ray").is_none() && segment["empty_fraction"].as_f64().is_some());
+    assert_eq!(auto["hits"], segment["hits"], "the same pixels hit either way");
+    let refused = blobtrace(&["render", "scenes/sharp.ron", "--tracer", "kernel", "-o", png.to_str().unwrap()]);
+    assert_eq!(refused.status.code(), Some(64));
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(err.contains("--tracer kernel applies to sums of points and segments only: a union"), "{err}");
+    let info = run_json(&["info", "scenes/medusa.ron", "--json"]);
+    assert_eq!(info["tracer"]["tracer"], "segment", "Medusa's supports overlap too deeply: {info}");
+    assert!(info["tracer"]["overlap"].as_f64().unwrap() > 24.0);
+}
+
+#[test]
 fn bench_eval_counts_the_fastest_of_its_rounds() {
     let v = run_json(&["bench", "eval", "scenes/pair.ron", "--size", "24x16", "--repeat", "3", "--json"]);
-    for (runs, best) in [("naive_runs_s", "naive"), ("indexed_runs_s", "indexed")] {
-        let runs: Vec<f64> = v[runs].as_array().unwrap().iter().map(|s| s.as_f64().unwrap()).collect();
-        assert_eq!(runs.len(), 3);
-        assert_eq!(Some(runs.iter().copied().fold(f64::MAX, f64::min)), v[best]["seconds"].as_f64());
+    for kind in ["kernel", "segment", "naive"] {
+        let runs: Vec<f64> = v["runs_s"][kind].as_array().unwrap().iter().map(|s| s.as_f64().unwrap()).collect();
+        assert_eq!(runs.len(), 3, "{kind}");
+        assert_eq!(Some(runs.iter().copied().fold(f64::MAX, f64::min)), v[kind]["seconds"].as_f64(), "{kind}");
     }
+    assert_eq!(v["kernel"]["tracer"], "kernel");
+    assert_eq!(v["segment"]["tracer"], "segment");
+    assert_eq!(v["kernel_mismatch_px"], 0, "the two tracers hit the same pixels of the pair");
     let out = blobtrace(&["bench", "eval", "scenes/pair.ron", "--repeat", "0"]);
     assert!(!out.status.success());
+    // A model the kernel tracer does not apply to has no kernel row.
+    let v = run_json(&["bench", "eval", "scenes/sharp.ron", "--size", "24x16", "--repeat", "1", "--json"]);
+    assert!(v.get("kernel").is_none() && v["runs_s"]["kernel"].as_array().unwrap().is_empty());
 }
 
 #[test]

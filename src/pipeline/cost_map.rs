@@ -1,23 +1,28 @@
 //! Where a field render spent its time: heat maps of the field evaluations
-//! and the tracing steps each pixel's ray took, side by side in one picture,
-//! each on magma with its scale, from the render's work AOVs.
+//! and the tracing steps each pixel's ray took (for the kernel tracer, the
+//! supports it crossed), side by side in one picture, each on magma with
+//! its scale, from the render's work AOVs.
 
 use super::error::{PipelineError, Result};
 use crate::draw::{Rgb8Image, Scale, SpecialLabels, heat_map_labelled, panel};
 use crate::frame::Frame;
 
-/// The work counters drawn, by AOV name, with their titles and units.
-const COUNTERS: [(&str, &str, &str); 2] =
-    [("evals.Y", "field evaluations per pixel", "evaluations"), ("steps.Y", "tracing steps per pixel", "steps")];
+/// The work counters drawn, by AOV name, with their titles and units: the
+/// evaluations, then the segment tracer's steps or the kernel tracer's supports.
+const COUNTERS: [[(&str, &str, &str); 2]; 2] = [
+    [("evals.Y", "field evaluations per pixel", "evaluations"); 2],
+    [("steps.Y", "tracing steps per pixel", "steps"), ("supports.Y", "supports crossed per pixel", "supports")],
+];
 
 /// The cost picture of a field render: evaluations and steps per pixel, each
 /// scaled to its 99th percentile rounded up (pixels beyond it marked).
 pub fn cost_map(frame: &Frame) -> Result<Rgb8Image> {
     let labels = SpecialLabels { no_value: "no value", infinite: "unbounded" };
     let mut items = vec![];
-    for (aov, title, unit) in COUNTERS {
-        let values = frame.aov(aov).ok_or_else(|| {
-            PipelineError::Unsuitable(format!("the cost picture needs a field render's `{aov}` counts"))
+    for choices in COUNTERS {
+        let found = choices.iter().find_map(|&(aov, title, unit)| Some((frame.aov(aov)?, title, unit)));
+        let (values, title, unit) = found.ok_or_else(|| {
+            PipelineError::Unsuitable(format!("the cost picture needs a field render's `{}` counts", choices[0].0))
         })?;
         let scale = Scale::from_data(values, false, 1.0);
         let (mean, max) = mean_and_max(values);

@@ -54,7 +54,10 @@ impl EvalSettings {
         model.set_tracer(self.tracer);
         if self.tracer == TracerChoice::Kernel {
             KernelSupports::of(model, mode).map_err(|why| {
-                PipelineError::setting("tracer", format!("the kernel tracer does not apply: {why} (try --tracer auto)"))
+                PipelineError::setting(
+                    "tracer",
+                    format!("kernel applies to sums of points and segments only: {why} (try --tracer auto)"),
+                )
             })?;
         }
         Ok(mode)

@@ -91,6 +91,9 @@ pub fn hits_of(p: &PixelSample, samples: u32) -> u64 {
 /// Names of the frame channels holding the field tracer's counters.
 const FIELD_COUNTERS: [&str; 2] = ["steps.Y", "evals.Y"];
 
+/// The name a render by kernels gives its steps: the supports each ray crossed.
+pub const KERNEL_STEPS: &str = "supports.Y";
+
 /// Renders `field` with `settings`; `progress` is called with the number of
 /// finished rows (from worker threads).
 pub fn render<F: Field + ?Sized>(
@@ -127,7 +130,11 @@ pub fn render_model(
     let field = ModelField::new(model, mode);
     if let Some(kernel) = kernel_tracer(model, mode, settings) {
         let coverage = Coverage::of_kernels(kernel, settings.width);
-        let (frame, stats) = render_covered(&field, settings, Some(&coverage), progress);
+        let (mut frame, stats) = render_covered(&field, settings, Some(&coverage), progress);
+        // The kernel tracer's steps are the supports each ray crossed.
+        if let Some(steps) = frame.extra.iter_mut().find(|(name, _)| name == FIELD_COUNTERS[0]) {
+            steps.0 = KERNEL_STEPS.into();
+        }
         return (frame, stats, None);
     }
     let empty = EmptySpace::build(&field);

@@ -316,7 +316,8 @@ impl<'a, F: Field + ?Sized> Sweep<'a, F> {
         for &i in active {
             add_cube(&mut sum, &self.crossings[i], t0, t1);
         }
-        match first_rise(&sum, (t0, t1), margin, self.quantum / 16.0) {
+        // Half a lattice step: the snap then settles which lattice point in a sign or three.
+        match first_rise(&sum, (t0, t1), margin, 0.5 * self.quantum) {
             Rise::Never => Ok(None),
             Rise::Within(a, b) => self.confirm(supports, a, b),
         }
