@@ -11,10 +11,11 @@ use serde::Serialize;
 
 use crate::field::{EvalMode, Model, NodeId, NodeKind, TracerChoice};
 use crate::frame::{Frame, Size};
-use crate::pipeline::{PipelineError, RenderReport, Result, Silent, render_field, with_threads};
+use crate::pipeline::{
+    EvalSettings, FieldChoice, PipelineError, RenderReport, Result, Silent, render_field, with_threads,
+};
 use crate::progress::Progress;
 use crate::scene::Scene;
-use crate::trace::kernel::KernelSupports;
 
 /// What `bench eval` and `bench cache` render.
 #[derive(Clone, Debug)]
@@ -99,13 +100,14 @@ pub struct EvalBenchRuns {
 pub fn bench_eval(settings: &RenderBenchSettings, progress: &dyn Progress) -> Result<EvalBenchReport> {
     let scene = Scene::load(&settings.scene)?;
     let size = settings.size.unwrap_or(scene.size);
+    // Each kind's scene, exact, with its tracer; none for kernels where they do not apply.
     let with = |tracer| {
         let mut s = scene.clone();
-        s.model.set_tracer(tracer);
-        s
+        let settings = EvalSettings { field: Some(FieldChoice::Exact), tracer, ..EvalSettings::default() };
+        settings.apply(&mut s.model).ok().map(|_| s)
     };
-    let kernel_scene = KernelSupports::of(&scene.model, EvalMode::Indexed).is_ok().then(|| with(TracerChoice::Kernel));
-    let segment_scene = with(TracerChoice::Segment);
+    let kernel_scene = with(TracerChoice::Kernel);
+    let segment_scene = with(TracerChoice::Segment).expect("the segment tracer traces any model");
     let (mut kernel, mut segment, mut naive) = (Fastest::new(), Fastest::new(), Fastest::new());
     let render = |s: &Scene, mode| with_threads(settings.threads, || render_field(s, (size, 1), mode, &Silent));
     for round in 0..settings.repeat {

@@ -11,9 +11,11 @@ use glam::Vec3;
 use serde::Serialize;
 
 use crate::camera::{CameraMove, Orbit};
-use crate::field::{Edit, EvalMode};
+use crate::field::{Edit, TracerChoice};
 use crate::frame::Size;
-use crate::pipeline::{EditSession, Pending, PipelineError, PolygonizeSettings, Result, with_threads};
+use crate::pipeline::{
+    EditSession, EvalSettings, FieldChoice, Pending, PipelineError, PolygonizeSettings, Result, with_threads,
+};
 use crate::scene::{Scene, Script, load_script};
 
 /// What `bench view` replays.
@@ -29,6 +31,8 @@ pub struct ViewBenchSettings {
     pub events: u32,
     /// Worker threads (default: all cores).
     pub threads: Option<usize>,
+    /// Which ray tracer renders the field.
+    pub tracer: TracerChoice,
 }
 
 /// Latency of one kind of event.
@@ -90,8 +94,10 @@ pub fn bench_view(a: &ViewBenchSettings) -> Result<ViewBenchReport> {
     let script = a.script.as_deref().map(load_script).transpose()?;
     with_threads(a.threads, || {
         let start = Instant::now();
-        let scene = Scene::load(&a.scene)?;
-        let mut session = EditSession::begin(scene, EvalMode::Indexed, a.size, &PolygonizeSettings::default())?;
+        let mut scene = Scene::load(&a.scene)?;
+        let settings = EvalSettings { field: Some(FieldChoice::Exact), tracer: a.tracer, ..EvalSettings::default() };
+        let mode = settings.apply(&mut scene.model)?;
+        let mut session = EditSession::begin(scene, mode, a.size, &PolygonizeSettings::default())?;
         let launch_seconds = start.elapsed().as_secs_f64();
         session.finish();
         let launch_refined_seconds = start.elapsed().as_secs_f64();

@@ -56,6 +56,18 @@ pub struct EvalOptions {
     pub tracer: TracerArg,
 }
 
+impl TracerArg {
+    /// The pipelines' tracer choice.
+    #[must_use]
+    pub fn choice(self) -> TracerChoice {
+        match self {
+            TracerArg::Auto => TracerChoice::Auto,
+            TracerArg::Kernel => TracerChoice::Kernel,
+            TracerArg::Segment => TracerChoice::Segment,
+        }
+    }
+}
+
 /// The `--tracer` choices.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
 pub enum TracerArg {
@@ -84,11 +96,7 @@ impl EvalOptions {
                 EvalArg::Naive => ExactLookup::Naive,
             },
             cache_budget_mb: self.cache_budget,
-            tracer: match self.tracer {
-                TracerArg::Auto => TracerChoice::Auto,
-                TracerArg::Kernel => TracerChoice::Kernel,
-                TracerArg::Segment => TracerChoice::Segment,
-            },
+            tracer: self.tracer.choice(),
         }
     }
 

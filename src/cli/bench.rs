@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Subcommand};
 
-use super::args::{CellsArg, check_output_file, parse_size, print_json};
+use super::args::{CellsArg, TracerArg, check_output_file, parse_size, print_json};
 use super::progress::Bars;
 use crate::bench::{
     CacheBenchReport, EditBenchReport, EditBenchSettings, EvalBenchReport, LookupCost, MeshBenchReport,
@@ -51,6 +51,9 @@ pub struct ViewBenchArgs {
     /// Events of each kind (orbit, zoom, node move).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub events: u32,
+    /// Ray tracer (see `render --help`).
+    #[arg(long, value_enum, default_value_t = TracerArg::Auto)]
+    pub tracer: TracerArg,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -161,6 +164,7 @@ pub fn run(c: &BenchCommand) -> anyhow::Result<()> {
                 script: a.script.clone(),
                 events: a.events,
                 threads: a.threads,
+                tracer: a.tracer.choice(),
             };
             emit(a.json, &bench_view(&settings)?, print_view)
         }
