@@ -65,6 +65,18 @@ fn add_node(b: &mut ModelBuilder, desc: &NodeDesc, ids: &mut Vec<NodeId>) -> Res
                 .collect::<Result<Vec<_>, _>>()?;
             b.add(NodeKind::Blend { children, index: None }, color(c))
         }
+        NodeDesc::Points { file, radius, weight, kernel, color: c, cloud } => {
+            let cloud = cloud.0.as_ref().ok_or_else(|| ModelError::Unread(file.clone()))?;
+            let children = (0..cloud.positions.len())
+                .map(|i| {
+                    let r = cloud.radius.as_ref().map_or(radius.0, |r| r[i]);
+                    let w = cloud.weight.as_ref().map_or(weight.0, |w| w[i]);
+                    let point = prim(Skeleton::Point { center: cloud.positions[i].into() }, r, w, *kernel);
+                    b.add(point, cloud.color.as_ref().map(|colors| colors[i]))
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            b.add(NodeKind::Blend { children, index: None }, color(c))
+        }
         NodeDesc::Blend(cs) => {
             let children = add_all(b, &cs.0, ids)?;
             b.add(NodeKind::Blend { children, index: None }, None)

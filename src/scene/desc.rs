@@ -5,6 +5,7 @@
 use serde::de::{self, Deserializer};
 use serde::{Deserialize, Serialize};
 
+use super::point_files::{LoadedCloud, read_points};
 use super::values::{AtLeastOne, Color, Direction, Finite, Name, Positive, Scale, V3};
 use crate::cache::{CacheGrid, CacheUse, Filter, Storage};
 use crate::camera::LookAt;
@@ -36,6 +37,21 @@ pub const MAX_PRIMITIVES: u64 = 1_000_000;
 pub const MAX_CACHE_TABLE_BYTES: u64 = 2 << 30;
 
 impl SceneDesc {
+    /// Reads the particle file of every `Points` node, each path taken
+    /// relative to `folder` (the scene file's); `Err` with the file and what
+    /// is wrong in it.
+    pub fn read_point_files(&mut self, folder: &std::path::Path) -> Result<(), (String, String)> {
+        fn visit(node: &mut NodeDesc, folder: &std::path::Path) -> Result<(), (String, String)> {
+            if let NodeDesc::Points { file, cloud, .. } = node {
+                let path = folder.join(&*file);
+                let read = read_points(&path).map_err(|why| (path.display().to_string(), why))?;
+                cloud.0 = Some(std::sync::Arc::new(read));
+            }
+            node.children_mut().into_iter().try_for_each(|c| visit(c, folder))
+        }
+        visit(&mut self.model, folder)
+    }
+
     /// Checks, before anything is built, that the model fits in memory: its
     /// primitives and the block tables its caches lay down at once.
     pub fn check_size(&self) -> Result<(), ModelError> {
@@ -286,6 +302,27 @@ pub enum NodeDesc {
         #[serde(default, skip_serializing_if = "Option::is_none", serialize_with = "some")]
         color: Option<Color>,
     },
+    /// Points read from a particle file (PLY, XYZ or CSV text, or NumPy
+    /// `.npy`), blended; per-point radii, weights and colours in the file
+    /// override the node's.
+    Points {
+        /// The file, relative to the scene file's folder.
+        file: String,
+        /// Support radius of each point the file gives none.
+        radius: Positive,
+        /// Field weight of each point the file gives none.
+        #[serde(default = "one", skip_serializing_if = "is_one")]
+        weight: Finite,
+        /// Falloff.
+        #[serde(default, skip_serializing_if = "is_default")]
+        kernel: Kernel,
+        /// Surface colour of the points the file gives none.
+        #[serde(default, skip_serializing_if = "Option::is_none", serialize_with = "some")]
+        color: Option<Color>,
+        /// The points, once read (see [`SceneDesc::read_point_files`]).
+        #[serde(skip)]
+        cloud: LoadedCloud,
+    },
     /// Sum of the children.
     Blend(Children),
     /// `max` of the children.
@@ -446,7 +483,8 @@ macro_rules! child_slots {
             NodeDesc::Point { .. }
             | NodeDesc::Segment { .. }
             | NodeDesc::Circle { .. }
-            | NodeDesc::SplinePoints { .. } => vec![],
+            | NodeDesc::SplinePoints { .. }
+            | NodeDesc::Points { .. } => vec![],
         }
     };
 }
@@ -480,6 +518,7 @@ impl NodeDesc {
     pub fn primitive_count(&self) -> u64 {
         match self {
             NodeDesc::SplinePoints { count, .. } => u64::from(count.0),
+            NodeDesc::Points { cloud, .. } => cloud.0.as_ref().map_or(0, |c| c.positions.len() as u64),
             node if node.children().is_empty() => 1,
             node => node.children().iter().map(|c| c.primitive_count()).sum(),
         }

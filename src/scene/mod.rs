@@ -8,6 +8,7 @@ mod desc;
 mod edit_desc;
 mod locate;
 mod messages;
+mod point_files;
 mod script;
 pub mod values;
 mod write;
@@ -19,6 +20,7 @@ use glam::Vec3;
 pub use crate::frame::Size;
 pub use desc::{CameraDesc, Children, MAX_DEPTH, NodeDesc, Resolution, SceneDesc};
 pub use edit_desc::{EditDesc, OperatorDesc};
+pub use point_files::{PointCloud, read_points};
 pub use script::{Script, entry_positions, load_script, parse_script};
 pub use values::{Color, Finite, Positive, V3};
 
@@ -64,6 +66,14 @@ pub enum SceneError {
         /// 1-based column.
         column: usize,
         /// What is wrong.
+        message: String,
+    },
+    /// A `Points` node's particle file could not be read.
+    #[error("{path}: {message}")]
+    PointFile {
+        /// The particle file.
+        path: String,
+        /// What is wrong, with the line or the point where there is one.
         message: String,
     },
     /// The scene parsed but describes an invalid model.
@@ -154,10 +164,15 @@ pub fn parse_desc(text: &str, label: &str) -> Result<SceneDesc, SceneError> {
     on_a_deep_stack(|| parse_desc_here(text, label))
 }
 
-/// [`parse_desc`] on the calling thread's stack.
+/// [`parse_desc`] on the calling thread's stack. The particle files of
+/// `Points` nodes are read too, relative to the folder of `label` (the
+/// scene file's path; for text from elsewhere, the working folder).
 fn parse_desc_here(text: &str, label: &str) -> Result<SceneDesc, SceneError> {
     let text = without_bom(text);
-    ron_options().from_str::<SceneDesc>(text).map_err(|e| syntax_error(label, text, &e))
+    let mut desc = ron_options().from_str::<SceneDesc>(text).map_err(|e| syntax_error(label, text, &e))?;
+    let folder = Path::new(label).parent().unwrap_or(Path::new(""));
+    desc.read_point_files(folder).map_err(|(path, message)| SceneError::PointFile { path, message })?;
+    Ok(desc)
 }
 
 /// Nesting levels of brackets RON may read: well above the few levels each

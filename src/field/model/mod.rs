@@ -52,6 +52,9 @@ pub enum ModelError {
     /// An edit's numbers are unusable (NaN, a zero scale, a non-positive radius).
     #[error("bad edit: {0}")]
     BadEdit(String),
+    /// A `Points` node was built before its particle file was read.
+    #[error("the particle file {0:?} was not read")]
+    Unread(String),
     /// The model would not fit in memory.
     #[error("the model is too large: {0}")]
     TooLarge(String),
