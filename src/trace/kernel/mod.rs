@@ -140,11 +140,12 @@ impl KernelTracer {
     }
 }
 
-/// Sorts crossings by entry, keeping the supports' order among equal
-/// entries: by insertion, as a ray crosses few.
+/// Sorts crossings by entry, the supports' order among equal entries
+/// (the order they were gathered in): by insertion where a ray crosses few,
+/// else by an unstable sort on (entry, support), the same total order.
 fn sort_by_entry(crossings: &mut [Crossing]) {
     if crossings.len() > 32 {
-        crossings.sort_by(|a, b| a.t_in.total_cmp(&b.t_in));
+        crossings.sort_unstable_by(|a, b| a.t_in.total_cmp(&b.t_in).then(a.support.cmp(&b.support)));
         return;
     }
     for i in 1..crossings.len() {
