@@ -1690,6 +1690,7 @@ fn the_readme_scene_table_lists_every_node_and_each_reads_as_it_is_written() {
         "Segment(a: (0.0, 0.0, 0.0), b: (1.0, 0.0, 0.0), radius: 0.5, weight: 1.0, kernel: Wyvill, color: (0.5, 0.5, 0.5))".into(),
         "Circle(center: (0.0, 0.0, 0.0), normal: (0.0, 2.0, 0.0), ring: 1.0, radius: 0.3, weight: 1.0, kernel: Wyvill, color: (0.5, 0.5, 0.5))".into(),
         "SplinePoints(control: [(0.0, 0.0, 0.0), (1.0, 1.0, 0.0)], count: 10, radius: 0.3, radius_end: 0.1, weight: 1.0, color: (0.5, 0.5, 0.5))".into(),
+        "Points(file: \"p.xyz\", radius: 0.5, weight: 1.0, kernel: Wyvill, color: (0.5, 0.5, 0.5))".into(),
         format!("Blend([{p}])"),
         format!("Union([{p}, {p}])"),
         format!("Intersection([{p}, {p}])"),
@@ -1703,6 +1704,7 @@ fn the_readme_scene_table_lists_every_node_and_each_reads_as_it_is_written() {
         format!("Named(\"name\", {p})"),
         format!("Cache(res: 16, value: Trilinear, gradient: Triquadratic, storage: F16, use: Always, child: {p})"),
     ];
+    std::fs::write(dir.join("p.xyz"), "0 0 0\n0.5 0 0 # two points\n").unwrap();
     for form in &forms {
         let (ok, err) = info(&scene_with(form));
         assert!(ok, "{form}: {err}");

@@ -70,23 +70,6 @@ impl KernelTracer {
         Self { supports, tiles, size }
     }
 
-    /// The same model seen through another camera.
-    pub fn look_through(&mut self, camera: &Camera) {
-        self.tiles = TileLists::new(&self.supports, camera, self.size.0, self.size.1);
-    }
-
-    /// The supports.
-    #[must_use]
-    pub fn supports(&self) -> &KernelSupports {
-        &self.supports
-    }
-
-    /// The tile lists.
-    #[must_use]
-    pub fn tiles(&self) -> &TileLists {
-        &self.tiles
-    }
-
     /// True when no support can be crossed by the rays of pixel (`x`, `y`).
     #[inline]
     #[must_use]

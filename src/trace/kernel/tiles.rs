@@ -29,7 +29,7 @@ pub struct TileLists {
     /// Where each tile's list starts in `items`; one more than the tiles.
     starts: Vec<u32>,
     items: Vec<u32>,
-    /// Per entry, the cone of its support (see [`Cone`]).
+    /// Per entry, the cone from the eye holding its support (see `cone`).
     cones: Vec<Vec4>,
 }
 
@@ -99,11 +99,5 @@ impl TileLists {
         let tile = ((y / TILE) * self.columns + x / TILE) as usize;
         let range = self.starts[tile] as usize..self.starts[tile + 1] as usize;
         (&self.items[range.clone()], &self.cones[range])
-    }
-
-    /// Entries over all lists.
-    #[must_use]
-    pub fn entries(&self) -> usize {
-        self.items.len()
     }
 }
