@@ -148,7 +148,8 @@ pub fn render_model(
 #[must_use]
 pub fn kernel_tracer(model: &Model, mode: EvalMode, settings: &RenderSettings) -> Option<KernelTracer> {
     let (supports, _) = super::kernel::decide(model, mode);
-    Some(KernelTracer::of_supports(supports?, &settings.camera, (settings.width, settings.height)))
+    let supports = std::sync::Arc::new(supports?);
+    Some(KernelTracer::of_supports(supports, &settings.camera, (settings.width, settings.height)))
 }
 
 /// The space an edit changed, as the tracer must see it: `regions` (holding

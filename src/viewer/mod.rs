@@ -374,7 +374,8 @@ impl Viewer {
             let n = self.session.samples_taken();
             parts.push(StatusPart::shortened(format!("{n} samples per pixel"), format!("{n} spp")));
         }
-        parts.push(StatusPart::new(format!("{:?}", self.session.mode()).to_lowercase()));
+        let mode = format!("{:?}", self.session.mode()).to_lowercase();
+        parts.push(StatusPart::shortened(format!("{mode}, {} tracer", self.session.tracer()), mode));
         parts.push(StatusPart::new("H: help"));
         parts
     }

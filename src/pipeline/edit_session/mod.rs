@@ -16,6 +16,7 @@ use samples::Samples;
 pub use verify::Verification;
 
 use std::borrow::Cow;
+use std::sync::Arc;
 use std::time::Instant;
 
 use serde::Serialize;
@@ -33,7 +34,8 @@ use crate::mesh::{Lattice, Polygonizer, skeleton_seeds};
 use crate::scene::Scene;
 use crate::trace::{
     ChangedSpace, Coverage, PixelRect, PixelState, Refinement, RenderSettings, blank_field_frame, changed_space,
-    kernel::KernelTracer, kernel_tracer, merge_rects, refine, screen_rect,
+    kernel::{self, KernelSupports, KernelTracer},
+    merge_rects, refine, screen_rect,
 };
 
 /// One frame's measurements.
@@ -105,6 +107,9 @@ pub struct EditSession {
     samples: Option<Samples>,
     /// The pixels to trace again once idle, so their counts are a fresh session's.
     tidy: tidy::Tidy,
+    /// The model's kernel supports where the kernel tracer traces it, kept
+    /// from one camera move to the next and gathered again after each edit.
+    kernel: Option<Arc<KernelSupports>>,
 }
 
 /// What the last edits and camera moves left to do, in the order
@@ -201,7 +206,9 @@ impl EditSession {
             work,
             samples: None,
             tidy: tidy::Tidy::default(),
+            kernel: None,
         };
+        session.kernel = session.kernel_supports();
         session.begin_camera(session.settings.camera);
         Ok(session)
     }
@@ -327,6 +334,7 @@ impl EditSession {
         let supports: Vec<Aabb> = support_regions.iter().map(Support::bounds).collect();
         self.empty.update(&supports);
         check_edited_model(&self.scene.model, self.polygonizer.lattice())?;
+        self.kernel = self.kernel_supports();
         let dirty = self.mark_changed(&support_regions, &mut row);
         // Traced while the edit's marks are stale.
         self.tidy.traced(&dirty);
@@ -482,7 +490,19 @@ impl EditSession {
 
     /// The kernel tracer for the model as it stands and the camera, where it traces the model.
     fn kernel_tracer(&self) -> Option<KernelTracer> {
-        kernel_tracer(&self.scene.model, self.mode, &self.settings)
+        let size = (self.settings.width, self.settings.height);
+        self.kernel.clone().map(|supports| KernelTracer::of_supports(supports, &self.settings.camera, size))
+    }
+
+    /// The model's kernel supports as it stands, where the kernel tracer traces it.
+    fn kernel_supports(&self) -> Option<Arc<KernelSupports>> {
+        kernel::decide(&self.scene.model, self.mode).0.map(Arc::new)
+    }
+
+    /// Which tracer renders the field: `kernel` or `segment`.
+    #[must_use]
+    pub fn tracer(&self) -> &'static str {
+        if self.kernel.is_some() { "kernel" } else { "segment" }
     }
 
     /// Casts a batch of the mesh image's stale pixels.

@@ -36,6 +36,7 @@ mod supports;
 mod tiles;
 
 use std::cell::RefCell;
+use std::sync::Arc;
 
 use crate::camera::Camera;
 use crate::field::{EvalMode, Field, Model, TracerChoice, outside_margin};
@@ -51,7 +52,8 @@ use super::segment::{Snapped, TraceOptions, TraceResult, snap_on};
 /// tracer needs besides the field, for one camera.
 #[derive(Clone, Debug)]
 pub struct KernelTracer {
-    supports: KernelSupports,
+    /// Shared with the edit session, which keeps them from one camera to the next.
+    supports: Arc<KernelSupports>,
     tiles: TileLists,
     size: (u32, u32),
 }
@@ -60,12 +62,12 @@ impl KernelTracer {
     /// The tracer for `model` in `mode` seen through `camera` at `size`, or
     /// why the model is not a sum of polynomial kernels.
     pub fn new(model: &Model, mode: EvalMode, camera: &Camera, size: (u32, u32)) -> Result<Self, NotKernel> {
-        Ok(Self::of_supports(KernelSupports::of(model, mode)?, camera, size))
+        Ok(Self::of_supports(Arc::new(KernelSupports::of(model, mode)?), camera, size))
     }
 
     /// The tracer for `supports` seen through `camera` at `size`.
     #[must_use]
-    pub fn of_supports(supports: KernelSupports, camera: &Camera, size: (u32, u32)) -> Self {
+    pub fn of_supports(supports: Arc<KernelSupports>, camera: &Camera, size: (u32, u32)) -> Self {
         let tiles = TileLists::new(&supports, camera, size.0, size.1);
         Self { supports, tiles, size }
     }
