@@ -256,14 +256,14 @@ impl Model {
             Edit::Scale { by, .. } => self.move_subtree(named, |c| about(c, Affine3A::from_scale(*by))),
             Edit::Warp { rate, from, to, scale_from, scale_to, .. } => {
                 let id = self.under_frames(child);
-                let NodeKind::Warp { warp, child: warped } = self.node(id).kind else {
+                let NodeKind::Warp { ref warp, child: warped } = self.node(id).kind else {
                     return Err(ModelError::WrongKind {
                         node: format!("the node under {:?} (through its transforms and caches)", edit.node()),
                         expected: "Twist, Taper or Bend",
                         found: self.node(id).kind.type_name(),
                     });
                 };
-                let changed = with_parameters(warp, [*rate, *from, *to, *scale_from, *scale_to])
+                let changed = with_parameters(**warp, [*rate, *from, *to, *scale_from, *scale_to])
                     .and_then(|w| w.check().and_then(|()| w.check_domain(&self.sizing_bounds_of(warped))).map(|()| w))
                     .map_err(|why| ModelError::BadEdit(format!("{}: {why}", edit.node())))?;
                 self.set_warp(id, changed)
@@ -299,7 +299,7 @@ impl Model {
     fn move_subtree(&mut self, named: NodeId, motion: impl Fn(Vec3A) -> Affine3A) -> Result<Change, ModelError> {
         let transform = self.transform_under(named);
         let placement = match &self.node(transform).kind {
-            NodeKind::Transform { placement, .. } => *placement,
+            NodeKind::Transform { placement, .. } => **placement,
             other => {
                 return Err(ModelError::WrongKind {
                     node: format!("the node under {:?}", self.name_above(named).unwrap_or_default()),

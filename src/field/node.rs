@@ -54,15 +54,16 @@ pub enum NodeKind {
     },
     /// The child seen through an affine map.
     Transform {
-        /// The map and its derived forms.
-        placement: Placement,
+        /// The map and its derived forms (boxed: four matrices would make
+        /// every node, a model's million points among them, as large).
+        placement: Box<Placement>,
         /// The transformed subtree.
         child: NodeId,
     },
     /// The child seen through a warp: `f(p) = f_child(W⁻¹(p))`.
     Warp {
-        /// The warp and its parameters.
-        warp: Warp,
+        /// The warp and its parameters (boxed, as a transform's placement).
+        warp: Box<Warp>,
         /// The warped subtree.
         child: NodeId,
     },
@@ -216,7 +217,7 @@ impl NodeKind {
             NodeKind::Difference(..) => "Difference",
             NodeKind::Ricci { .. } => "Ricci",
             NodeKind::Transform { .. } => "Transform",
-            NodeKind::Warp { warp, .. } => match warp {
+            NodeKind::Warp { warp, .. } => match **warp {
                 Warp::Twist { .. } => "Twist",
                 Warp::Taper { .. } => "Taper",
                 Warp::Bend { .. } => "Bend",

@@ -21,7 +21,7 @@ pub fn model_with_ids(root: &NodeDesc, threshold: f32) -> Result<(Model, Vec<Nod
 /// reported at its place in the scene file.
 fn warped(b: &mut ModelBuilder, warp: Warp, child: &NodeDesc, ids: &mut Vec<NodeId>) -> Result<NodeId, ModelError> {
     let child = add(b, child, ids)?;
-    b.add(NodeKind::Warp { warp, child }, None)
+    b.add(NodeKind::Warp { warp: Box::new(warp), child }, None)
 }
 
 /// Adds `desc`'s subtree, recording its node's id at its place in `ids`.
@@ -100,7 +100,7 @@ fn add_node(b: &mut ModelBuilder, desc: &NodeDesc, ids: &mut Vec<NodeId>) -> Res
         NodeDesc::Transform { translate, rotate, scale, child, color: c } => {
             let placement = Placement::new(translate.0, rotate.0, scale.0).ok_or(ModelError::ZeroScale)?;
             let child = add(b, child, ids)?;
-            b.add(NodeKind::Transform { placement, child }, color(c))
+            b.add(NodeKind::Transform { placement: Box::new(placement), child }, color(c))
         }
         NodeDesc::Twist { axis, rate, child } => {
             warped(b, Warp::Twist { axis: (*axis).into(), rate: rate.0 }, child, ids)

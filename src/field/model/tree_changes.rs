@@ -19,7 +19,7 @@ impl Model {
     pub fn set_placement(&mut self, id: NodeId, placement: Placement) -> Result<Change, ModelError> {
         let old = self.node(id).bounds;
         match &mut self.nodes[id as usize].kind {
-            NodeKind::Transform { placement: p, .. } => *p = placement,
+            NodeKind::Transform { placement: p, .. } => **p = placement,
             other => return Err(wrong_kind(id, "Transform", other)),
         }
         Ok(self.edited(id, old))
@@ -42,7 +42,7 @@ impl Model {
     pub fn set_warp(&mut self, id: NodeId, warp: crate::field::Warp) -> Result<Change, ModelError> {
         let old = self.node(id).bounds;
         match &mut self.nodes[id as usize].kind {
-            NodeKind::Warp { warp: w, .. } => *w = warp,
+            NodeKind::Warp { warp: w, .. } => **w = warp,
             other => return Err(wrong_kind(id, "Twist, Taper or Bend", other)),
         }
         Ok(self.edited(id, old))
@@ -61,7 +61,7 @@ impl Model {
         let identity = Placement::new(Vec3::ZERO, Vec3::ZERO, Vec3::ONE).expect("the identity is invertible");
         let Node { bounds, may_be_negative, .. } = self.nodes[child as usize];
         self.nodes.push(Node {
-            kind: NodeKind::Transform { placement: identity, child },
+            kind: NodeKind::Transform { placement: Box::new(identity), child },
             parent: Some(named),
             bounds,
             may_be_negative,
