@@ -49,11 +49,6 @@ pub struct EvalOptions {
     /// blocks are evicted and re-evaluated on demand; the image does not change).
     #[arg(long, value_name = "MB")]
     pub cache_budget: Option<f64>,
-    /// Ray tracer: kernel (hits as roots of each ray's polynomial, for sums of
-    /// points and segments), segment (marching, for any model), or auto: kernel
-    /// where it applies and pays (`info` shows the decision).
-    #[arg(long, value_enum, default_value_t = TracerArg::Auto)]
-    pub tracer: TracerArg,
 }
 
 impl TracerArg {
@@ -96,7 +91,7 @@ impl EvalOptions {
                 EvalArg::Naive => ExactLookup::Naive,
             },
             cache_budget_mb: self.cache_budget,
-            tracer: self.tracer.choice(),
+            tracer: TracerChoice::Auto,
         }
     }
 
@@ -262,6 +257,11 @@ pub struct SceneArgs {
     /// Field evaluation: exact or cached, and the cache budget.
     #[command(flatten)]
     pub field: EvalOptions,
+    /// Ray tracer: kernel (hits as roots of each ray's polynomial, for sums of
+    /// points and segments), segment (marching, for any model), or auto: kernel
+    /// where it applies and pays (`info` shows the decision).
+    #[arg(long, value_enum, default_value_t = TracerArg::Auto)]
+    pub tracer: TracerArg,
 }
 
 /// A scene loaded as [`SceneArgs`] say: the camera overridden, the
@@ -279,7 +279,8 @@ impl SceneArgs {
     /// Loads the scene, applies the camera overrides and the evaluation options.
     pub fn load(&self) -> anyhow::Result<LoadedScene> {
         let mut scene = load_scene(&self.scene, &self.camera)?;
-        let mode = self.field.apply(&mut scene.model)?;
+        let settings = EvalSettings { tracer: self.tracer.choice(), ..self.field.settings() };
+        let mode = settings.apply(&mut scene.model)?;
         let size = self.size.unwrap_or(scene.size);
         Ok(LoadedScene { scene, mode, size })
     }
