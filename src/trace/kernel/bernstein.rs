@@ -8,6 +8,7 @@
 //! isolating the first root only ever refines the first half that can hold one.
 
 use super::supports::Crossing;
+use crate::trace::segment::false_position;
 
 /// Coefficients of a degree-6 polynomial in the Bernstein basis of `[0, 1]`.
 pub type Bernstein = [f32; 7];
@@ -121,31 +122,7 @@ impl Rise {
     /// positive at the end) by Illinois false position, to within `width`.
     fn narrowed(self, c: &Bernstein, width: f32) -> Rise {
         let Rise::Within(a, b) = self else { return self };
-        let (mut xa, mut xb) = (0.0f32, 1.0f32);
-        let (mut va, mut vb) = (c[0], c[6]);
-        let w = width / (b - a);
-        let mut side = 0i8;
-        for _ in 0..64 {
-            if xb - xa <= w {
-                break;
-            }
-            let secant = xa + (xb - xa) * (va / (va - vb));
-            let x = if secant > xa && secant < xb { secant } else { 0.5 * (xa + xb) };
-            let v = eval(c, x);
-            if v > 0.0 {
-                (xb, vb) = (x, v);
-                if side == 1 {
-                    va *= 0.5;
-                }
-                side = 1;
-            } else {
-                (xa, va) = (x, v);
-                if side == -1 {
-                    vb *= 0.5;
-                }
-                side = -1;
-            }
-        }
+        let ((xa, xb), _) = false_position(|x| eval(c, x), (0.0, c[0]), (1.0, c[6]), width / (b - a));
         Rise::Within(a + (b - a) * xa, a + (b - a) * xb)
     }
 }

@@ -18,7 +18,7 @@ use crate::field::{Field, outside_margin};
 use crate::geom::{Ray, Region};
 use probe::{MAX_PROBES, Probe, Rise, probe_past_root};
 use refine::{MAX_SNAP_WALK, refine};
-pub(crate) use refine::{Snapped, snap, snap_on};
+pub(crate) use refine::{Snapped, false_position, snap, snap_on};
 
 /// Knobs of the tracer, each with its trade-off.
 #[derive(Clone, Copy, Debug)]

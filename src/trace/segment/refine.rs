@@ -15,14 +15,25 @@ pub(super) fn refine<F: Field + ?Sized>(
     tol: f32,
 ) -> ((f32, f32), u32) {
     let iso = field.threshold();
-    let ((mut ta, mut va), (mut tb, mut vb)) = (a, b);
+    false_position(|t| field.value(ray.at(t)) - iso, a, b, tol)
+}
+
+/// Illinois false position for the root of `g` on a bracket `(a, g(a))`,
+/// `(b, g(b))` with `g(a) <= 0 < g(b)`, until the bracket is narrower than
+/// `tol` or 64 values are spent; the bracket and the values spent.
+pub(crate) fn false_position(
+    mut g: impl FnMut(f32) -> f32,
+    (mut ta, mut va): (f32, f32),
+    (mut tb, mut vb): (f32, f32),
+    tol: f32,
+) -> ((f32, f32), u32) {
     let mut evals = 0;
     let mut side = 0i8;
     while tb - ta > tol && evals < 64 {
         let secant = ta + (tb - ta) * (va / (va - vb));
         // Fall back to bisection when the secant lands outside or on the ends.
         let tm = if secant > ta && secant < tb { secant } else { 0.5 * (ta + tb) };
-        let vm = field.value(ray.at(tm)) - iso;
+        let vm = g(tm);
         evals += 1;
         if vm > 0.0 {
             tb = tm;
