@@ -46,7 +46,7 @@ use supports::LocalRay;
 pub use supports::{Crossing, KernelSupports, NotKernel};
 pub use tiles::{TILE, TileLists};
 
-use super::segment::{Snapped, TraceOptions, TraceResult, snap_on};
+use super::segment::{MAX_SNAP_WALK, Snapped, TraceOptions, TraceResult, snap_on};
 
 /// A model's supports and the screen's lists of them: what the kernel
 /// tracer needs besides the field, for one camera.
@@ -76,7 +76,7 @@ impl KernelTracer {
     #[inline]
     #[must_use]
     pub fn misses(&self, x: u32, y: u32) -> bool {
-        self.tiles.at(x, y).0.is_empty()
+        self.tiles.at(x, y).is_empty()
     }
 
     /// The fraction of the pixels whose tiles list no support.
@@ -98,10 +98,9 @@ impl KernelTracer {
         (x, y): (u32, u32),
         opts: &TraceOptions,
     ) -> TraceResult {
-        let (candidates, cones) = self.tiles.at(x, y);
+        let entries = self.tiles.at(x, y);
         let dir = ray.dir.extend(0.0);
-        let mut met = candidates.iter().zip(cones).filter(|(_, cone)| dir.dot(**cone) >= cone.w).peekable();
-        if met.peek().is_none() {
+        if entries.is_empty() {
             return TraceResult::default();
         }
         let Some(span) = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY) else {
@@ -110,32 +109,58 @@ impl KernelTracer {
         SCRATCH.with_borrow_mut(|crossings| {
             crossings.clear();
             let mut local = LocalRay::new(span.1);
-            for (&i, _) in met {
-                self.supports.crossings(i as usize, ray, &mut local, span, crossings);
+            let mut sweep = Sweep::new(field, ray, opts, span);
+            let mut state = SweepState::new(span.0);
+            // Crossings are gathered front to back, up to distances from the
+            // eye that double each time; the sweep goes as far as the
+            // crossings known cover, short of a snap's reach. Those limits are
+            // the same for every ray, whatever its tile lists, so a ray's hit
+            // still depends on the ray and the model alone.
+            let guard = SNAP_REACH * sweep.quantum;
+            let mut bound = FIRST_BOUND * sweep.quantum;
+            while bound - guard <= span.0 {
+                bound *= 2.0;
             }
-            let mut out = TraceResult { steps: crossings.len() as u32, ..TraceResult::default() };
-            if crossings.is_empty() || !can_reach(crossings, field.threshold()) {
-                return out;
+            let mut pos = 0;
+            loop {
+                while pos < entries.len() && entries[pos].near <= bound {
+                    let e = &entries[pos];
+                    if dir.dot(e.cone) >= e.cone.w {
+                        self.supports.crossings(e.support as usize, ray, &mut local, span, crossings);
+                    }
+                    pos += 1;
+                }
+                sort_by_entry(&mut crossings[state.next..]);
+                let hit = sweep.advance(&self.supports, crossings, &mut state, bound - guard);
+                let swept = pos == entries.len() && state.next == crossings.len() && state.active.is_empty();
+                if hit.is_some() || swept || bound - guard >= span.1 {
+                    return TraceResult { hit, steps: crossings.len() as u32, evals: sweep.evals };
+                }
+                bound *= 2.0;
             }
-            sort_by_entry(crossings);
-            let (hit, evals) = Sweep::new(field, ray, opts, span, crossings).first_hit(&self.supports);
-            (out.hit, out.evals) = (hit, evals);
-            out
         })
     }
 }
 
-/// Sorts crossings by entry, the supports' order among equal entries
-/// (the order they were gathered in): by insertion where a ray crosses few,
-/// else by an unstable sort on (entry, support), the same total order.
+/// The first distance from the eye the crossings are gathered to, in lattice steps.
+const FIRST_BOUND: f32 = 1024.0;
+
+/// How far past a stretch a snap may look (up to twice its walk of lattice
+/// steps, and a step for rounding), in lattice steps: the crossings a ray
+/// has gathered must reach this far past where its sweep stops.
+const SNAP_REACH: f32 = 2.0 * MAX_SNAP_WALK as f32 + 4.0;
+
+/// Sorts crossings by entry, then by support: one total order, whatever
+/// order they were gathered in; by insertion where a ray crosses few.
 fn sort_by_entry(crossings: &mut [Crossing]) {
+    let order = |a: &Crossing, b: &Crossing| a.t_in.total_cmp(&b.t_in).then(a.support.cmp(&b.support));
     if crossings.len() > 32 {
-        crossings.sort_unstable_by(|a, b| a.t_in.total_cmp(&b.t_in).then(a.support.cmp(&b.support)));
+        crossings.sort_unstable_by(order);
         return;
     }
     for i in 1..crossings.len() {
         let mut j = i;
-        while j > 0 && crossings[j - 1].t_in > crossings[j].t_in {
+        while j > 0 && order(&crossings[j - 1], &crossings[j]).is_gt() {
             crossings.swap(j - 1, j);
             j -= 1;
         }
@@ -218,22 +243,10 @@ fn slack(c: &Crossing) -> f32 {
     c.weight.abs() * (3.0 * c.err + BERNSTEIN_ROUNDING)
 }
 
-/// False when even every support at its peak together stays below `T`
-/// (less the margin): the ray misses without a sweep.
-fn can_reach(crossings: &[Crossing], iso: f32) -> bool {
-    let (mut peak, mut margin) = (0.0f32, outside_margin(iso));
-    for c in crossings {
-        peak += c.weight.max(0.0) * c.a0 * c.a0 * c.a0;
-        margin += slack(c);
-    }
-    peak >= iso - margin
-}
-
 /// A sweep along one ray's sorted crossings.
 struct Sweep<'a, F: ?Sized> {
     field: &'a F,
     ray: &'a Ray,
-    crossings: &'a [Crossing],
     iso: f32,
     /// Where the ray enters and leaves the field's bounds.
     span: (f32, f32),
@@ -243,37 +256,63 @@ struct Sweep<'a, F: ?Sized> {
     evals: u32,
 }
 
+/// Where a sweep stands, to go on from once more crossings are known.
+struct SweepState {
+    /// The first crossing not yet entered.
+    next: usize,
+    /// The crossings the sweep is inside.
+    active: Vec<usize>,
+    /// Where the sweep is.
+    t0: f32,
+}
+
+impl SweepState {
+    fn new(t0: f32) -> Self {
+        Self { next: 0, active: Vec::with_capacity(16), t0 }
+    }
+}
+
 impl<'a, F: Field + ?Sized> Sweep<'a, F> {
-    fn new(field: &'a F, ray: &'a Ray, opts: &TraceOptions, span: (f32, f32), crossings: &'a [Crossing]) -> Self {
+    fn new(field: &'a F, ray: &'a Ray, opts: &TraceOptions, span: (f32, f32)) -> Self {
         let tol = (opts.tolerance * field.bounds().diagonal()).max(f32::EPSILON * span.1.abs());
         let quantum = opts.quantum.unwrap_or(tol);
-        Self { field, ray, crossings, iso: field.threshold(), span, quantum, evals: 0 }
+        Self { field, ray, iso: field.threshold(), span, quantum, evals: 0 }
     }
 
-    /// The first hit along the crossings, and the evaluations spent.
-    fn first_hit(mut self, supports: &KernelSupports) -> (Option<f32>, u32) {
-        let crossings = self.crossings;
-        let mut active: Vec<usize> = Vec::with_capacity(16);
-        let mut next = 0;
-        let mut t0 = self.span.0;
+    /// Sweeps `crossings` (sorted by entry from `state.next` on) from where
+    /// `state` stands up to `limit`, past which crossings may be missing:
+    /// the first hit there, or `None` with `state` where it stopped.
+    fn advance(
+        &mut self,
+        supports: &KernelSupports,
+        crossings: &[Crossing],
+        state: &mut SweepState,
+        limit: f32,
+    ) -> Option<f32> {
         loop {
-            while next < crossings.len() && crossings[next].t_in <= t0 {
-                active.push(next);
-                next += 1;
+            let t0 = state.t0;
+            while state.next < crossings.len() && crossings[state.next].t_in <= t0 {
+                state.active.push(state.next);
+                state.next += 1;
             }
-            active.retain(|&i| crossings[i].t_out > t0);
-            if active.is_empty() {
-                let Some(c) = crossings.get(next) else { return (None, self.evals) };
-                t0 = c.t_in;
+            state.active.retain(|&i| crossings[i].t_out > t0);
+            if t0 >= limit {
+                return None;
+            }
+            if state.active.is_empty() {
+                // Over the gap to the next crossing known, but no farther than
+                // the limit: crossings not gathered yet may start after it.
+                let entry = crossings.get(state.next).map_or(f32::INFINITY, |c| c.t_in);
+                state.t0 = entry.min(limit);
                 continue;
             }
-            let entry = crossings.get(next).map_or(f32::INFINITY, |c| c.t_in);
-            let t1 = active.iter().map(|&i| crossings[i].t_out).fold(entry, f32::min);
-            match self.stretch(supports, &active, (t0, t1)) {
-                Ok(Some(hit)) => return (Some(hit), self.evals),
+            let entry = crossings.get(state.next).map_or(f32::INFINITY, |c| c.t_in);
+            let t1 = state.active.iter().map(|&i| crossings[i].t_out).fold(entry.min(limit), f32::min);
+            match self.stretch(supports, crossings, &state.active, (t0, t1)) {
+                Ok(Some(hit)) => return Some(hit),
                 // A touch between lattice points: go on past where the snap left off.
-                Err(t_past) => t0 = t_past.max(t0),
-                Ok(None) => t0 = t1,
+                Err(t_past) => state.t0 = t_past.max(t0),
+                Ok(None) => state.t0 = t1,
             }
         }
     }
@@ -284,13 +323,14 @@ impl<'a, F: Field + ?Sized> Sweep<'a, F> {
     fn stretch(
         &mut self,
         supports: &KernelSupports,
+        crossings: &[Crossing],
         active: &[usize],
         (t0, t1): (f32, f32),
     ) -> Result<Option<f32>, f32> {
         let mut peak = 0.0f32;
         let mut margin = outside_margin(self.iso);
         for &i in active {
-            let c = &self.crossings[i];
+            let c = &crossings[i];
             let s = c.s_max(t0, t1);
             peak += c.weight.max(0.0) * s * s * s;
             margin += slack(c);
@@ -300,12 +340,12 @@ impl<'a, F: Field + ?Sized> Sweep<'a, F> {
         }
         let mut sum: Bernstein = [-self.iso; 7];
         for &i in active {
-            add_cube(&mut sum, &self.crossings[i], t0, t1);
+            add_cube(&mut sum, &crossings[i], t0, t1);
         }
         // Half a lattice step: the snap then settles which lattice point in a sign or three.
         match first_rise(&sum, (t0, t1), margin, 0.5 * self.quantum) {
             Rise::Never => Ok(None),
-            Rise::Within(a, b) => self.confirm(supports, a, b),
+            Rise::Within(a, b) => self.confirm(supports, crossings, a, b),
         }
     }
 
@@ -315,7 +355,13 @@ impl<'a, F: Field + ?Sized> Sweep<'a, F> {
     /// field computes each, answers where it is farther from `T` than two
     /// evaluations' rounding (the field, computed, has the same sign there),
     /// the field elsewhere.
-    fn confirm(&mut self, supports: &KernelSupports, a: f32, b: f32) -> Result<Option<f32>, f32> {
+    fn confirm(
+        &mut self,
+        supports: &KernelSupports,
+        crossings: &[Crossing],
+        a: f32,
+        b: f32,
+    ) -> Result<Option<f32>, f32> {
         if a <= self.span.0 {
             // Inside where the ray enters the field's bounds, as the segment tracer says it.
             self.evals += 1;
@@ -324,7 +370,7 @@ impl<'a, F: Field + ?Sized> Sweep<'a, F> {
             }
         }
         let quantum = self.quantum;
-        let snapped = snap_on(|t| self.sign_at(supports, t), a, b, quantum);
+        let snapped = snap_on(|t| self.sign_at(supports, crossings, t), a, b, quantum);
         match snapped {
             Snapped::Hit(t) => Ok(Some(t)),
             Snapped::Past(t, _) if t < self.span.1 => Err(t),
@@ -334,13 +380,13 @@ impl<'a, F: Field + ?Sized> Sweep<'a, F> {
 
     /// `f - T` at distance `t`, or a value of its sign: the crossed
     /// supports' sum where it decides, else the field's value (an evaluation).
-    fn sign_at(&mut self, supports: &KernelSupports, t: f32) -> f32 {
+    fn sign_at(&mut self, supports: &KernelSupports, crossings: &[Crossing], t: f32) -> f32 {
         let p = self.ray.at(t);
         let (mut sum, mut margin) = (-f64::from(self.iso), outside_margin(self.iso));
         // A segment's stretches share one support: its value counts once.
         let mut counted = [u32::MAX; MAX_SUMMED];
         let mut n = 0;
-        for c in self.crossings.iter().take_while(|c| c.t_in <= t + self.quantum) {
+        for c in crossings.iter().take_while(|c| c.t_in <= t + self.quantum) {
             if t > c.t_out + self.quantum || counted[..n].contains(&c.support) {
                 continue;
             }

@@ -9,8 +9,10 @@
 //! ray whose direction falls outside the cone misses the support, known
 //! from one dot product.
 //!
-//! A list is in the supports' own order, so a ray finds its crossings in
-//! the same order whatever tile it is traced from and whatever else a tile holds.
+//! A list is ordered by the distance from the eye to each support's sphere
+//! (no ray meets a support nearer than that), so a ray can gather its
+//! crossings front to back and stop once its hit is settled: a ray through a
+//! deep cloud crosses a hundred supports, its hit comes after five.
 
 use glam::{Vec3A, Vec4};
 use rayon::prelude::*;
@@ -26,11 +28,20 @@ pub const TILE: u32 = 8;
 #[derive(Clone, Debug, Default)]
 pub struct TileLists {
     columns: u32,
-    /// Where each tile's list starts in `items`; one more than the tiles.
+    /// Where each tile's list starts in `entries`; one more than the tiles.
     starts: Vec<u32>,
-    items: Vec<u32>,
-    /// Per entry, the cone from the eye holding its support (see `cone`).
-    cones: Vec<Vec4>,
+    entries: Vec<Entry>,
+}
+
+/// A support listed in a tile.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Entry {
+    /// The cone from the eye holding the support (see `cone`).
+    pub cone: Vec4,
+    /// No ray meets the support nearer the eye than this.
+    pub near: f32,
+    /// The support.
+    pub support: u32,
 }
 
 /// The cone from the eye holding a support's sphere: its unit axis and the
@@ -75,29 +86,38 @@ impl TileLists {
             starts[i + 1] += starts[i];
         }
         let mut fill = starts.clone();
-        let mut items = vec![0u32; starts[tiles] as usize];
-        let mut cones = vec![Vec4::ZERO; starts[tiles] as usize];
+        let mut entries = vec![Entry::default(); starts[tiles] as usize];
         for (i, r) in rects.iter().enumerate() {
             let Some(r) = r else { continue };
             let (tx0, ty0, tx1, ty1) = tile_span(r);
+            let (centre, radius) = supports.world_sphere(i);
+            // Shortened a little, as the coverage's distances are, against rounding.
+            let near = (((centre - eye).length() - radius) * (1.0 - 1e-4)).max(0.0);
+            let entry = Entry { cone: projected[i].1, near, support: i as u32 };
             for ty in ty0..ty1 {
                 for tx in tx0..tx1 {
                     let slot = &mut fill[(ty * columns + tx) as usize];
-                    items[*slot as usize] = i as u32;
-                    cones[*slot as usize] = projected[i].1;
+                    entries[*slot as usize] = entry;
                     *slot += 1;
                 }
             }
         }
-        Self { columns, starts, items, cones }
+        let mut lists: Vec<&mut [Entry]> = Vec::with_capacity(tiles);
+        let mut rest = entries.as_mut_slice();
+        for t in 0..tiles {
+            let (list, after) = rest.split_at_mut((starts[t + 1] - starts[t]) as usize);
+            lists.push(list);
+            rest = after;
+        }
+        lists.par_iter_mut().for_each(|list| list.sort_unstable_by(|a, b| a.near.total_cmp(&b.near)));
+        Self { columns, starts, entries }
     }
 
-    /// The supports the rays through pixel (`x`, `y`) can cross, with their cones.
+    /// The supports the rays through pixel (`x`, `y`) can cross, nearest first.
     #[inline]
     #[must_use]
-    pub fn at(&self, x: u32, y: u32) -> (&[u32], &[Vec4]) {
+    pub fn at(&self, x: u32, y: u32) -> &[Entry] {
         let tile = ((y / TILE) * self.columns + x / TILE) as usize;
-        let range = self.starts[tile] as usize..self.starts[tile + 1] as usize;
-        (&self.items[range.clone()], &self.cones[range])
+        &self.entries[self.starts[tile] as usize..self.starts[tile + 1] as usize]
     }
 }

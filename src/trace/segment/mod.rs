@@ -17,7 +17,8 @@ use glam::Vec3A;
 use crate::field::{Field, outside_margin};
 use crate::geom::{Ray, Region};
 use probe::{MAX_PROBES, Probe, Rise, probe_past_root};
-use refine::{MAX_SNAP_WALK, refine};
+pub(crate) use refine::MAX_SNAP_WALK;
+use refine::refine;
 pub(crate) use refine::{Snapped, false_position, snap, snap_on};
 
 /// Knobs of the tracer, each with its trade-off.

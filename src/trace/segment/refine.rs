@@ -55,7 +55,7 @@ pub(crate) fn false_position(
 }
 
 /// Most lattice steps `snap` walks outwards to re-establish its bracket.
-pub(super) const MAX_SNAP_WALK: u32 = 64;
+pub(crate) const MAX_SNAP_WALK: u32 = 64;
 
 /// Where a crossing snapped to on the ray's lattice.
 #[derive(Clone, Copy, Debug, PartialEq)]
