@@ -12,6 +12,7 @@
 //! three such quadratics, each on its own stretch of the ray.
 
 use glam::{Affine3A, Vec3A};
+use rayon::prelude::*;
 
 use crate::field::{EvalMode, Kernel, Model, NodeId, NodeKind, Primitive, Skeleton};
 use crate::geom::{Aabb, Ray};
@@ -134,8 +135,8 @@ impl KernelSupports {
         let cell = *radii.select_nth_unstable_by(mid, f32::total_cmp).1;
         let volume: f64 = self.spheres.iter().map(|s| 4.0 / 3.0 * std::f64::consts::PI * f64::from(s.1).powi(3)).sum();
         let mut cells: Vec<[i32; 3]> =
-            self.spheres.iter().map(|s| (s.0 / cell).floor().as_ivec3().to_array()).collect();
-        cells.sort_unstable();
+            self.spheres.par_iter().map(|s| (s.0 / cell).floor().as_ivec3().to_array()).collect();
+        cells.par_sort_unstable();
         cells.dedup();
         (volume / (cells.len() as f64 * f64::from(cell).powi(3))) as f32
     }
