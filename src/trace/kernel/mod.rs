@@ -6,12 +6,14 @@
 //! Along a ray each support's field is `w·s³` with `s` quadratic in `t`
 //! (see [`supports`]), so between the places where the ray enters or leaves
 //! a support the sum is one polynomial of degree 6. The ray's crossings are
-//! sorted by entry and swept; each stretch between two events whose sum can
-//! reach `T` is put in Bernstein form and the first place it can rise to `T`
-//! isolated ([`bernstein`]). That place is then confirmed by the field
-//! itself: the segment tracer's snap to the ray's lattice, which finds the
-//! first lattice point inside (or marches on past a touch between lattice
-//! points), so hits mean what they mean for the segment tracer.
+//! gathered front to back, sorted by entry and swept; each stretch between
+//! two events whose sum can reach `T` is put in Bernstein form and the first
+//! place it can rise to `T` isolated ([`bernstein`]). That place is then
+//! confirmed as the segment tracer confirms a hit: its snap to the ray's
+//! lattice, which finds the first lattice point inside (or marches on past a
+//! touch between lattice points), each lattice point's sign given by the
+//! crossed supports' sum where it is clear of rounding and by the field
+//! elsewhere, so hits mean what they mean for the segment tracer.
 //!
 //! **The margin.** A stretch is passed over only where every Bernstein
 //! coefficient is below `T - m`, with `m` = [`outside_margin`]`(T)` plus,
@@ -25,11 +27,12 @@
 //! passed over; what the polynomial only nearly reaches costs a snap that
 //! finds nothing and marches on.
 //!
-//! Screen tiles list the supports their rays can cross ([`tiles`]); a ray
-//! tests only those. A ray's crossings are found and summed in the
-//! supports' order whatever tile holds them, so its hit depends on the ray
-//! and the model alone: images are the same for any thread count, and a
-//! dirty rectangle traced again equals a full render.
+//! Screen tiles list the supports their rays can cross, nearest first
+//! ([`tiles`]); a ray tests only those. A ray's crossings are summed in one
+//! order (entry, then support) and its sweep is cut at distances from the
+//! eye that are the same for every ray, whatever tile holds it, so its hit
+//! depends on the ray and the model alone: images are the same for any
+//! thread count, and a dirty rectangle traced again equals a full render.
 
 mod bernstein;
 mod supports;
