@@ -9,6 +9,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
+use super::desc::MAX_PRIMITIVES;
 use crate::frame::srgb8_to_linear;
 
 /// Points read from a file, with what each may carry of its own.
@@ -81,6 +82,14 @@ fn check(cloud: &PointCloud) -> Result<(), String> {
     };
     bad(&cloud.radius, "radius (must be > 0 and finite)", |r| r.is_finite() && r > 0.0)?;
     bad(&cloud.weight, "weight (must be finite)", f32::is_finite)?;
+    Ok(())
+}
+
+/// Refuses more points than a scene may build, before anything is sized for them.
+fn check_count(n: usize, what: &str) -> Result<(), String> {
+    if n as u64 > MAX_PRIMITIVES {
+        return Err(format!("{what} {n} points, more than the {MAX_PRIMITIVES} a scene may hold"));
+    }
     Ok(())
 }
 
@@ -244,6 +253,7 @@ fn read_ply_header(bytes: &[u8]) -> Result<PlyHeader, String> {
     }
     let format = format.ok_or("the header names no format")?;
     let count = count.ok_or("the header has no \"element vertex\"")?;
+    check_count(count, "the header declares")?;
     for axis in ["x", "y", "z"] {
         if !properties.iter().any(|(n, _)| n == axis) {
             return Err(format!("the vertices have no \"{axis}\" property"));
@@ -348,6 +358,7 @@ fn read_npy(bytes: &[u8]) -> Result<PointCloud, String> {
     let dims: Vec<usize> =
         shape.trim_start_matches('(').split([',', ')']).filter_map(|d| d.trim().parse().ok()).collect();
     let [n, width] = dims[..] else { return Err(format!("shape {shape}: expected (N, 3) or (N, 4)")) };
+    check_count(n, "the shape holds")?;
     if width != 3 && width != 4 {
         return Err(format!("shape ({n}, {width}): expected (N, 3) or (N, 4)"));
     }
@@ -464,6 +475,15 @@ mod tests {
         assert!(read_npy(&npy("<f4", "(2, 3)", &data)).unwrap_err().starts_with("point 1: the data ends"));
         assert!(read_npy(&npy("<i4", "(1, 3)", &data)).unwrap_err().contains("only float32 and float64"));
         assert!(read_npy(&npy("<f4", "(1, 5)", &data)).unwrap_err().contains("expected (N, 3) or (N, 4)"));
+    }
+
+    #[test]
+    fn counts_past_a_scenes_limit_are_refused_before_anything_is_sized() {
+        let props = "property float x\nproperty float y\nproperty float z\n";
+        let err = read_ply(&ply("ascii", b"1 2 3\n", props, 1 << 40)).unwrap_err();
+        assert!(err.contains("1099511627776 points, more than"), "{err}");
+        let err = read_npy(&npy("<f4", "(99999999999, 3)", &[])).unwrap_err();
+        assert!(err.contains("more than"), "{err}");
     }
 
     #[test]
