@@ -958,6 +958,18 @@ fn regress_shards_cover_every_entry_once_and_report_junit() {
     assert!(out.status.success());
     let xml = std::fs::read_to_string(&junit).unwrap();
     assert_eq!(xml.matches("<testcase").count(), 2, "{xml}");
+    // --entry names entries exactly (`pair-field` would also match a `repair-field` as a filter).
+    let junit = dir.join("entry.xml");
+    let named = ["--entry", "pair-field-96x72", "--entry", "sphere-mesh24-64x48.png"];
+    let report = dir.join("e");
+    let tail = ["--junit", junit.to_str().unwrap(), "--report", report.to_str().unwrap()];
+    assert!(blobtrace(&[&["regress"][..], &named, &tail].concat()).status.success());
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    assert_eq!(xml.matches("<testcase").count(), 2, "{xml}");
+    assert!(xml.contains("pair-field-96x72") && xml.contains("sphere-mesh24-64x48") && !xml.contains("pair-mesh"));
+    let unknown = blobtrace(&["regress", "--entry", "pair-field", "--report", report.to_str().unwrap()]);
+    assert_eq!(unknown.status.code(), Some(64));
+    assert!(String::from_utf8_lossy(&unknown.stderr).contains("--entry pair-field: no entry is named so"));
     for bad in ["0/3", "4/3", "x"] {
         assert_eq!(blobtrace(&["regress", "--shard", bad]).status.code(), Some(64), "{bad}");
     }

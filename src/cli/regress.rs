@@ -31,6 +31,10 @@ pub struct RegressArgs {
     /// Only the entries whose reference name contains PATTERN (none matching fails).
     #[arg(long, value_name = "PATTERN")]
     pub filter: Option<String>,
+    /// Only the entry named NAME exactly (its reference file's name, with or
+    /// without .png, e.g. pair-field-96x72); repeatable; a name no entry has fails.
+    #[arg(long = "entry", value_name = "NAME")]
+    pub entries: Vec<String>,
     /// Only shard I of N (e.g. 2/3): N shards, one per CI job, run every entry once.
     #[arg(long, value_name = "I/N", value_parser = parse_shard)]
     pub shard: Option<(usize, usize)>,
@@ -67,6 +71,7 @@ pub fn run(a: &RegressArgs) -> anyhow::Result<()> {
         bless: a.bless,
         report: a.report.clone(),
         filter: a.filter.clone(),
+        entries: a.entries.clone(),
         shard: a.shard,
         junit: a.junit.clone(),
         allow_empty: a.allow_empty,

@@ -32,6 +32,9 @@ pub struct RegressSettings {
     pub report: PathBuf,
     /// Only the entries whose reference name contains this.
     pub filter: Option<String>,
+    /// Only the entries named exactly so (the reference's file name, with or
+    /// without `.png`); each must name an entry.
+    pub entries: Vec<String>,
     /// Only shard `i` of `n` (from 1): the entries whose place in the manifest
     /// is `i − 1` modulo `n`, so `n` shards together run every entry once.
     pub shard: Option<(usize, usize)>,
@@ -45,7 +48,20 @@ impl RegressSettings {
     /// Whether the entry at `place` in the manifest, named `name`, runs.
     fn selects(&self, place: usize, name: &str) -> bool {
         let in_shard = self.shard.is_none_or(|(i, n)| place % n == i - 1);
-        in_shard && self.filter.as_deref().is_none_or(|f| name.contains(f))
+        let named = self.entries.is_empty() || self.entries.iter().any(|e| names(e, name));
+        in_shard && named && self.filter.as_deref().is_none_or(|f| name.contains(f))
+    }
+
+    /// Refuses an `--entry` that names no entry of the manifest, listing the names.
+    fn check_entries(&self, manifest: &[Entry]) -> Result<()> {
+        let all: Vec<String> = manifest.iter().map(Entry::file_name).collect();
+        match self.entries.iter().find(|e| !all.iter().any(|name| names(e, name))) {
+            Some(e) => {
+                let known = all.iter().map(|n| n.trim_end_matches(".png")).collect::<Vec<_>>().join(", ");
+                Err(PipelineError::setting("entry", format!("{e}: no entry is named so (entries: {known})")))
+            }
+            None => Ok(()),
+        }
     }
 
     /// Why selecting no entry of a manifest of `total` fails the run.
@@ -70,11 +86,18 @@ impl RegressSettings {
     }
 }
 
+/// Whether `asked` names the entry whose reference is `file`: the file name
+/// with or without its `.png`.
+fn names(asked: &str, file: &str) -> bool {
+    asked == file || file.strip_suffix(".png") == Some(asked)
+}
+
 /// Renders every entry of the manifest and compares it with its reference,
 /// or blesses them all; `log` hears one line per entry.
 pub fn regress(settings: &RegressSettings, progress: &dyn Progress, log: &dyn Fn(&str)) -> Result<RegressSummary> {
     settings.check()?;
     let manifest = load_manifest(&settings.refs, &settings.scenes)?;
+    settings.check_entries(&manifest.entries)?;
     let entries: Vec<&Entry> = manifest
         .entries
         .iter()
