@@ -53,6 +53,13 @@ impl Primitive {
         Self { skeleton, radius, weight, kernel, inv_r2: 1.0 / (radius * radius) }
     }
 
+    /// `1/R²`, `R` the support radius.
+    #[inline]
+    #[must_use]
+    pub fn inv_r2(&self) -> f32 {
+        self.inv_r2
+    }
+
     /// The same primitive with support radius `radius`.
     #[must_use]
     pub fn with_radius(&self, radius: f32) -> Self {

@@ -175,8 +175,8 @@ fn sort_by_entry(crossings: &mut [Crossing]) {
 /// tracer: a ray through it crosses hundreds, and sums them stretch by
 /// stretch, where the segment tracer's few evaluations each sum the
 /// supports at a point eight at a time. Measured with `bench eval`: the
-/// particles (overlap 4.6) trace 2.5–3× faster by kernels, Medusa (overlap
-/// in the hundreds) about 30× slower.
+/// particles (overlap 4.9) trace 3.2× faster by kernels, Medusa (overlap
+/// 796) 20–30× slower.
 pub const MAX_AUTO_OVERLAP: f32 = 24.0;
 
 /// Which tracer renders a model, and why: `info` prints it, `render --json` reports it.
@@ -277,8 +277,7 @@ impl SweepState {
 
 impl<'a, F: Field + ?Sized> Sweep<'a, F> {
     fn new(field: &'a F, ray: &'a Ray, opts: &TraceOptions, span: (f32, f32)) -> Self {
-        let tol = (opts.tolerance * field.bounds().diagonal()).max(f32::EPSILON * span.1.abs());
-        let quantum = opts.quantum.unwrap_or(tol);
+        let quantum = opts.hit_quantum(field.bounds().diagonal(), span.1);
         Self { field, ray, iso: field.threshold(), span, quantum, evals: 0 }
     }
 
@@ -302,14 +301,13 @@ impl<'a, F: Field + ?Sized> Sweep<'a, F> {
             if t0 >= limit {
                 return None;
             }
+            let entry = crossings.get(state.next).map_or(f32::INFINITY, |c| c.t_in);
             if state.active.is_empty() {
                 // Over the gap to the next crossing known, but no farther than
                 // the limit: crossings not gathered yet may start after it.
-                let entry = crossings.get(state.next).map_or(f32::INFINITY, |c| c.t_in);
                 state.t0 = entry.min(limit);
                 continue;
             }
-            let entry = crossings.get(state.next).map_or(f32::INFINITY, |c| c.t_in);
             let t1 = state.active.iter().map(|&i| crossings[i].t_out).fold(entry.min(limit), f32::min);
             match self.stretch(supports, crossings, &state.active, (t0, t1)) {
                 Ok(Some(hit)) => return Some(hit),

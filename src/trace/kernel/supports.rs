@@ -45,11 +45,9 @@ enum Shape {
 #[derive(Clone, Copy, Debug)]
 struct Support {
     shape: Shape,
-    /// The primitive itself, for its value at a point exactly as the field computes it.
+    /// The primitive itself, for its value at a point exactly as the field
+    /// computes it, and its radius and weight.
     primitive: Primitive,
-    /// `1/R²`.
-    inv_r2: f32,
-    weight: f32,
     /// Index into [`KernelSupports::placements`].
     placement: u32,
 }
@@ -219,8 +217,7 @@ impl KernelSupports {
             }
             Skeleton::Circle { .. } => return Err(()),
         };
-        let inv_r2 = 1.0 / (p.radius * p.radius);
-        self.supports.push(Support { shape, primitive: *p, inv_r2, weight: p.weight, placement });
+        self.supports.push(Support { shape, primitive: *p, placement });
         self.boxes.push(p.bounds().transformed(&to_world));
         let (centre, radius) = match shape {
             Shape::Point { center } => (center, p.radius),
@@ -311,11 +308,11 @@ fn point_quadratic(oc: Vec3A, d: Vec3A, s: &Support, scale: f32) -> Option<Cross
     // The perpendicular offset directly, not |oc|² - (oc·d)²: that would
     // cancel to nothing for a support far from the eye.
     let perp = oc + d * tm;
-    let a0 = 1.0 - perp.length_squared() * s.inv_r2;
+    let a0 = 1.0 - perp.length_squared() * s.primitive.inv_r2();
     if a0 <= 0.0 {
         return None;
     }
-    let k = dd * s.inv_r2;
+    let k = dd * s.primitive.inv_r2();
     let half = (a0 / k).sqrt();
     Some(Crossing {
         t_in: tm - half,
@@ -323,10 +320,10 @@ fn point_quadratic(oc: Vec3A, d: Vec3A, s: &Support, scale: f32) -> Option<Cross
         a0,
         k,
         tm,
-        weight: s.weight,
+        weight: s.primitive.weight,
         support: 0,
         placed: s.placement != 0,
-        err: rounding(scale, s.inv_r2),
+        err: rounding(scale, s.primitive.inv_r2()),
     })
 }
 
@@ -402,15 +399,15 @@ fn segment_crossings(
 fn line_quadratic(w0p: Vec3A, dp: Vec3A, d: Vec3A, s: &Support, scale: f32) -> Option<Crossing> {
     let dd = dp.length_squared();
     if dd <= f32::EPSILON * f32::EPSILON * d.length_squared() {
-        let a0 = 1.0 - w0p.length_squared() * s.inv_r2;
-        let err = rounding(scale, s.inv_r2);
+        let a0 = 1.0 - w0p.length_squared() * s.primitive.inv_r2();
+        let err = rounding(scale, s.primitive.inv_r2());
         return (a0 > 0.0).then_some(Crossing {
             t_in: f32::NEG_INFINITY,
             t_out: f32::INFINITY,
             a0,
             k: 0.0,
             tm: 0.0,
-            weight: s.weight,
+            weight: s.primitive.weight,
             support: 0,
             placed: s.placement != 0,
             err,

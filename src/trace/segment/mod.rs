@@ -48,6 +48,19 @@ impl Default for TraceOptions {
 }
 
 impl TraceOptions {
+    /// The hit tolerance for a model `diag` across, on a stretch of a ray
+    /// ending at `t_end` (never below what single precision resolves there).
+    #[must_use]
+    pub fn hit_tolerance(&self, diag: f32, t_end: f32) -> f32 {
+        (self.tolerance * diag).max(f32::EPSILON * t_end.abs())
+    }
+
+    /// The step of the lattice hits are snapped to (see [`TraceOptions::quantum`]).
+    #[must_use]
+    pub fn hit_quantum(&self, diag: f32, t_end: f32) -> f32 {
+        self.quantum.unwrap_or_else(|| self.hit_tolerance(diag, t_end))
+    }
+
     /// The defaults, with hits snapped to a lattice of the tolerance times the
     /// diagonal of `bounds` (fixed from then on, whatever edits do to the bounds).
     #[must_use]
@@ -176,7 +189,7 @@ impl<'a, F: Field + ?Sized> March<'a, F> {
             return Err((Crossing::None, out));
         }
         let diag = field.bounds().diagonal();
-        let tol = (opts.tolerance * diag).max(f32::EPSILON * t_end.abs());
+        let tol = opts.hit_tolerance(diag, t_end);
         let iso = field.threshold();
         let v = field.value(ray.at(t_start)) - iso;
         out.evals = 1;
