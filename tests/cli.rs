@@ -876,12 +876,12 @@ fn regression_passes_on_the_bundled_references_and_fails_on_a_perturbed_model() 
     let out = blobtrace(&["regress", "--scenes", scenes.to_str().unwrap(), "--report", bad_report.to_str().unwrap()]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("failed"));
-    assert!(bad_report.join("actual-pair-field-96x72.png").exists());
-    assert!(bad_report.join("diff-pair-field-96x72.png").exists());
-    assert!(bad_report.join("heat-pair-field-96x72.png").exists());
     let page = std::fs::read_to_string(bad_report.join("index.html")).unwrap();
-    assert!(bad_report.join("ref-pair-field-96x72.png").exists() && page.contains("ref-pair-field-96x72.png"));
-    assert!(!bad_report.join("actual-sphere-field-64x48.png").exists());
+    for kind in ["ref", "actual", "diff", "heat", "flip"] {
+        let image = format!("002-pair-field-96x72-{kind}.png");
+        assert!(bad_report.join(&image).exists() && page.contains(&image), "{image}");
+    }
+    assert!(!bad_report.join("000-sphere-field-64x48-actual.png").exists());
     // Blessing into a fresh directory reproduces the bundled references, which then pass.
     let refs = dir.join("refs");
     std::fs::create_dir_all(&refs).unwrap();
@@ -1840,7 +1840,8 @@ fn the_regress_report_describes_the_last_run_alone() {
         let (refs, report) = (refs.to_str().unwrap(), report.to_str().unwrap());
         blobtrace(&["regress", "--refs", refs, "--report", report, "--scenes", scenes.to_str().unwrap()])
     };
-    let failure = ["ref", "actual", "diff", "heat"].map(|kind| report.join(format!("{kind}-pair-field-96x72.png")));
+    let failure =
+        ["ref", "actual", "diff", "heat", "flip"].map(|kind| report.join(format!("000-pair-field-96x72-{kind}.png")));
     assert!(!run(&scenes_with_a_grown_radius(&dir)).status.success());
     assert!(failure.iter().all(|f| f.exists()), "the failure's images");
     std::fs::write(report.join("notes.txt"), "mine").unwrap();

@@ -24,8 +24,9 @@ pub struct RegressArgs {
     /// Rewrite every reference from the current renders instead of comparing.
     #[arg(long)]
     pub bless: bool,
-    /// Directory for actual images, heat maps of failures and index.html
-    /// (created if missing; what an earlier run left there is replaced).
+    /// Directory for the report: index.html (open it in a browser),
+    /// summary.json and the images of entries that differ (created if
+    /// missing; what an earlier run left there is replaced).
     #[arg(long, default_value = "regress-report")]
     pub report: PathBuf,
     /// Only the entries whose reference name contains PATTERN (none matching fails).
@@ -75,6 +76,7 @@ pub fn run(a: &RegressArgs) -> anyhow::Result<()> {
         shard: a.shard,
         junit: a.junit.clone(),
         allow_empty: a.allow_empty,
+        command: std::env::args().collect(),
     };
     let bars = Bars::new();
     let log = |line: &str| bars.suspend(|| eprintln!("{line}"));
@@ -83,7 +85,7 @@ pub fn run(a: &RegressArgs) -> anyhow::Result<()> {
     if a.bless {
         return Ok(());
     }
-    let (failed, n) = (summary.failed(), summary.rows.len());
+    let (failed, n) = (summary.failed(), summary.entries.len());
     eprintln!("{} of {n} references pass; report in {}", n - failed, a.report.display());
     anyhow::ensure!(failed == 0, "{failed} of {n} references failed");
     Ok(())

@@ -136,14 +136,30 @@ pub fn heat_map_labelled(
     (title, unit): (&str, &str),
     labels: &SpecialLabels,
 ) -> Rgb8Image {
-    let canvas_width = width.max(MIN_WIDTH);
-    let mut img = Rgb8Image::filled(canvas_width, height + STRIP, [255, 255, 255]);
+    heat_map_zoomed(values, (width, height), 1, scale, (title, unit), labels)
+}
+
+/// [`heat_map_labelled`] with each value drawn as a `zoom × zoom` square
+/// (its key and counts of the values themselves), for a page that shows the
+/// map beside images scaled up as much.
+#[must_use]
+pub fn heat_map_zoomed(
+    values: &[f32],
+    (width, height): (u32, u32),
+    zoom: u32,
+    scale: Scale,
+    (title, unit): (&str, &str),
+    labels: &SpecialLabels,
+) -> Rgb8Image {
+    let z = zoom.max(1);
+    let mut img = Rgb8Image::filled((width * z).max(MIN_WIDTH), height * z + STRIP, [255, 255, 255]);
     for y in 0..height {
         for x in 0..width {
-            img.put(i64::from(x), i64::from(y), scale.color(values[(y * width + x) as usize]));
+            let (px, py, side) = (i64::from(x * z), i64::from(y * z), i64::from(z));
+            img.fill_rect(px, py, side, side, scale.color(values[(y * width + x) as usize]));
         }
     }
-    draw_bar(&mut img, height, scale, title, unit, &legend(values, scale, labels));
+    draw_bar(&mut img, height * z, scale, title, unit, &legend(values, scale, labels));
     img
 }
 
@@ -324,6 +340,24 @@ mod tests {
         assert!(pos[0] > pos[2] && neg[2] > neg[0], "{pos:?} {neg:?}");
         assert_eq!(format_value(0.05), "0.05");
         assert_eq!(format_value(2e-4), "2.0e-4");
+    }
+
+    #[test]
+    fn a_zoomed_map_draws_each_value_as_a_square_and_counts_the_values_themselves() {
+        let (scale, labels) = (Scale::Magnitude { max: 1.0 }, SpecialLabels::default());
+        let values = [0.0, 0.5, 2.0, 1.0];
+        let img = heat_map_zoomed(&values, (2, 2), 3, scale, ("t", ""), &labels);
+        let at = |x: u32, y: u32| &img.pixels[3 * (y * img.width + x) as usize..][..3];
+        for (k, &v) in values.iter().enumerate() {
+            for (dx, dy) in [(0, 0), (2, 2), (1, 2)] {
+                assert_eq!(at(3 * (k as u32 % 2) + dx, 3 * (k as u32 / 2) + dy), scale.color(v), "value {k}");
+            }
+        }
+        // The key below (its count of values beyond the scale included) is the unzoomed map's.
+        let plain = heat_map(&values, 2, 2, scale, "t", "");
+        let row_bytes = 3 * img.width as usize;
+        assert_eq!((img.width, img.height - 6), (plain.width, plain.height - 2));
+        assert_eq!(img.pixels[6 * row_bytes..], plain.pixels[2 * row_bytes..]);
     }
 
     #[test]

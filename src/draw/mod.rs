@@ -12,7 +12,7 @@ mod vertex_colors;
 
 pub use heatmap::{
     ColourKey, MISMATCH, NO_VALUE, OVER_RANGE, SILHOUETTE_COLORS, Scale, SpecialLabels, heat_map, heat_map_labelled,
-    silhouette_map,
+    heat_map_zoomed, silhouette_map,
 };
 pub use histogram::histogram_plot;
 pub use panel::{frame_image, panel};

@@ -31,6 +31,12 @@ pub fn available() -> bool {
     *RUNS.get_or_init(|| detected() && std::env::var(SUMS_ENV).map_or(true, |v| v.trim() != "4"))
 }
 
+/// Lanes of the field's sums in this process: 8 when [`available`], else 4.
+#[must_use]
+pub fn sum_lanes() -> usize {
+    if available() { 8 } else { 4 }
+}
+
 /// True when this processor has AVX2 and FMA.
 fn detected() -> bool {
     #[cfg(target_arch = "x86_64")]

@@ -31,7 +31,7 @@ pub use crate::geom::Region;
 pub use cache_cost::{
     CacheDecision, LATTICE_COST, LOOKUP_COST, LOOSE_BOUND_STEPS, POWER_COST, RENDER_OVERHEAD, WARP_COST,
 };
-pub use eight_wide_sums::SUMS_ENV;
+pub use eight_wide_sums::{SUMS_ENV, sum_lanes};
 pub use empty::EmptySpace;
 pub use index::{BlendIndex, IndexedLeaf, Leaf};
 pub use kernel::Kernel;

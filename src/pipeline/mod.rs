@@ -74,7 +74,9 @@ pub use polygonize::{
     vertex_name,
 };
 pub use regress::{
-    Entry, Kind, Manifest, RegressRow, RegressSettings, RegressSummary, junit_xml, load_manifest, regress, render_entry,
+    Counts, Entry, EntryImages, EntryPixels, EntryTolerances, Judgement, Kind, Manifest, Outcome, RegressRow,
+    RegressSettings, RegressSummary, RunFacts, StoredStats, junit_xml, load_manifest, regress, render_entry,
+    shell_quote,
 };
 pub use render::{MeshRenderReport, RenderFiles, RenderReport, render_field, render_mesh};
 pub use replay::{EditReport, ScratchFrame, check_names, replay_from_scratch};

@@ -4,24 +4,24 @@
 
 use std::fmt::Write as _;
 
-use super::summary::RegressRow;
-use crate::compare::Verdict;
+use super::markup::escape;
+use super::summary::{Outcome, RegressRow};
 
 /// The JUnit XML of `rows`, as the suite `suite`.
 #[must_use]
 pub fn junit_xml(suite: &str, rows: &[RegressRow]) -> String {
-    let failures = rows.iter().filter(|(_, d)| d.as_ref().is_none_or(|d| d.verdict == Verdict::Fail)).count();
+    let failures = rows.iter().filter(|r| r.outcome == Outcome::Failed).count();
     let mut xml = String::from("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
     let suite = escape(suite);
     let _ = writeln!(xml, "<testsuites name=\"{suite}\" tests=\"{}\" failures=\"{failures}\">", rows.len());
     let _ = writeln!(xml, "  <testsuite name=\"{suite}\" tests=\"{}\" failures=\"{failures}\">", rows.len());
-    for (name, diff) in rows {
-        let name = escape(name);
-        let failure = match diff {
+    for row in rows {
+        let name = escape(&row.name);
+        let failure = match &row.judgement {
             None => Some("no readable reference (bless to create it)".to_string()),
-            Some(d) if d.verdict == Verdict::Fail => Some(format!(
+            Some(d) if row.outcome == Outcome::Failed => Some(format!(
                 "max {:.4}, {} of {} pixels above {} ({:.3}%), mean {:.3e}",
-                d.max, d.over_fail_px, d.compared, d.thresholds.fail, d.over_fail_percent, d.mean
+                d.max, d.over_fail_px, d.pixels, row.tolerances.fail, d.over_fail_percent, d.mean
             )),
             Some(_) => None,
         };
@@ -41,29 +41,14 @@ pub fn junit_xml(suite: &str, rows: &[RegressRow]) -> String {
     xml
 }
 
-/// `text` safe inside XML text and attribute values.
-fn escape(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    for c in text.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&apos;"),
-            c => out.push(c),
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn names_and_messages_are_escaped_and_missing_references_fail() {
-        let xml = junit_xml("regress <a&b>", &[("x\"y.png".into(), None)]);
+        let row = crate::pipeline::regress::summary::missing_row("x\"y.png");
+        let xml = junit_xml("regress <a&b>", &[row]);
         assert!(xml.contains("name=\"regress &lt;a&amp;b&gt;\"") && xml.contains("name=\"x&quot;y.png\""), "{xml}");
         assert!(xml.contains("failures=\"1\"") && xml.contains("<failure message=\"no readable reference"), "{xml}");
     }

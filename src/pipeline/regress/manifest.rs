@@ -1,10 +1,11 @@
 //! The regression manifest: which renders are guarded and how strictly, read
 //! from `manifest.ron` with every scene it names checked before any render.
 
-use std::path::Path;
+use std::path::{Component, Path};
 
 use serde::Deserialize;
 
+use crate::compare::Thresholds;
 use crate::frame::Size;
 use crate::pipeline::error::{PipelineError, Result};
 use crate::pipeline::polygonize::MAX_RES;
@@ -40,6 +41,13 @@ pub struct Entry {
     /// Any pixel above this fails.
     #[serde(default = "default_hardfail", deserialize_with = "values::non_negative")]
     pub hardfail: f32,
+    /// A pixel differing by more than this warns… (default: `fail`, so an
+    /// entry warns only when it is given a tighter `warn`).
+    #[serde(default, deserialize_with = "some_non_negative")]
+    pub warn: Option<f32>,
+    /// …when more than this percentage of pixels do (default: `failpercent`).
+    #[serde(default, deserialize_with = "some_percentage")]
+    pub warnpercent: Option<f64>,
 }
 
 /// What an entry renders.
@@ -60,6 +68,14 @@ fn default_hardfail() -> f32 {
     0.25
 }
 
+fn some_non_negative<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Option<f32>, D::Error> {
+    values::non_negative(d).map(Some)
+}
+
+fn some_percentage<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Option<f64>, D::Error> {
+    values::percentage(d).map(Some)
+}
+
 impl Entry {
     /// The reference file name: scene stem, kind, size.
     #[must_use]
@@ -72,6 +88,37 @@ impl Entry {
         let mode = if self.cached { "-cached" } else { "" };
         format!("{stem}-{kind}{mode}-{}x{}.png", self.size.0, self.size.1)
     }
+
+    /// The reference's name without `.png`: what `--entry` takes.
+    #[must_use]
+    pub fn name(&self) -> String {
+        self.file_name().trim_end_matches(".png").to_string()
+    }
+
+    /// The `diff` thresholds the entry is judged by.
+    #[must_use]
+    pub fn thresholds(&self) -> Thresholds {
+        Thresholds {
+            fail: self.fail,
+            failpercent: self.failpercent,
+            hardfail: self.hardfail,
+            warn: self.warn.unwrap_or(self.fail),
+            warnpercent: self.warnpercent.unwrap_or(self.failpercent),
+            ..Thresholds::default()
+        }
+    }
+}
+
+/// Why a scene path cannot name an entry: a path reaching outside the scenes
+/// folder (absolute, or through `..`) would also put its reference and its
+/// report images outside theirs.
+fn outside(scene: &str) -> Option<&'static str> {
+    let path = Path::new(scene);
+    if path.is_absolute() || scene.starts_with(['/', '\\']) {
+        return Some("is absolute; scenes are named relative to the scenes folder");
+    }
+    let climbs = path.components().any(|c| !matches!(c, Component::Normal(_) | Component::CurDir));
+    climbs.then_some("climbs out of the scenes folder (`..`); name scenes inside it")
 }
 
 /// Reads `refs/manifest.ron`, and checks that every scene it names loads,
@@ -91,6 +138,10 @@ pub fn load_manifest(refs: &Path, scenes: &Path) -> Result<Manifest> {
     let positions = entry_positions(&text);
     for (k, entry) in manifest.entries.iter().enumerate() {
         let scene = scenes.join(&entry.scene);
+        if let Some(why) = outside(&entry.scene) {
+            let (line, column) = positions.get(k).copied().unwrap_or((1, 1));
+            return Err(syntax(line, column, format!("scene {:?} {why}", entry.scene)));
+        }
         if !scene.is_file() {
             let (line, column) = positions.get(k).copied().unwrap_or((1, 1));
             return Err(syntax(line, column, format!("no scene {:?} in {}", entry.scene, scenes.display())));

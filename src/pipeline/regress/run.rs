@@ -1,15 +1,17 @@
 //! Running the regression: select the manifest's entries, render each, judge
-//! it against its reference, and write the report folder (page, failures'
-//! images, JUnit file) all or none; or bless the references.
+//! it against its reference, and write the report folder (page, summary,
+//! images of the entries that differ, JUnit file) all or none; or bless the
+//! references.
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
+use super::command_line::{repository_commit, shell_quote};
+use super::entry_check::{EntryFacts, check_entry, is_entry_image};
 use super::junit::junit_xml;
 use super::manifest::{Entry, Kind, load_manifest};
-use super::summary::{RegressRow, RegressSummary};
-use crate::compare::{Metric, Thresholds, Verdict, differences, judge, load_image};
-use crate::draw::{Scale, heat_map};
+use super::page::report_page;
+use super::summary::{RegressRow, RegressSummary, RunFacts};
 use crate::field::EvalMode;
 use crate::frame::Frame;
 use crate::output::FileSet;
@@ -42,6 +44,9 @@ pub struct RegressSettings {
     pub junit: Option<PathBuf>,
     /// Accept a filter or shard that selects no entry (an empty run passes).
     pub allow_empty: bool,
+    /// The command line that runs this (the program first), for the report
+    /// and the commands it gives for blessing; empty when not run from one.
+    pub command: Vec<String>,
 }
 
 impl RegressSettings {
@@ -95,57 +100,94 @@ fn names(asked: &str, file: &str) -> bool {
 /// Renders every entry of the manifest and compares it with its reference,
 /// or blesses them all; `log` hears one line per entry.
 pub fn regress(settings: &RegressSettings, progress: &dyn Progress, log: &dyn Fn(&str)) -> Result<RegressSummary> {
+    let started = Instant::now();
+    let date = humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string();
     settings.check()?;
     let manifest = load_manifest(&settings.refs, &settings.scenes)?;
     settings.check_entries(&manifest.entries)?;
-    let entries: Vec<&Entry> = manifest
-        .entries
-        .iter()
-        .enumerate()
-        .filter(|(k, e)| settings.selects(*k, &e.file_name()))
-        .map(|(_, e)| e)
-        .collect();
+    let entries: Vec<(usize, &Entry)> =
+        manifest.entries.iter().enumerate().filter(|(k, e)| settings.selects(*k, &e.file_name())).collect();
     if entries.is_empty() && !settings.allow_empty {
         return Err(settings.nothing_selected(manifest.entries.len()));
     }
     let folders = settings.junit.iter().filter_map(|j| j.parent()).filter(|d| !d.as_os_str().is_empty());
     let report = (!settings.bless).then_some(settings.report.as_path());
     for dir in report.into_iter().chain(folders) {
-        std::fs::create_dir_all(dir).map_err(|e| PipelineError::File { path: dir.into(), message: e.to_string() })?;
+        create_folder(dir)?;
     }
-    let mut summary = RegressSummary { rows: vec![], blessed: vec![] };
+    let mut rows = vec![];
+    let mut blessed = vec![];
     let mut files = FileSet::new();
     let n = entries.len() as u64;
-    for (i, entry) in entries.into_iter().enumerate() {
+    for (i, &(place, entry)) in entries.iter().enumerate() {
         progress.update("regression entries", i as u64, n);
+        let rendering = Instant::now();
         let actual = render_entry(&settings.scenes, entry).map_err(|e| e.at(entry.file_name()))?;
+        let seconds = rendering.elapsed().as_secs_f64();
         let reference = settings.refs.join(entry.file_name());
         if settings.bless {
+            if let Some(dir) = reference.parent() {
+                create_folder(dir)?;
+            }
             actual.save_png(&reference)?;
             log(&format!("blessed {}", reference.display()));
-            summary.blessed.push(reference);
+            blessed.push(reference);
             continue;
         }
-        summary.rows.push(check_entry(entry, &actual, &reference, &settings.report, &mut files, log)?);
+        let facts = EntryFacts { place, entry, seconds, bless: bless_command(settings, entry) };
+        let row = check_entry(&facts, &actual, &reference, &settings.report, &mut files)?;
+        log(&row_line(&row));
+        rows.push(row);
     }
     progress.update("regression entries", n, n);
+    let run = RunFacts {
+        command: settings.command.iter().map(|a| shell_quote(a)).collect::<Vec<_>>().join(" "),
+        scenes: settings.scenes.display().to_string(),
+        refs: settings.refs.display().to_string(),
+        scenes_commit: repository_commit(&settings.scenes),
+        version: env!("CARGO_PKG_VERSION").to_string(),
+        date,
+        simd_width: crate::field::sum_lanes(),
+        seconds: started.elapsed().as_secs_f64(),
+    };
+    let mut summary = RegressSummary::new(run, rows, manifest.entries.len() - entries.len());
     if let Some(path) = &settings.junit {
-        files.add(path, junit_xml("blobtrace regress", &summary.rows).into_bytes());
+        files.add(path, junit_xml("blobtrace regress", &summary.entries).into_bytes());
     }
     if settings.bless {
         files.commit()?;
+        summary.blessed = blessed;
     } else {
-        files.add(settings.report.join("index.html"), html(&summary.rows).into_bytes());
-        files.commit_replacing(&settings.report, is_failure_image)?;
+        files.add(settings.report.join("index.html"), report_page(&summary).into_bytes());
+        files.add(settings.report.join("summary.json"), summary.json().into_bytes());
+        files.commit_replacing(&settings.report, is_entry_image)?;
     }
     Ok(summary)
 }
 
-/// Whether a file of the report folder is a failure's image, as
-/// [`save_failure`] names them.
-fn is_failure_image(name: &str) -> bool {
-    let failure = ["ref-", "actual-", "diff-", "heat-"].iter().any(|p| name.starts_with(p));
-    failure && name.ends_with(".png")
+fn create_folder(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| PipelineError::File { path: dir.into(), message: e.to_string() })
+}
+
+/// The log line of a judged entry.
+fn row_line(row: &RegressRow) -> String {
+    match &row.judgement {
+        None => format!("FAIL {}: no readable reference (bless to create it)", row.name),
+        Some(j) => {
+            format!(
+                "{:?} {}: max {:.4}, {} pixels above {}",
+                j.verdict, row.name, j.max, j.over_fail_px, row.tolerances.fail
+            )
+        }
+    }
+}
+
+/// The command that blesses `entry` alone, with this run's folders.
+fn bless_command(settings: &RegressSettings, entry: &Entry) -> String {
+    let program = settings.command.first().map_or("blobtrace", String::as_str);
+    let (scenes, refs) = (settings.scenes.display().to_string(), settings.refs.display().to_string());
+    let name = entry.name();
+    [program, "regress", "--scenes", &scenes, "--refs", &refs, "--bless", "--entry", &name].map(shell_quote).join(" ")
 }
 
 /// The render an entry guards.
@@ -161,118 +203,4 @@ pub fn render_entry(scenes: &Path, entry: &Entry) -> Result<Frame> {
             render_mesh(&scene, &mesh, report, (entry.size, 1), &Silent).0
         }
     })
-}
-
-fn check_entry(
-    entry: &Entry,
-    actual: &Frame,
-    reference: &Path,
-    report: &Path,
-    files: &mut FileSet,
-    log: &dyn Fn(&str),
-) -> Result<RegressRow> {
-    let name = entry.file_name();
-    let Ok(expected) = load_image(reference) else {
-        let path = report.join(format!("actual-{name}"));
-        files.add(&path, actual.png_bytes_for(&path)?);
-        log(&format!("FAIL {name}: no readable reference at {} (bless to create it)", reference.display()));
-        return Ok((name, None));
-    };
-    let frame = &expected.frame;
-    if (frame.width, frame.height) != (actual.width, actual.height) {
-        return Err(PipelineError::File {
-            path: reference.to_path_buf(),
-            message: format!(
-                "reference is {}x{}, the render {}x{}",
-                frame.width, frame.height, actual.width, actual.height
-            ),
-        });
-    }
-    // Compare what the files hold: the render quantized to 8 bits like its reference.
-    let quantized = quantize(actual);
-    let values = differences(&quantized, frame, Metric::Abs);
-    let thresholds = Thresholds {
-        fail: entry.fail,
-        failpercent: entry.failpercent,
-        hardfail: entry.hardfail,
-        warn: entry.fail,
-        warnpercent: entry.failpercent,
-        ..Thresholds::default()
-    };
-    let diff = judge(Metric::Abs, &values, &vec![false; values.len()], frame.width, thresholds);
-    if diff.verdict == Verdict::Fail {
-        save_failure(&name, reference, (actual, &quantized), &values, report, files)?;
-    }
-    log(&format!("{:?} {name}: max {:.4}, {} pixels above {}", diff.verdict, diff.max, diff.over_fail_px, entry.fail));
-    Ok((name, Some(diff)))
-}
-
-/// The images of a failed entry, added to the report's files: its reference,
-/// the render, the brightened difference and a heat map (titled by metric
-/// alone: the page names the entry).
-fn save_failure(
-    name: &str,
-    reference: &Path,
-    (actual, quantized): (&Frame, &Frame),
-    values: &[f32],
-    report: &Path,
-    files: &mut FileSet,
-) -> Result<()> {
-    let unreadable = |message: String| PipelineError::File { path: reference.to_path_buf(), message };
-    let expected = load_image(reference).map_err(unreadable)?.frame;
-    files.add(report.join(format!("ref-{name}")), std::fs::read(reference).map_err(|e| unreadable(e.to_string()))?);
-    let path = report.join(format!("actual-{name}"));
-    files.add(&path, actual.png_bytes_for(&path)?);
-    let path = report.join(format!("diff-{name}"));
-    files.add(&path, difference_image(quantized, &expected).png_bytes_for(&path)?);
-    let path = report.join(format!("heat-{name}"));
-    let scale = Scale::Magnitude { max: 0.1 };
-    let heat = heat_map(values, expected.width, expected.height, scale, "abs difference", "");
-    files.add(&path, heat.png_bytes_for(&path)?);
-    Ok(())
-}
-
-/// |actual − expected| per channel, brightened eightfold so small differences show.
-fn difference_image(actual: &Frame, expected: &Frame) -> Frame {
-    let mut d = actual.clone();
-    for (c, e) in d.color.iter_mut().zip(&expected.color) {
-        *c = ((*c - *e).abs() * 8.0).min(glam::Vec3::ONE);
-    }
-    d
-}
-
-/// The frame as a PNG of it would read back.
-fn quantize(frame: &Frame) -> Frame {
-    let mut q = frame.clone();
-    for c in &mut q.color {
-        *c = glam::Vec3::from(c.to_array().map(|v| crate::frame::srgb8_to_linear(crate::frame::linear_to_srgb8(v))));
-    }
-    q
-}
-
-/// The report's page: one row per entry, with a failure's images.
-fn html(rows: &[RegressRow]) -> String {
-    let mut html = String::from(
-        "<!doctype html><meta charset=utf-8><title>blobtrace regression</title>\
-         <style>body{font-family:sans-serif}td,th{padding:4px 8px}.Fail{color:#b00}.Pass{color:#070}</style>\
-         <h1>blobtrace regression</h1><table><tr><th>reference<th>verdict<th>max<th>pixels above<th>reference | actual | difference ×8 | heat map</tr>",
-    );
-    for (name, diff) in rows {
-        let (verdict, max, over) = match diff {
-            Some(d) => (format!("{:?}", d.verdict), format!("{:.4}", d.max), d.over_fail_px.to_string()),
-            None => ("Fail".into(), "no reference".into(), "-".into()),
-        };
-        let images = if diff.is_none() {
-            format!("<img src=\"actual-{name}\" title=\"actual\">")
-        } else if verdict == "Fail" {
-            ["ref", "actual", "diff", "heat"]
-                .map(|kind| format!("<img src=\"{kind}-{name}\" title=\"{kind}\">"))
-                .join(" ")
-        } else {
-            String::new()
-        };
-        let _ = write!(html, "<tr><td>{name}<td class={verdict}>{verdict}<td>{max}<td>{over}<td>{images}</tr>");
-    }
-    html.push_str("</table>\n");
-    html
 }
