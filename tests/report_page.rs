@@ -38,9 +38,10 @@ fn browse(dir: &Path, page: &Path, query: &str, extra: &[&str]) -> Vec<u8> {
     out.stdout
 }
 
-/// The page's DOM after its script ran.
+/// The page's DOM after its script ran (and, for its self-test, after the
+/// images it decodes have loaded).
 fn page_dom(dir: &Path, page: &Path, query: &str) -> String {
-    String::from_utf8(browse(dir, page, query, &["--dump-dom"])).unwrap()
+    String::from_utf8(browse(dir, page, query, &["--dump-dom", "--virtual-time-budget=10000"])).unwrap()
 }
 
 /// A copy of the bundled scenes with the pair's first radius grown 1%, so
@@ -140,6 +141,14 @@ fn a_failing_run_reads_in_the_browser_failures_first_with_their_figures_images_a
     // The page's own script exercises flick, swipe, amplification, probe, zoom, filter and sort.
     let tested = page_dom(&dir, &page, "?selftest");
     assert!(tested.contains("<output id=\"selftest\">pass</output>"), "{}", selftest_result(&tested));
+    // Its probe read the reference's first pixel from the page's own copy.
+    let reference = image::open(report.join(first["reference"].as_str().unwrap())).unwrap().to_rgb8();
+    let [r, g, b] = reference.get_pixel(0, 0).0;
+    assert!(
+        tested.contains(&format!("(0, 0)  reference {r} {g} {b} [")),
+        "{}",
+        tested.split("class=\"probe\">").nth(1).unwrap_or("")
+    );
     std::fs::remove_dir_all(dir).unwrap();
 }
 
@@ -246,5 +255,33 @@ fn a_run_where_everything_passes_says_so_at_the_top_and_lists_every_entry() {
         summary["run"]["scenes_commit"].as_str().is_none_or(|c| c.len() == 40),
         "this repository's commit when in one"
     );
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn an_entry_over_its_warning_tolerance_alone_warns_passes_the_run_and_shows_its_images() {
+    let dir = scratch("report-warn");
+    let (refs, report) = (dir.join("refs"), dir.join("report"));
+    std::fs::create_dir_all(&refs).unwrap();
+    // As idiff judges: pixels over `fail` within `failpercent` pass, unless
+    // they are over `warnpercent` (of pixels over `warn`), which warns.
+    let entry = "Entry(scene: \"pair.ron\", size: (24, 18), kind: Field, failpercent: 100.0, hardfail: 1.0, warn: 0.02, warnpercent: 0.0)";
+    std::fs::write(refs.join("manifest.ron"), format!("Manifest(entries: [{entry}])")).unwrap();
+    let r = refs.to_str().unwrap();
+    assert!(blobtrace(&["regress", "--refs", r, "--bless"]).status.success());
+    let scenes = scenes_with_two_failures(&dir);
+    let junit = dir.join("junit.xml");
+    let args = ["regress", "--refs", r, "--scenes", scenes.to_str().unwrap(), "--report", report.to_str().unwrap()];
+    let out = blobtrace(&[&args[..], &["--junit", junit.to_str().unwrap()]].concat());
+    assert!(out.status.success(), "a warning passes: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(!std::fs::read_to_string(&junit).unwrap().contains("<failure"));
+    let summary: Value = serde_json::from_str(&std::fs::read_to_string(report.join("summary.json")).unwrap()).unwrap();
+    assert_eq!((summary["verdict"].as_str(), summary["counts"]["warned"].as_u64()), (Some("warn"), Some(1)));
+    let warned = &summary["entries"][0];
+    assert_eq!(warned["tolerances"]["warn"].as_f64(), Some(0.02));
+    assert!(warned["judgement"]["over_warn_px"].as_u64().unwrap() > 0);
+    let dom = page_dom(&dir, &report.join("index.html"), "?selftest");
+    assert!(dom.contains("<h1>WARN: 1 of 1 entries warn, none fails</h1>") && dom.contains("<section id=\"warned\""));
+    assert!(dom.contains("<output id=\"selftest\">pass</output>"), "{}", selftest_result(&dom));
     std::fs::remove_dir_all(dir).unwrap();
 }

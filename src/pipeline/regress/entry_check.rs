@@ -15,9 +15,8 @@ use crate::output::FileSet;
 use crate::pipeline::error::{PipelineError, Result};
 use crate::pipeline::image_diff::{ImageDiffSettings, diff_images};
 
-/// The largest image whose codes the page carries for its pixel probe (both
-/// images of a 512×512 entry are about 2 MB of page).
-const MAX_PROBE_PIXELS: usize = 512 * 512;
+/// The largest image whose PNGs the page carries for its pixel probe.
+const MAX_PROBE_PIXELS: usize = 1024 * 1024;
 
 /// The kinds of image an entry can have in the report, as its file names end.
 const IMAGE_KINDS: [&str; 5] = ["ref", "actual", "diff", "heat", "flip"];
@@ -108,7 +107,11 @@ pub fn check_entry(
     let (w, h) = (frame.width, frame.height);
     row.stored = Some(stored_stats(reference, &actual_png, facts)?);
     let unreadable = |e: std::io::Error| PipelineError::File { path: reference.to_path_buf(), message: e.to_string() };
-    row.images.reference = Some(add("ref", std::fs::read(reference).map_err(unreadable)?));
+    let reference_png = std::fs::read(reference).map_err(unreadable)?;
+    if (w * h) as usize <= MAX_PROBE_PIXELS {
+        row.pixels = Some(EntryPixels { reference: reference_png.clone(), actual: actual_png.clone() });
+    }
+    row.images.reference = Some(add("ref", reference_png));
     row.images.actual = Some(add("actual", actual_png));
     let difference = difference_image(&codes_ref, &codes_actual, w, h);
     row.images.difference = Some(add("diff", difference.png_bytes_for(reference)?));
@@ -122,9 +125,6 @@ pub fn check_entry(
     let title = ("FLIP error", Metric::Flip.unit());
     let flip = heat_map_zoomed(&errors, (w, h), k, Scale::Magnitude { max: 1.0 }, title, &labels);
     row.images.flip = Some(add("flip", flip.png_bytes_for(reference)?));
-    if (w * h) as usize <= MAX_PROBE_PIXELS {
-        row.pixels = Some(EntryPixels { width: w, height: h, reference: codes_ref, actual: codes_actual });
-    }
     Ok(row)
 }
 

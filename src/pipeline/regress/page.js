@@ -7,13 +7,24 @@
   const $$ = (sel, root = document) => Array.from(root.querySelectorAll(sel));
   const pixels = JSON.parse($("#pixels").textContent || "{}");
   const decoded = {};
+  // Both images' RGBA codes, decoded from the page's data URLs on first use
+  // (a promise; null when the page carries none for this entry).
   const codes = (place) => {
-    const p = pixels[place];
-    if (!p) return null;
-    if (!decoded[place]) {
-      const bytes = (s) => Uint8Array.from(atob(s), (c) => c.charCodeAt(0));
-      decoded[place] = { w: p.w, h: p.h, reference: bytes(p.reference), actual: bytes(p.actual) };
-    }
+    if (!(place in pixels)) return Promise.resolve(null);
+    const read = (url) => new Promise((done, failed) => {
+      const img = new Image();
+      img.onload = () => {
+        const canvas = document.createElement("canvas");
+        canvas.width = img.naturalWidth; canvas.height = img.naturalHeight;
+        const context = canvas.getContext("2d");
+        context.drawImage(img, 0, 0);
+        done(context.getImageData(0, 0, canvas.width, canvas.height).data);
+      };
+      img.onerror = failed;
+      img.src = url;
+    });
+    decoded[place] ??= Promise.all([read(pixels[place].reference), read(pixels[place].actual)])
+      .then(([reference, actual]) => ({ reference, actual }));
     return decoded[place];
   };
   const toLinear = (c) => { const v = c / 255; return v <= 0.04045 ? v / 12.92 : Math.pow((v + 0.055) / 1.055, 2.4); };
@@ -76,7 +87,7 @@
   // One entry's images.
   function setUp(viewer) {
     const place = viewer.dataset.place, w = +viewer.dataset.w, h = +viewer.dataset.h;
-    const data = codes(place);
+    const hasData = place in pixels;
     const probe = $(".probe", viewer), amp = $(".amp", viewer), zoom = $(".zoom", viewer);
     const views = $$(".view", viewer), tabs = $$(".tabs button", viewer);
     const flicker = $(".flicker", viewer), flickLabel = $(".flick-label", viewer);
@@ -119,29 +130,31 @@
     box.addEventListener("pointermove", drag);
 
     const diffImage = $("img[data-role=difference]", viewer), ampValue = $(".amp-value", viewer);
-    api.amplify = (k) => {
+    api.amplify = async (k) => {
       amp.value = String(k);
       ampValue.textContent = k;
+      const data = await codes(place);
       if (!data) return;
       const canvas = document.createElement("canvas");
       canvas.width = w; canvas.height = h;
       const context = canvas.getContext("2d"), out = context.createImageData(w, h);
-      for (let i = 0, j = 0; i < w * h * 3; i += 3, j += 4) {
-        for (let c = 0; c < 3; c++) out.data[j + c] = Math.min(255, Math.abs(data.actual[i + c] - data.reference[i + c]) * k);
-        out.data[j + 3] = 255;
+      for (let i = 0; i < w * h * 4; i += 4) {
+        for (let c = 0; c < 3; c++) out.data[i + c] = Math.min(255, Math.abs(data.actual[i + c] - data.reference[i + c]) * k);
+        out.data[i + 3] = 255;
       }
       context.putImageData(out, 0, 0);
       diffImage.src = canvas.toDataURL("image/png");
     };
-    if (data) amp.addEventListener("change", () => api.amplify(+amp.value));
+    if (hasData) amp.addEventListener("change", () => api.amplify(+amp.value));
     else { amp.disabled = true; amp.title = "this image is too large for the page to amplify"; }
 
-    api.probeAt = (img, clientX, clientY) => {
+    api.probeAt = async (img, clientX, clientY) => {
       const r = img.getBoundingClientRect();
       const x = Math.floor(((clientX - r.left) / r.width) * w), y = Math.floor(((clientY - r.top) / r.height) * h);
       if (x < 0 || y < 0 || x >= w || y >= h) return;
+      const data = await codes(place);
       if (!data) { probe.textContent = `(${x}, ${y})`; return; }
-      const i = 3 * (y * w + x);
+      const i = 4 * (y * w + x);
       const triple = (a) => [a[i], a[i + 1], a[i + 2]];
       const [ref, act] = [triple(data.reference), triple(data.actual)];
       const linear = (t) => t.map((c) => toLinear(c).toFixed(4)).join(" ");
@@ -156,7 +169,7 @@
     viewer.api = api;
     return api;
   }
-  const viewers = $$(".viewer").map(setUp);
+  $$(".viewer").forEach(setUp);
 
   // F flicks every flick view on screen.
   document.addEventListener("keydown", (e) => {
@@ -166,10 +179,15 @@
   });
 
   applyFilter();
-  if (new URLSearchParams(location.search).has("selftest")) window.addEventListener("load", () => selftest(viewers));
+  if (new URLSearchParams(location.search).has("selftest")) window.addEventListener("load", selftest);
+  // How long the page took to load, for the benchmark that times it.
+  window.addEventListener("load", () => {
+    const timing = performance.getEntriesByType("navigation")[0];
+    if (timing) document.body.dataset.loadMs = Math.round(timing.loadEventStart);
+  });
 
   // Exercises the controls as a person would and writes what failed into #selftest.
-  function selftest(viewers) {
+  async function selftest() {
     const problems = [];
     const check = (ok, what) => { if (!ok) problems.push(what); };
     const v = $(".viewer");
@@ -190,13 +208,14 @@
       check($(".swipe-top", v).style.clipPath === "inset(0px 70% 0px 0px)", `the swipe divides at 30%: ${$(".swipe-top", v).style.clipPath}`);
       api.show("side");
       const diff = $("img[data-role=difference]", v);
-      api.amplify(1);
+      await api.amplify(1);
       const once = diff.src;
-      api.amplify(64);
+      await api.amplify(64);
       check(diff.src.startsWith("data:image/png") && diff.src !== once, "the difference amplifies");
       const img = $("img[data-role=reference]", v), r = img.getBoundingClientRect();
-      img.dispatchEvent(new MouseEvent("mousemove", { clientX: r.left + 1, clientY: r.top + 1, bubbles: true }));
-      check($(".probe", v).textContent.startsWith("(0, 0)  reference"), `the probe reads pixel (0, 0): ${$(".probe", v).textContent}`);
+      await api.probeAt(img, r.left + 1, r.top + 1);
+      const probed = $(".probe", v).textContent;
+      check(probed.startsWith("(0, 0)  reference"), `the probe reads pixel (0, 0): ${probed}`);
       api.zoom(7);
       check(img.width === 7 * +v.dataset.w, "the zoom scales the images");
     }

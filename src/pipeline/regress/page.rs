@@ -274,7 +274,7 @@ fn images(page: &mut String, row: &RegressRow) {
     );
     let figure = |image: String, caption: &str| format!("<figure>{image}<figcaption>{caption}</figcaption></figure>");
     let map = |file: &Option<String>, caption: &str| {
-        let image = |f: &String| format!("<img class=map src=\"{}\" alt=\"{caption}\">", escape(f));
+        let image = |f: &String| format!("<img class=map src=\"{}\" alt=\"{caption}\" loading=lazy>", escape(f));
         file.as_ref().map_or(String::new(), |f| figure(image(f), caption))
     };
     let difference = i.difference.as_ref().map_or(String::new(), |f| img.px(f, "difference", ""));
@@ -314,25 +314,22 @@ impl Img {
     }
 
     fn px_escaped(&self, file: &str, role: &str, classes: &str) -> String {
-        format!("<img class=\"px{classes}\" data-role={role} src=\"{file}\" {} alt=\"{role}\">", self.size)
+        format!("<img class=\"px{classes}\" data-role={role} src=\"{file}\" {} alt=\"{role}\" loading=lazy>", self.size)
     }
 }
 
-/// Both images' codes of each entry that differs, base64 in a JSON block the
-/// page's script reads (the images themselves cannot be read back from a
-/// page opened from disk).
+/// Both images of each entry that differs, as PNG data URLs in a JSON block
+/// the page's script decodes on first use (images from data URLs can be read
+/// back; the image files of a page opened from disk cannot).
 fn pixel_data(page: &mut String, summary: &RegressSummary) {
     let b64 = base64::engine::general_purpose::STANDARD;
+    let url = |png: &[u8]| format!("\"data:image/png;base64,{}\"", b64.encode(png));
     let entries: Vec<String> = summary
         .entries
         .iter()
         .filter_map(|r| {
             let p = r.pixels.as_ref()?;
-            let (a, b) = (b64.encode(&p.reference), b64.encode(&p.actual));
-            Some(format!(
-                "\"{}\":{{\"w\":{},\"h\":{},\"reference\":\"{a}\",\"actual\":\"{b}\"}}",
-                r.place, p.width, p.height
-            ))
+            Some(format!("\"{}\":{{\"reference\":{},\"actual\":{}}}", r.place, url(&p.reference), url(&p.actual)))
         })
         .collect();
     let _ = writeln!(page, "<script type=application/json id=pixels>{{{}}}</script>", entries.join(","));

@@ -100,17 +100,14 @@ pub struct EntryImages {
     pub flip: Option<String>,
 }
 
-/// Both images' 8-bit sRGB codes (RGB, row-major), for the page's pixel
+/// Both images' PNG files, which the page carries as data (a page opened
+/// from disk cannot read back the pixels of its image files) for its pixel
 /// probe and its amplified difference.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EntryPixels {
-    /// Width.
-    pub width: u32,
-    /// Height.
-    pub height: u32,
-    /// The reference's codes.
+    /// The stored reference's PNG.
     pub reference: Vec<u8>,
-    /// The render's codes.
+    /// The render's PNG.
     pub actual: Vec<u8>,
 }
 
@@ -146,7 +143,7 @@ pub struct RegressRow {
     pub bless: String,
     /// Its images in the report.
     pub images: EntryImages,
-    /// Both images' codes (entries that differ, up to a size).
+    /// Both images' PNG files (entries that differ, up to a size).
     #[serde(skip)]
     pub pixels: Option<EntryPixels>,
 }
