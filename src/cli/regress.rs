@@ -21,7 +21,8 @@ pub struct RegressArgs {
     /// Directory holding `manifest.ron` and the reference PNGs.
     #[arg(long, default_value = "images/ref")]
     pub refs: PathBuf,
-    /// Rewrite every reference from the current renders instead of comparing.
+    /// Rewrite the selected references (every one, or those `--entry`,
+    /// `--filter` or `--shard` select) from the current renders instead of comparing.
     #[arg(long)]
     pub bless: bool,
     /// Directory for the report: index.html (open it in a browser),
@@ -86,7 +87,9 @@ pub fn run(a: &RegressArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     let (failed, n) = (summary.failed(), summary.entries.len());
-    eprintln!("{} of {n} references pass; report in {}", n - failed, a.report.display());
+    let warned =
+        if summary.counts.warned > 0 { format!(" ({} with warnings)", summary.counts.warned) } else { String::new() };
+    eprintln!("{} of {n} references pass{warned}; report: {}", n - failed, a.report.join("index.html").display());
     anyhow::ensure!(failed == 0, "{failed} of {n} references failed");
     Ok(())
 }

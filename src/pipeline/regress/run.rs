@@ -28,9 +28,11 @@ pub struct RegressSettings {
     pub scenes: PathBuf,
     /// Directory holding `manifest.ron` and the reference PNGs.
     pub refs: PathBuf,
-    /// Rewrite every reference from the current renders instead of comparing.
+    /// Rewrite the selected references (every one, or those `--entry`,
+    /// `--filter` or `--shard` select) from the current renders instead of comparing.
     pub bless: bool,
-    /// Directory for actual images, heat maps of failures and index.html.
+    /// Directory for the report: its page, `summary.json` and the images of
+    /// the entries that differ.
     pub report: PathBuf,
     /// Only the entries whose reference name contains this.
     pub filter: Option<String>,
@@ -129,8 +131,7 @@ pub fn regress(settings: &RegressSettings, progress: &dyn Progress, log: &dyn Fn
             if let Some(dir) = reference.parent() {
                 create_folder(dir)?;
             }
-            actual.save_png(&reference)?;
-            log(&format!("blessed {}", reference.display()));
+            files.add(&reference, actual.png_bytes_for(&reference)?);
             blessed.push(reference);
             continue;
         }
@@ -140,7 +141,27 @@ pub fn regress(settings: &RegressSettings, progress: &dyn Progress, log: &dyn Fn
         rows.push(row);
     }
     progress.update("regression entries", n, n);
-    let run = RunFacts {
+    let run = run_facts(settings, date, started);
+    let mut summary = RegressSummary::new(run, rows, manifest.entries.len() - entries.len());
+    if let Some(path) = &settings.junit {
+        files.add(path, junit_xml("blobtrace regress", &summary.entries).into_bytes());
+    }
+    if settings.bless {
+        // Every reference at once: a render that fails blesses none.
+        files.commit()?;
+        blessed.iter().for_each(|r| log(&format!("blessed {}", r.display())));
+        summary.blessed = blessed;
+    } else {
+        files.add(settings.report.join("index.html"), report_page(&summary).into_bytes());
+        files.add(settings.report.join("summary.json"), summary.json().into_bytes());
+        files.commit_replacing(&settings.report, is_entry_image)?;
+    }
+    Ok(summary)
+}
+
+/// The run's own facts, for the report: `date` when it started, `started` to time it.
+fn run_facts(settings: &RegressSettings, date: String, started: Instant) -> RunFacts {
+    RunFacts {
         command: settings.command.iter().map(|a| shell_quote(a)).collect::<Vec<_>>().join(" "),
         scenes: settings.scenes.display().to_string(),
         refs: settings.refs.display().to_string(),
@@ -149,20 +170,7 @@ pub fn regress(settings: &RegressSettings, progress: &dyn Progress, log: &dyn Fn
         date,
         simd_width: crate::field::sum_lanes(),
         seconds: started.elapsed().as_secs_f64(),
-    };
-    let mut summary = RegressSummary::new(run, rows, manifest.entries.len() - entries.len());
-    if let Some(path) = &settings.junit {
-        files.add(path, junit_xml("blobtrace regress", &summary.entries).into_bytes());
     }
-    if settings.bless {
-        files.commit()?;
-        summary.blessed = blessed;
-    } else {
-        files.add(settings.report.join("index.html"), report_page(&summary).into_bytes());
-        files.add(settings.report.join("summary.json"), summary.json().into_bytes());
-        files.commit_replacing(&settings.report, is_entry_image)?;
-    }
-    Ok(summary)
 }
 
 fn create_folder(dir: &Path) -> Result<()> {
