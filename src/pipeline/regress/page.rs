@@ -267,8 +267,8 @@ fn images(page: &mut String, row: &RegressRow) {
          <div class=tools><span class=tabs><button type=button data-view=side class=on>side by side</button>\
          <button type=button data-view=flick>flick</button><button type=button data-view=swipe>swipe</button></span>\
          <label>zoom <input class=zoom type=range min=1 max=16 value={zoom}></label>\
-         <label>difference × <select class=amp>{}</select></label>\
-         <output class=probe>hover a pixel for its values</output></div>",
+         <label>difference × <select class=amp>{}</select></label></div>\
+         <output class=probe>hover a pixel for its values</output>",
         row.place,
         amplifications.concat(),
     );
