@@ -16,23 +16,31 @@ pub(super) struct Lists {
 
 impl Lists {
     /// The leaves reaching each cell of `grid`, in leaf order (a counting sort
-    /// of (cell, leaf) pairs; the cells each leaf reaches are found in parallel).
+    /// of (cell, leaf) pairs; the cells each leaf reaches are found in
+    /// parallel, a run of leaves into one flat list, not one list a leaf).
     pub(super) fn bucket(grid: UniformGrid, leaves: &[IndexedLeaf]) -> Self {
-        let reached: Vec<Vec<u32>> = leaves.par_iter().map(|leaf| reached_cells(&grid, leaf)).collect();
+        let runs: Vec<Run> = leaves.par_chunks(RUN).map(|run| reached_by_run(&grid, run)).collect();
         let cells = grid.cell_count();
         let mut counts = vec![0u32; cells + 1];
-        for &c in reached.iter().flatten() {
-            counts[c as usize + 1] += 1;
+        for run in &runs {
+            for &c in &run.cells {
+                counts[c as usize + 1] += 1;
+            }
         }
         for i in 0..cells {
             counts[i + 1] += counts[i];
         }
         let mut cursor = counts.clone();
         let mut items = vec![0u32; counts[cells] as usize];
-        for (i, leaf_cells) in reached.iter().enumerate() {
-            for &c in leaf_cells {
-                items[cursor[c as usize] as usize] = i as u32;
-                cursor[c as usize] += 1;
+        for (r, run) in runs.iter().enumerate() {
+            let mut start = 0;
+            for (k, &end) in run.ends.iter().enumerate() {
+                let leaf = (r * RUN + k) as u32;
+                for &c in &run.cells[start..end as usize] {
+                    items[cursor[c as usize] as usize] = leaf;
+                    cursor[c as usize] += 1;
+                }
+                start = end as usize;
             }
         }
         Self { grid, offsets: counts, items }
@@ -43,11 +51,33 @@ impl Lists {
     }
 }
 
-/// The cells of `grid` where `leaf` can be non-zero: those its box overlaps,
-/// less, for a primitive, those wholly outside its support (a ball's box holds
-/// twice the ball, so a dense model's cells list about half as many leaves).
-fn reached_cells(grid: &UniformGrid, leaf: &IndexedLeaf) -> Vec<u32> {
-    let mut cells = Vec::with_capacity(grid.cells_overlapped(&leaf.bounds));
+/// Leaves whose reached cells one task lists together.
+const RUN: usize = 4096;
+
+/// The cells a run of leaves reaches: each leaf's in turn, in one list,
+/// and where each leaf's end.
+struct Run {
+    cells: Vec<u32>,
+    ends: Vec<u32>,
+}
+
+fn reached_by_run(grid: &UniformGrid, run: &[IndexedLeaf]) -> Run {
+    let mut cells = vec![];
+    let ends = run
+        .iter()
+        .map(|leaf| {
+            reached_cells(grid, leaf, &mut cells);
+            cells.len() as u32
+        })
+        .collect();
+    Run { cells, ends }
+}
+
+/// Adds to `cells` the cells of `grid` where `leaf` can be non-zero: those
+/// its box overlaps, less, for a primitive, those wholly outside its support
+/// (a ball's box holds twice the ball, so a dense model's cells list about
+/// half as many leaves).
+fn reached_cells(grid: &UniformGrid, leaf: &IndexedLeaf, cells: &mut Vec<u32>) {
     grid.for_each_cell_at(&leaf.bounds, |i, c| {
         let reached = match &leaf.leaf {
             // A hair wider than the support, against rounding in the value.
@@ -58,5 +88,4 @@ fn reached_cells(grid: &UniformGrid, leaf: &IndexedLeaf) -> Vec<u32> {
             cells.push(c as u32);
         }
     });
-    cells
 }

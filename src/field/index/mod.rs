@@ -43,6 +43,19 @@ const SUPPORT_SLACK: f32 = 1.001;
 /// Most cells a grid may have, whatever the leaf count.
 const MAX_CELLS: usize = 1 << 22;
 
+/// Listings (a leaf in a cell's list) the cell lists may hold on average per
+/// leaf, once they hold more than [`FREE_LISTINGS`] in all. Where supports
+/// overlap many others (a dense particle cloud: each of a million supports
+/// meets about 90 others) cells an eighth of a leaf wide list each leaf
+/// about 380 times: 1.5 GB of lists for a million points. Wider cells there
+/// list each leaf fewer times and each cell a few more leaves.
+const MAX_LISTINGS_PER_LEAF: f32 = 48.0;
+
+/// Listings any model may have before [`MAX_LISTINGS_PER_LEAF`] applies (64 MB
+/// of lists), so models of thousands of leaves, Medusa's among them, keep
+/// the finest cells.
+const FREE_LISTINGS: f32 = (1 << 24) as f32;
+
 /// A leaf of a blend cluster: a primitive stored inline, or any other node.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Leaf {
@@ -295,8 +308,9 @@ impl BlendIndex {
     }
 }
 
-/// Half the median leaf size, so a leaf spans about three cells per axis and a
-/// cell lists few leaves that cannot reach the query; grown if the grid gets too big.
+/// An eighth of the median leaf size, so a cell lists few leaves that cannot
+/// reach the query; grown if the grid gets too big, or if its lists would
+/// list each leaf too many times (see [`MAX_LISTINGS_PER_LEAF`]).
 fn choose_cell_size(bounds: &Aabb, leaves: &[IndexedLeaf]) -> f32 {
     let mut sizes: Vec<f32> = leaves.iter().map(|l| l.bounds.size().max_element()).collect();
     sizes.sort_by(f32::total_cmp);
@@ -307,6 +321,17 @@ fn choose_cell_size(bounds: &Aabb, leaves: &[IndexedLeaf]) -> f32 {
     let count = |c: f32| (extent / c).ceil().max(Vec3A::ONE).element_product();
     while count(cell) > limit {
         cell *= (count(cell) / limit).cbrt().max(1.01);
+    }
+    // A ball of radius r cells meets about 1 + 6r + 3πr² + 4πr³/3 cells: the
+    // volume of the ball grown by a cell (Steiner's formula), in cells.
+    let pi = std::f32::consts::PI;
+    let listings = |c: f32| {
+        let r = median / (2.0 * c);
+        leaves.len() as f32 * (1.0 + 6.0 * r + 3.0 * pi * r * r + 4.0 / 3.0 * pi * r * r * r)
+    };
+    let budget = FREE_LISTINGS.max(MAX_LISTINGS_PER_LEAF * leaves.len() as f32);
+    while listings(cell) > budget {
+        cell *= 1.05;
     }
     cell
 }

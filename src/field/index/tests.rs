@@ -225,3 +225,32 @@ fn cells_list_fewer_leaves_than_their_boxes_overlap() {
     let overlapped: usize = ix.leaves.iter().map(|l| ix.grid.cells_overlapped(&l.bounds)).sum();
     assert!(listed * 10 < overlapped * 8, "{listed} listings against {overlapped} overlapped cells");
 }
+
+/// `n` points of radius 2.25 on a jittered lattice of spacing `spacing`.
+fn point_leaves(n: usize, spacing: f32) -> Vec<IndexedLeaf> {
+    let side = (n as f32).cbrt().ceil() as usize;
+    (0..n)
+        .map(|i| {
+            let (x, y, z) = (i % side, i / side % side, i / (side * side));
+            let jitter = Vec3A::new((i as f32 * 0.37).sin(), (i as f32 * 0.71).cos(), (i as f32 * 0.23).sin()) * 0.2;
+            let center = Vec3A::new(x as f32, y as f32, z as f32) * spacing + jitter;
+            let p = Primitive::new(Skeleton::Point { center }, 2.25, 1.0, Kernel::Wyvill);
+            IndexedLeaf { bounds: p.bounds(), leaf: Leaf::Primitive(p), color: None }
+        })
+        .collect()
+}
+
+#[test]
+fn crowded_supports_widen_the_cells_so_the_lists_grow_with_the_leaves_not_their_overlap() {
+    let bounds = |leaves: &[IndexedLeaf]| leaves.iter().fold(Aabb::EMPTY, |b, l| b.union(&l.bounds));
+    // A few thousand leaves keep cells an eighth of a leaf wide, however they crowd.
+    let few = point_leaves(4096, 0.5);
+    assert_eq!(choose_cell_size(&bounds(&few), &few), CELL_PER_LEAF_SIZE * 4.5);
+    // 400,000 supports each meeting hundreds of others: at an eighth of a
+    // leaf, each would be listed about 380 times.
+    let crowded = point_leaves(400_000, 0.5);
+    let ix = BlendIndex::build(bounds(&crowded), crowded, |_, _| Interval::ZERO, |_, _| 0.0);
+    let per_leaf = ix.items.len() as f32 / ix.leaves.len() as f32;
+    assert!(per_leaf <= MAX_LISTINGS_PER_LEAF, "{per_leaf} listings a leaf");
+    assert!(per_leaf > MAX_LISTINGS_PER_LEAF / 3.0, "the cells stay as fine as the budget allows: {per_leaf}");
+}
