@@ -1854,3 +1854,31 @@ fn the_regress_report_describes_the_last_run_alone() {
     assert_eq!(std::fs::read_to_string(report.join("notes.txt")).unwrap(), "mine", "what is not the report's stays");
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn bench_scale_measures_each_point_set_in_its_own_process_and_plots_every_figure_against_the_count() {
+    let dir = scratch("bench-scale");
+    let plot = dir.join("scale.png");
+    let args = ["bench", "scale", "--points", "1000,3000", "--mesh-up-to", "1000", "--size", "64x64"];
+    let v = run_json(&[&args[..], &["--threads", "1", "-o", plot.to_str().unwrap(), "--json"]].concat());
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 4, "two models at two counts: {v}");
+    for row in rows {
+        assert_keys(row, &["model", "points", "load_seconds", "resident_mb", "peak_mb", "render_seconds", "tracer"]);
+        assert!(row["load_seconds"].as_f64().unwrap() > 0.0 && row["render_seconds"].as_f64().unwrap() > 0.0);
+        // Measured in a fresh process each: the peak is this set's, not the largest before it.
+        assert!(row["peak_mb"].as_f64().unwrap() < 400.0, "{row}");
+        let meshed = row["points"] == 1000;
+        assert_eq!(row["mesh"].is_array(), meshed, "{row}");
+        assert_eq!(row["mesh_skipped"].is_string(), !meshed, "{row}");
+    }
+    assert!(rows.iter().any(|r| r["model"] == "dense") && rows.iter().any(|r| r["model"] == "sparse"));
+    let beside: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(plot.with_extension("json")).unwrap()).unwrap();
+    assert_eq!(beside["rows"], v["rows"], "the JSON beside the plot holds the same figures");
+    let img = image::open(&plot).unwrap();
+    assert_eq!((img.width(), img.height()), (960, 2 * 320 + 24));
+    let bad = blobtrace(&["bench", "scale", "--points", "12"]);
+    assert_eq!(bad.status.code(), Some(64));
+    std::fs::remove_dir_all(dir).unwrap();
+}

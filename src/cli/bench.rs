@@ -10,8 +10,9 @@ use super::args::{CellsArg, TracerArg, check_output_file, parse_size, print_json
 use super::progress::Bars;
 use crate::bench::{
     CacheBenchReport, EditBenchReport, EditBenchSettings, EvalBenchReport, LookupCost, MeshBenchReport,
-    MeshBenchSettings, RenderBenchSettings, Seconds, ViewBenchReport, ViewBenchSettings, bench_cache, bench_edit,
-    bench_eval, bench_mesh, bench_view,
+    MeshBenchSettings, PointModel, RenderBenchSettings, ScaleBenchReport, ScaleBenchSettings, ScaleRow, Seconds,
+    ViewBenchReport, ViewBenchSettings, bench_cache, bench_edit, bench_eval, bench_mesh, bench_scale, bench_view,
+    measure_point_set,
 };
 use crate::frame::Size;
 use crate::pipeline::RenderReport;
@@ -34,6 +35,78 @@ pub enum BenchCommand {
     /// moves of the first named node and an edit script's frames, each kind's
     /// median and slowest frame time and the frame rate it allows.
     View(ViewBenchArgs),
+    /// Load time, resident memory, render and mesh time of point sets of 10³
+    /// points and up (sparse, and a dense cloud), with a log–log plot of each
+    /// against the count (PNG) and the figures as JSON beside it.
+    Scale(ScaleBenchArgs),
+}
+
+/// Options of `blobtrace bench scale`.
+#[derive(Debug, Args)]
+pub struct ScaleBenchArgs {
+    /// Point counts (each from 1,000 to 100,000,000; counts that would not fit in memory are skipped).
+    #[arg(long, value_delimiter = ',', default_value = "1000,10000,100000,1000000", value_parser = parse_count)]
+    pub points: Vec<usize>,
+    /// Point sets: sparse (the particles scene's density at any count), dense (a branching walk), or both.
+    #[arg(long, value_enum, default_value_t = ModelsArg::Both)]
+    pub model: ModelsArg,
+    /// Image size of the renders WIDTHxHEIGHT.
+    #[arg(long, value_parser = parse_size, default_value = "500x500")]
+    pub size: Size,
+    /// Lattice cell of the meshes, in model units (the particles' support radius is 2.25).
+    #[arg(long, default_value_t = 0.644, value_parser = parse_cell)]
+    pub mesh_cell: f32,
+    /// Mesh only point sets of at most this many points.
+    #[arg(long, default_value_t = 100_000)]
+    pub mesh_up_to: usize,
+    /// Where to write the plot (PNG); the JSON goes beside it.
+    #[arg(short, long, default_value = "scale.png")]
+    pub output: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+    /// Measure this one point set (MODEL:POINTS) in this process and print
+    /// its row as JSON: what `bench scale` runs once per point set.
+    #[arg(long, hide = true, value_parser = parse_one)]
+    pub one: Option<(PointModel, usize)>,
+}
+
+fn parse_one(s: &str) -> Result<(PointModel, usize), String> {
+    let (model, n) = s.split_once(':').ok_or_else(|| format!("expected MODEL:POINTS, got {s:?}"))?;
+    let model = match model {
+        "sparse" => PointModel::Sparse,
+        "dense" => PointModel::Dense,
+        _ => return Err(format!("no point set {model:?} (sparse or dense)")),
+    };
+    Ok((model, parse_count(n)?))
+}
+
+/// Which point sets `bench scale` measures.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum ModelsArg {
+    /// Chains at the particles scene's density.
+    Sparse,
+    /// One branching random walk.
+    Dense,
+    /// Both.
+    Both,
+}
+
+fn parse_count(s: &str) -> Result<usize, String> {
+    match s.trim().replace('_', "").parse::<f64>() {
+        Ok(n) if (1e3..=1e8).contains(&n) && n.fract() == 0.0 => Ok(n as usize),
+        _ => Err(format!("expected a whole number of points from 1000 to 100000000 (1e6 is fine), got {s:?}")),
+    }
+}
+
+fn parse_cell(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(c) if c.is_finite() && c > 0.0 => Ok(c),
+        _ => Err(format!("expected a positive cell size, got {s:?}")),
+    }
 }
 
 /// Options of `blobtrace bench view`.
@@ -168,7 +241,86 @@ pub fn run(c: &BenchCommand) -> anyhow::Result<()> {
             };
             emit(a.json, &bench_view(&settings)?, print_view)
         }
+        BenchCommand::Scale(a) => {
+            if let Some((model, n)) = a.one {
+                return print_json(&measure_point_set(&a.settings(), model, n)?);
+            }
+            check_output_file(&a.output, "png")?;
+            let run = |model, n| a.run_in_child(model, n);
+            let report = bench_scale(&a.settings(), &Bars::new(), &run)?;
+            emit(a.json, &report, print_scale)
+        }
     }
+}
+
+impl ScaleBenchArgs {
+    /// Measures one point set in a fresh process of this program, so its
+    /// memory figures start from nothing the sets before it left behind.
+    fn run_in_child(&self, model: PointModel, n: usize) -> crate::pipeline::Result<ScaleRow> {
+        let failed = |message: String| {
+            crate::pipeline::PipelineError::Unsuitable(format!("bench scale {}:{n}: {message}", model.name()))
+        };
+        let exe = std::env::current_exe().map_err(|e| failed(e.to_string()))?;
+        let mut child = std::process::Command::new(exe);
+        child.args(["bench", "scale", "--one", &format!("{}:{n}", model.name())]);
+        child.args(["--size", &self.size.to_string(), "--mesh-cell", &self.mesh_cell.to_string()]);
+        child.args(["--mesh-up-to", &self.mesh_up_to.to_string()]);
+        if let Some(t) = self.threads {
+            child.args(["--threads", &t.to_string()]);
+        }
+        let out = child.stderr(std::process::Stdio::inherit()).output().map_err(|e| failed(e.to_string()))?;
+        if !out.status.success() {
+            return Err(failed(format!("the measuring process exited with {}", out.status)));
+        }
+        serde_json::from_slice(&out.stdout).map_err(|e| failed(e.to_string()))
+    }
+
+    fn settings(&self) -> ScaleBenchSettings {
+        let mut counts = self.points.clone();
+        counts.sort_unstable();
+        counts.dedup();
+        let models = match self.model {
+            ModelsArg::Sparse => vec![PointModel::Sparse],
+            ModelsArg::Dense => vec![PointModel::Dense],
+            ModelsArg::Both => vec![PointModel::Sparse, PointModel::Dense],
+        };
+        ScaleBenchSettings {
+            counts,
+            models,
+            size: self.size,
+            mesh_cell: self.mesh_cell,
+            mesh_up_to: self.mesh_up_to,
+            plot: self.output.clone(),
+            threads: self.threads,
+        }
+    }
+}
+
+fn print_scale(r: &ScaleBenchReport) {
+    println!("point sets of radius 2.25, {} threads; renders {}, meshes at cell {}", r.threads, r.size, r.mesh_cell);
+    println!(
+        "  {:<7} {:>10} {:>9} {:>11} {:>9} {:>9} {:>8} {:>9} {:>11}",
+        "model", "points", "load s", "resident MB", "peak MB", "render s", "tracer", "mesh s", "triangles"
+    );
+    let mb = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.0}"));
+    for row in &r.rows {
+        println!(
+            "  {:<7} {:>10} {:>9.3} {:>11} {:>9} {:>9.3} {:>8} {:>9} {:>11}",
+            row.model.name(),
+            row.points,
+            row.load_seconds,
+            mb(row.resident_mb),
+            mb(row.peak_mb),
+            row.render_seconds,
+            row.tracer,
+            row.mesh_seconds.map_or("-".into(), |s| format!("{s:.3}")),
+            row.mesh.map_or("-".into(), |m| m.1.to_string()),
+        );
+    }
+    for why in &r.stopped {
+        println!("  skipped {why}");
+    }
+    println!("plot: {} (JSON beside it)", r.plot);
 }
 
 fn print_view(r: &ViewBenchReport) {

@@ -1,5 +1,5 @@
 //! The drawing stage: 8-bit RGB images with text, heat maps with their colour
-//! keys and printed scales, line plots, histograms, panels of titled images,
+//! keys and printed scales, line plots, log–log scaling plots, histograms, panels of titled images,
 //! and vertex colours on a heat map's scale. It draws what other stages
 //! measure and measures nothing itself.
 
@@ -8,6 +8,7 @@ mod histogram;
 mod panel;
 mod plot;
 mod rgb8_image;
+mod scaling_plot;
 mod vertex_colors;
 
 pub use heatmap::{
@@ -18,4 +19,5 @@ pub use histogram::histogram_plot;
 pub use panel::{frame_image, panel};
 pub use plot::line_plot;
 pub use rgb8_image::{CHAR_WIDTH, LINE_HEIGHT, Rgb8Image};
+pub use scaling_plot::{Panel, scaling_plot};
 pub use vertex_colors::error_colors;

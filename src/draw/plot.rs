@@ -116,7 +116,7 @@ pub fn line_plot(title: &str, unit: &str, series: &[(&str, &[f64])], width: u32,
 }
 
 /// A line from `a` to `b`, two pixels thick.
-fn line(img: &mut Rgb8Image, a: (i64, i64), b: (i64, i64), color: [u8; 3]) {
+pub(super) fn line(img: &mut Rgb8Image, a: (i64, i64), b: (i64, i64), color: [u8; 3]) {
     let n = (b.0 - a.0).abs().max((b.1 - a.1).abs()).max(1);
     for s in 0..=n {
         let x = a.0 + (b.0 - a.0) * s / n;
