@@ -233,7 +233,7 @@ fn bad_scenes_give_positions_and_no_panic() {
     assert_rejected("too-deep", &GOOD.replace(point, &nested), None, "nests deeper than");
     let many = |node: &str, n: usize| GOOD.replace(point, &vec![node; n].join(", "));
     let spline = "SplinePoints(control: [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)], count: 1000000, radius: 0.01)";
-    assert_rejected("too-many-primitives", &many(spline, 2), None, "2000000 primitives");
+    assert_rejected("too-many-primitives", &many(spline, 11), None, "11000000 primitives");
     let cache = format!("Cache(res: 1024, child: {point})");
     assert_rejected("too-many-caches", &many(&cache, 30), None, "block tables");
     assert_rejected("empty-name", &GOOD.replace(point, &format!("Named(\"\", {point})")), Some((5, 16)), "empty");

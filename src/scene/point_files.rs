@@ -39,9 +39,9 @@ impl PartialEq for LoadedCloud {
     }
 }
 
-/// The largest particle file read: a million points (the most a scene
-/// builds) of text lines up to about 256 bytes each.
-pub const MAX_FILE_BYTES: u64 = 256 << 20;
+/// The largest particle file read: ten million points (the most a scene
+/// builds) of text lines up to about 100 bytes each.
+pub const MAX_FILE_BYTES: u64 = 1 << 30;
 
 /// Reads the particle file at `path`, choosing the format by its extension;
 /// a file larger than [`MAX_FILE_BYTES`] is refused before it is read.
@@ -50,7 +50,7 @@ pub fn read_points(path: &Path) -> Result<PointCloud, String> {
     let size = std::fs::metadata(path).map_err(|e| e.to_string())?.len();
     if size > MAX_FILE_BYTES {
         return Err(format!(
-            "{} MB, more than the {} MB a particle file may hold (the most a scene builds is a million points)",
+            "{} MB, more than the {} MB a particle file may hold (the most a scene builds is ten million points)",
             size >> 20,
             MAX_FILE_BYTES >> 20
         ));
