@@ -11,7 +11,7 @@ use blobtrace::mesh::quality::{ComponentSummary, Components, Edges, MeshQuality,
 use blobtrace::mesh::repair::{drop_small_components, fix_normals, snap_to_corners};
 use blobtrace::pipeline::{MeshRepair, PolygonizeSettings, Silent, polygonize};
 use blobtrace::scene::Scene;
-use common::blobtrace;
+use common::{blobtrace, scratch};
 use glam::Vec3;
 
 /// A mesh from positions and triangles, with normals from the faces.
@@ -92,7 +92,7 @@ fn a_cube_and_a_small_tetrahedron_are_two_closed_pieces_one_an_island() {
     assert_eq!((big.triangles, big.vertices, big.edges, big.euler_characteristic, big.genus), (12, 8, 18, 2, Some(0)));
     assert_eq!((small.triangles, small.vertices, small.edges, small.euler_characteristic), (4, 4, 6, 2));
     assert_eq!(q.topology.euler_characteristic, 4);
-    assert_eq!((q.normals.against_faces, q.self_intersections), (0, 0));
+    assert_eq!((q.normals.against_faces, q.self_intersections), (0, Some(0)));
 }
 
 #[test]
@@ -164,7 +164,7 @@ fn triangles_cutting_through_each_other_are_found_and_neighbours_are_not() {
     let pairs = self_intersections(&m.positions, &m.triangles);
     assert_eq!(pairs.len(), 2, "through the bottom and the top: {pairs:?}");
     assert_eq!(pairs, [(0, 12), (3, 12)], "one half of the bottom and one of the top");
-    assert_eq!(MeshQuality::of(&m).self_intersections, 2);
+    assert_eq!(MeshQuality::of(&m).self_intersections, Some(2));
     assert!(self_intersections(&torus(12).positions, &torus(12).triangles).is_empty());
 }
 
@@ -218,8 +218,9 @@ fn the_pipeline_reports_what_each_remedy_did() {
     assert!(snap.snap.corners > 0 && snap.max_distance_cells[1] <= 0.11, "{snap:?}");
     assert!(snap.min_angle_degrees[1] > snap.min_angle_degrees[0], "{snap:?}");
     assert!(repairs.dropped_components.is_some());
-    assert!(report.quality.components.largest.iter().all(|c| c.triangles >= 50));
-    assert!(report.quality.watertight && report.quality.normals.against_faces == 0, "{:?}", report.quality);
+    let quality = report.quality.as_ref().expect("the full report by default");
+    assert!(quality.components.largest.iter().all(|c| c.triangles >= 50));
+    assert!(quality.watertight && quality.normals.against_faces == 0, "{quality:?}");
     assert_eq!(report.triangles, m.triangles.len());
 }
 
@@ -274,7 +275,7 @@ fn pieces_of_real_meshes_match_a_flood_fill() {
         polygonize(&scene.model, EvalMode::Indexed, &PolygonizeSettings { res: 64, ..Default::default() }, &Silent)
             .unwrap();
     let expected = pieces_by_flood_fill(&m);
-    let summary = &report.quality.components;
+    let summary = &report.quality.as_ref().expect("the full report by default").components;
     assert!(expected.len() > 1, "the scene has islands at res 64");
     assert_eq!(summary.count, expected.len());
     let mut listed: Vec<(usize, i64)> =
@@ -320,4 +321,29 @@ fn mesh_json_carries_the_quality_report_and_remedies_are_checked() {
         assert_eq!(out.status.code(), Some(64), "{all:?}: {err}");
         assert!(err.contains(flag), "{all:?}: {err}");
     }
+}
+
+#[test]
+fn the_quality_report_can_keep_its_cheap_figures_or_be_skipped_and_the_mesh_is_the_same() {
+    let dir = scratch("mesh-quality-levels");
+    let run = |level: &str| {
+        let out_path = dir.join(format!("{level}.ply"));
+        let args = ["mesh", "scenes/pair.ron", "--res", "40", "--quality", level, "-o", out_path.to_str().unwrap()];
+        let out = blobtrace(&[&args[..], &["--json"]].concat());
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        (v, std::fs::read(out_path).unwrap())
+    };
+    let ((full, full_mesh), (summary, summary_mesh), (off, off_mesh)) = (run("full"), run("summary"), run("off"));
+    assert!(full_mesh == summary_mesh && full_mesh == off_mesh, "the report never changes the mesh");
+    assert_eq!(full["quality"]["self_intersections"], 0);
+    assert!(summary["quality"]["self_intersections"].is_null(), "summary does not look for them");
+    for key in ["topology", "watertight", "components", "shape", "normals"] {
+        assert_eq!(summary["quality"][key], full["quality"][key], "{key}");
+    }
+    assert!(off.get("quality").is_none() && off["closed_manifold"] == full["closed_manifold"]);
+    assert_eq!(full["closed_manifold"], true);
+    let bad = blobtrace(&["mesh", "scenes/pair.ron", "--quality", "some"]);
+    assert_eq!(bad.status.code(), Some(64));
+    std::fs::remove_dir_all(dir).unwrap();
 }

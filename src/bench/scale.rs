@@ -19,6 +19,7 @@ use super::point_sets::{PointModel, ply_bytes, scene_text};
 use crate::draw::{Panel, scaling_plot};
 use crate::field::EvalMode;
 use crate::frame::Size;
+use crate::mesh::quality::QualityLevel;
 use crate::output::FileSet;
 use crate::pipeline::{
     MAX_RES, PipelineError, PolygonizeSettings, Result, Silent, polygonize, render_field, with_threads,
@@ -180,7 +181,9 @@ fn measure(settings: &ScaleBenchSettings, scratch: &Path, model: PointModel, n: 
         return Ok(row);
     }
     let res = (scene.model.bounds().size().max_element() / settings.mesh_cell).ceil() as u32;
-    let mesh_settings = PolygonizeSettings { res: res.clamp(1, MAX_RES), ..PolygonizeSettings::default() };
+    // The quality report would cost several times the meshing: not measured here.
+    let quality = QualityLevel::Off;
+    let mesh_settings = PolygonizeSettings { res: res.clamp(1, MAX_RES), quality, ..PolygonizeSettings::default() };
     match polygonize(&scene.model, EvalMode::Indexed, &mesh_settings, &Silent) {
         Ok((_, report)) => {
             row.mesh_seconds = Some(report.seconds);

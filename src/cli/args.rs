@@ -11,6 +11,7 @@ use serde::Serialize;
 use super::exit::UsageError;
 use crate::field::{EvalMode, Model, TracerChoice};
 use crate::frame::Size;
+use crate::mesh::quality::QualityLevel;
 use crate::mesh::{CellShape, VertexPlacement};
 use crate::pipeline::{self, EvalSettings, ExactLookup, FieldChoice, MeshRepair, PolygonizeSettings};
 use crate::scene::{Scene, ViewOverrides};
@@ -158,6 +159,7 @@ impl LatticeArgs {
             },
             refine: 0,
             repair: MeshRepair::default(),
+            quality: QualityLevel::Full,
         }
     }
 }

@@ -123,5 +123,7 @@ fn print_summary(dir: &std::path::Path, r: &CompareReport) {
         r.normal_error_deg.p99,
         r.mesh.mesh.triangles
     );
-    eprintln!("mesh quality: {}", r.mesh.mesh.quality.headline());
+    if let Some(quality) = &r.mesh.mesh.quality {
+        eprintln!("mesh quality: {}", quality.headline());
+    }
 }

@@ -10,6 +10,7 @@ use super::args::{
 };
 use super::exit::UsageError;
 use super::progress::Bars;
+use crate::mesh::quality::QualityLevel;
 use crate::mesh::{MeshFormat, write_mesh};
 use crate::pipeline::{MeshReport, PolygonizeSettings, RepairReport, color_by_cache_error, polygonize};
 use crate::scene::Scene;
@@ -42,6 +43,31 @@ pub struct MeshArgs {
     /// Print one JSON object of statistics on stdout instead of a summary line.
     #[arg(long)]
     pub json: bool,
+    /// The quality report: full (every figure, self-intersections included),
+    /// summary (all but the self-intersections, which cost the most), or off.
+    #[arg(long, value_enum, default_value_t = QualityArg::Full)]
+    pub quality: QualityArg,
+}
+
+/// How much of the quality report `mesh` computes.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum QualityArg {
+    /// No report (watertightness is still reported).
+    Off,
+    /// Pieces, watertightness, genus, triangle shape and normals.
+    Summary,
+    /// Every figure, self-intersections included.
+    Full,
+}
+
+impl From<QualityArg> for QualityLevel {
+    fn from(q: QualityArg) -> Self {
+        match q {
+            QualityArg::Off => QualityLevel::Off,
+            QualityArg::Summary => QualityLevel::Summary,
+            QualityArg::Full => QualityLevel::Full,
+        }
+    }
 }
 
 /// Colouring a mesh by the caches' reconstruction error.
@@ -72,7 +98,8 @@ pub fn run(a: &MeshArgs) -> anyhow::Result<()> {
     check_output_dir(&output)?;
     let bars = Bars::new();
     let (mesh, report) = with_threads(a.threads, || -> anyhow::Result<_> {
-        let settings = PolygonizeSettings { repair: a.repair.repair(), ..a.polygonize.settings() };
+        let settings =
+            PolygonizeSettings { repair: a.repair.repair(), quality: a.quality.into(), ..a.polygonize.settings() };
         let (mut mesh, mut report) = polygonize(&scene.model, mode, &settings, &bars)?;
         if let Some(scale) = a.error.scale() {
             color_by_cache_error(&mut scene.model, &mut mesh, scale, &mut report)?;
@@ -104,7 +131,9 @@ fn print_summary(output: &std::path::Path, report: &MeshReport) {
         report.seconds,
     );
 
-    eprintln!("quality: {}", report.quality.headline());
+    if let Some(quality) = &report.quality {
+        eprintln!("quality: {}", quality.headline());
+    }
     if let Some(repairs) = &report.repairs {
         print_repairs(repairs);
     }

@@ -399,7 +399,12 @@ impl Comparison {
         let mut items = vec![
             ("field (ray traced)".to_string(), frame_image(&self.ray)),
             (
-                format!("mesh, res {} ({} triangles): {}", mesh.res, mesh.triangles, mesh.quality.headline()),
+                format!(
+                    "mesh, res {} ({} triangles): {}",
+                    mesh.res,
+                    mesh.triangles,
+                    mesh.quality.as_ref().map_or("quality not checked".into(), |q| q.headline())
+                ),
                 frame_image(&self.mesh),
             ),
         ];

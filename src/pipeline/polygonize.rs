@@ -13,7 +13,8 @@ use crate::compare::{CacheErrorStats, cache_error_at, cache_error_stats};
 use crate::draw::error_colors;
 use crate::field::{EvalMode, Model, ModelField};
 use crate::mesh::{
-    CellShape, Lattice, Mesh, PolygonizeOptions, PolygonizeStats, Polygonizer, VertexPlacement, quality::MeshQuality,
+    CellShape, Lattice, Mesh, PolygonizeOptions, PolygonizeStats, Polygonizer, VertexPlacement,
+    quality::{MeshQuality, QualityLevel},
     skeleton_seeds,
 };
 use crate::progress::{Progress, Silent, stage};
@@ -32,6 +33,8 @@ pub struct PolygonizeSettings {
     pub refine: u32,
     /// Remedies applied to the mesh once it is made (none by default).
     pub repair: MeshRepair,
+    /// How much of the quality report to compute (all of it by default).
+    pub quality: QualityLevel,
 }
 
 impl Default for PolygonizeSettings {
@@ -42,6 +45,7 @@ impl Default for PolygonizeSettings {
             vertex: VertexPlacement::default(),
             refine: 0,
             repair: MeshRepair::default(),
+            quality: QualityLevel::Full,
         }
     }
 }
@@ -169,8 +173,10 @@ pub struct MeshReport {
     /// Why the mesh may not be what was meant: it has no triangles.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub warning: Option<String>,
-    /// Pieces, watertightness, genus, triangle shape, normals, self-intersections.
-    pub quality: MeshQuality,
+    /// Pieces, watertightness, genus, triangle shape, normals, self-intersections
+    /// (as far as the settings' quality level asks; none when it is off).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub quality: Option<MeshQuality>,
     /// Wall-clock seconds measuring `quality` (not in `seconds`).
     pub quality_seconds: f64,
     /// What the remedies asked for did (after `seconds`, before `quality`).
@@ -233,8 +239,11 @@ fn report(
 ) -> MeshReport {
     let seconds = counts.seconds;
     let start = Instant::now();
-    let quality = stage(progress, "checking the mesh", || mesh.quality());
+    let quality = stage(progress, "checking the mesh", || MeshQuality::at_level(mesh, settings.quality));
     let quality_seconds = start.elapsed().as_secs_f64();
+    // Watertightness is reported whatever the level: it costs one pass over the edges.
+    let closed_manifold = quality.as_ref().map_or_else(|| mesh.topology().is_closed_manifold(), |q| q.watertight)
+        && !mesh.triangles.is_empty();
     let field_evals = counts.stats.field_evals();
     MeshReport {
         seconds,
@@ -250,7 +259,7 @@ fn report(
         work: counts.stats,
         crossed_cells: counts.crossed_cells,
         triangles_per_second: mesh.triangles.len() as f64 / seconds.max(1e-9),
-        closed_manifold: quality.watertight,
+        closed_manifold,
         warning: mesh.triangles.is_empty().then(|| NO_SURFACE.to_string()),
         quality,
         quality_seconds,

@@ -43,8 +43,25 @@ pub struct MeshQuality {
     pub shape: ShapeQuality,
     /// Vertex normals against their faces.
     pub normals: NormalCheck,
-    /// Pairs of triangles sharing no vertex that cut through each other.
-    pub self_intersections: u64,
+    /// Pairs of triangles sharing no vertex that cut through each other
+    /// (`None`: not looked for, at [`QualityLevel::Summary`]).
+    pub self_intersections: Option<u64>,
+}
+
+/// How much of the quality report to compute: the self-intersections cost
+/// more than the rest together (a BVH query per triangle), so a user meshing
+/// large clouds may keep the cheap figures, or skip the report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum QualityLevel {
+    /// No report.
+    Off,
+    /// Every figure but the self-intersections: pieces, watertightness,
+    /// genus, triangle shape, normals (each linear in the triangles).
+    Summary,
+    /// Every figure.
+    #[default]
+    Full,
 }
 
 /// The connected pieces of a mesh in brief.
@@ -88,6 +105,20 @@ impl MeshQuality {
     /// Every figure for `mesh`.
     #[must_use]
     pub fn of(mesh: &Mesh) -> Self {
+        Self::measured(mesh, true)
+    }
+
+    /// The figures `level` asks for (`None` when it is [`QualityLevel::Off`]).
+    #[must_use]
+    pub fn at_level(mesh: &Mesh, level: QualityLevel) -> Option<Self> {
+        match level {
+            QualityLevel::Off => None,
+            QualityLevel::Summary => Some(Self::measured(mesh, false)),
+            QualityLevel::Full => Some(Self::measured(mesh, true)),
+        }
+    }
+
+    fn measured(mesh: &Mesh, intersections: bool) -> Self {
         let edges = Edges::of(&mesh.triangles);
         let topology = Topology::from_edges(&mesh.triangles, &edges);
         let components = Components::of(&mesh.triangles, &edges);
@@ -98,7 +129,8 @@ impl MeshQuality {
             components: ComponentSummary::of(&components, DEFAULT_ISLAND_TRIANGLES),
             shape: ShapeQuality::of(&mesh.positions, &mesh.triangles),
             normals: NormalCheck::of(&mesh.positions, &mesh.normals, &mesh.triangles),
-            self_intersections: self_intersections(&mesh.positions, &mesh.triangles).len() as u64,
+            self_intersections: intersections
+                .then(|| self_intersections(&mesh.positions, &mesh.triangles).len() as u64),
         }
     }
 
@@ -108,8 +140,12 @@ impl MeshQuality {
         if self.components.count == 0 {
             return "no triangles".to_string();
         }
+        let crossings =
+            self.self_intersections.map_or("self-intersections not looked for (--quality full)".to_string(), |n| {
+                format!("{n} self-intersection{}", plural(n))
+            });
         format!(
-            "{} piece{} ({} island{} of <= {} triangles), {}, min angle {:.3} deg, {} normal{} against faces, {} self-intersection{}",
+            "{} piece{} ({} island{} of <= {} triangles), {}, min angle {:.3} deg, {} normal{} against faces, {crossings}",
             self.components.count,
             plural(self.components.count as u64),
             self.components.islands,
@@ -119,8 +155,6 @@ impl MeshQuality {
             self.shape.min_angle_degrees,
             self.normals.against_faces,
             plural(self.normals.against_faces),
-            self.self_intersections,
-            plural(self.self_intersections),
         )
     }
 }
