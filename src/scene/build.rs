@@ -56,6 +56,7 @@ fn add_node(b: &mut ModelBuilder, desc: &NodeDesc, ids: &mut Vec<NodeId>) -> Res
                 return Err(ModelError::NoChildren("SplinePoints (control points)"));
             }
             let end = radius_end.map_or(radius.0, |r| r.0);
+            b.reserve(count.0 as usize + 1);
             let children = spline::even_points(&control, count.0 as usize)
                 .into_iter()
                 .map(|(p, u)| {
@@ -67,6 +68,7 @@ fn add_node(b: &mut ModelBuilder, desc: &NodeDesc, ids: &mut Vec<NodeId>) -> Res
         }
         NodeDesc::Points { file, radius, weight, kernel, color: c, cloud } => {
             let cloud = cloud.0.as_ref().ok_or_else(|| ModelError::Unread(file.clone()))?;
+            b.reserve(cloud.positions.len() + 1);
             let children = (0..cloud.positions.len())
                 .map(|i| {
                     let r = cloud.radius.as_ref().map_or(radius.0, |r| r[i]);

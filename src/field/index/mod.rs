@@ -43,6 +43,16 @@ const SUPPORT_SLACK: f32 = 1.001;
 /// Most cells a grid may have, whatever the leaf count.
 const MAX_CELLS: usize = 1 << 22;
 
+/// Cells any grid may have before [`MAX_CELLS_PER_LEAF`] applies: Medusa's
+/// grid, an eighth of a leaf wide, has 1.4 M.
+const FREE_CELLS: usize = 1 << 21;
+
+/// Cells a grid may have per leaf past [`FREE_CELLS`]. Each cell costs about
+/// 36 bytes (its list's offset, three bounds, a packing slot) whether it
+/// lists anything or not: ten thousand points spread thinly at an eighth of
+/// a leaf would take 4 M cells, 26 KB a point.
+const MAX_CELLS_PER_LEAF: usize = 64;
+
 /// Listings (a leaf in a cell's list) the cell lists may hold on average per
 /// leaf, once they hold more than [`FREE_LISTINGS`] in all. Where supports
 /// overlap many others (a dense particle cloud: each of a million supports
@@ -317,7 +327,8 @@ fn choose_cell_size(bounds: &Aabb, leaves: &[IndexedLeaf]) -> f32 {
     let median = sizes.get(sizes.len() / 2).copied().unwrap_or(1.0);
     let extent = bounds.size().max(Vec3A::splat(1e-6));
     let mut cell = (CELL_PER_LEAF_SIZE * median).max(extent.max_element() / 512.0);
-    let limit = MAX_CELLS.min(512 * leaves.len() + 4096) as f32;
+    let per_leaf = FREE_CELLS.max(MAX_CELLS_PER_LEAF * leaves.len());
+    let limit = MAX_CELLS.min(512 * leaves.len() + 4096).min(per_leaf) as f32;
     let count = |c: f32| (extent / c).ceil().max(Vec3A::ONE).element_product();
     while count(cell) > limit {
         cell *= (count(cell) / limit).cbrt().max(1.01);

@@ -254,3 +254,14 @@ fn crowded_supports_widen_the_cells_so_the_lists_grow_with_the_leaves_not_their_
     assert!(per_leaf <= MAX_LISTINGS_PER_LEAF, "{per_leaf} listings a leaf");
     assert!(per_leaf > MAX_LISTINGS_PER_LEAF / 3.0, "the cells stay as fine as the budget allows: {per_leaf}");
 }
+
+#[test]
+fn thinly_spread_leaves_get_at_most_their_share_of_cells() {
+    // 20,000 supports far apart: cells an eighth of a leaf wide would need
+    // tens of millions; the grid keeps to the free cells (64 a leaf is less).
+    let leaves = point_leaves(20_000, 6.0);
+    let bounds = leaves.iter().fold(Aabb::EMPTY, |b, l| b.union(&l.bounds));
+    let cell = choose_cell_size(&bounds, &leaves);
+    let cells = (bounds.size() / cell).ceil().max(Vec3A::ONE).element_product() as usize;
+    assert!(cells <= FREE_CELLS && cells > FREE_CELLS / 2, "{cells} cells");
+}

@@ -194,6 +194,13 @@ impl ModelBuilder {
         Self::default()
     }
 
+    /// Makes room for `additional` more nodes at once (a million points'
+    /// nodes then take their own size, not up to twice it while the arena
+    /// grows by doubling, nor the copies).
+    pub fn reserve(&mut self, additional: usize) {
+        self.nodes.reserve_exact(additional);
+    }
+
     /// Adds a node whose children were added before; returns its id.
     pub fn add(&mut self, kind: NodeKind, color: Option<Vec3>) -> Result<NodeId, ModelError> {
         let empty = match &kind {
