@@ -4,7 +4,7 @@ mod common;
 
 use blobtrace::frame::read_exr_channels;
 use blobtrace::pipeline::{COMPARE_OPTIONAL_OUTPUTS, COMPARE_OUTPUTS};
-use common::{blobtrace, scratch};
+use common::{blobtrace, scenes_with_a_grown_radius, scratch};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -848,21 +848,6 @@ fn an_empty_render_warns_and_a_diff_of_no_pixels_fails() {
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("no pixel was compared"), "{err}");
     std::fs::remove_dir_all(dir).unwrap();
-}
-
-/// A copy of the bundled scenes in `dir` with one blob of the pair's radius grown by 1%.
-fn scenes_with_a_grown_radius(dir: &Path) -> PathBuf {
-    let scenes = dir.join("scenes");
-    std::fs::create_dir_all(&scenes).unwrap();
-    for entry in std::fs::read_dir("scenes").unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_some_and(|e| e == "ron") {
-            std::fs::copy(&path, scenes.join(path.file_name().unwrap())).unwrap();
-        }
-    }
-    let pair = std::fs::read_to_string("scenes/pair.ron").unwrap();
-    std::fs::write(scenes.join("pair.ron"), pair.replacen("radius: 1.6", "radius: 1.616", 1)).unwrap();
-    scenes
 }
 
 #[test]

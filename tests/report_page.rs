@@ -6,10 +6,10 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-use common::{blobtrace, scratch};
+use common::{blobtrace, scenes_with_a_grown_radius, scratch};
 use serde_json::Value;
 
 /// The browser, as `scripts/test` installs it.
@@ -44,22 +44,6 @@ fn page_dom(dir: &Path, page: &Path, query: &str) -> String {
     String::from_utf8(browse(dir, page, query, &["--dump-dom", "--virtual-time-budget=10000"])).unwrap()
 }
 
-/// A copy of the bundled scenes with the pair's first radius grown 1%, so
-/// its two entries fail and the rest pass.
-fn scenes_with_two_failures(dir: &Path) -> PathBuf {
-    let scenes = dir.join("scenes");
-    std::fs::create_dir_all(&scenes).unwrap();
-    for entry in std::fs::read_dir("scenes").unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_some_and(|e| e == "ron") {
-            std::fs::copy(&path, scenes.join(path.file_name().unwrap())).unwrap();
-        }
-    }
-    let pair = std::fs::read_to_string("scenes/pair.ron").unwrap();
-    std::fs::write(scenes.join("pair.ron"), pair.replacen("radius: 1.6", "radius: 1.616", 1)).unwrap();
-    scenes
-}
-
 /// The attribute `name` of every element whose opening tag starts `<tag`
 /// and holds `class="…{class}…"`, in document order.
 fn attributes(dom: &str, tag: &str, class: &str, name: &str) -> Vec<String> {
@@ -86,7 +70,7 @@ fn stat(dom: &str, place: u64, key: &str) -> String {
 #[test]
 fn a_failing_run_reads_in_the_browser_failures_first_with_their_figures_images_and_working_views() {
     let dir = scratch("report-page");
-    let scenes = scenes_with_two_failures(&dir);
+    let scenes = scenes_with_a_grown_radius(&dir);
     let report = dir.join("report");
     let out = blobtrace(&["regress", "--scenes", scenes.to_str().unwrap(), "--report", report.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1), "{}", String::from_utf8_lossy(&out.stderr));
@@ -269,7 +253,7 @@ fn an_entry_over_its_warning_tolerance_alone_warns_passes_the_run_and_shows_its_
     std::fs::write(refs.join("manifest.ron"), format!("Manifest(entries: [{entry}])")).unwrap();
     let r = refs.to_str().unwrap();
     assert!(blobtrace(&["regress", "--refs", r, "--bless"]).status.success());
-    let scenes = scenes_with_two_failures(&dir);
+    let scenes = scenes_with_a_grown_radius(&dir);
     let junit = dir.join("junit.xml");
     let args = ["regress", "--refs", r, "--scenes", scenes.to_str().unwrap(), "--report", report.to_str().unwrap()];
     let out = blobtrace(&[&args[..], &["--junit", junit.to_str().unwrap()]].concat());

@@ -9,7 +9,7 @@ use blobtrace::pipeline::polygonizer_on;
 use blobtrace::scene::Scene;
 use blobtrace::trace::{TraceOptions, trace_ray};
 use glam::{Vec3, Vec3A};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// Runs the blobtrace binary in the project folder.
@@ -26,6 +26,22 @@ pub fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("blobtrace-test-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     dir
+}
+
+/// A copy of the bundled scenes in `dir` with one blob of the pair's radius
+/// grown by 1%: the pair's two regression entries fail, the rest pass.
+pub fn scenes_with_a_grown_radius(dir: &Path) -> PathBuf {
+    let scenes = dir.join("scenes");
+    std::fs::create_dir_all(&scenes).unwrap();
+    for entry in std::fs::read_dir("scenes").unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "ron") {
+            std::fs::copy(&path, scenes.join(path.file_name().unwrap())).unwrap();
+        }
+    }
+    let pair = std::fs::read_to_string("scenes/pair.ron").unwrap();
+    std::fs::write(scenes.join("pair.ron"), pair.replacen("radius: 1.6", "radius: 1.616", 1)).unwrap();
+    scenes
 }
 
 /// A scene using every node type, with transforms that rotate and scale unevenly.
