@@ -198,7 +198,6 @@ fn figures(page: &mut String, row: &RegressRow) {
         page.push_str("<p class=missing>No readable reference: bless to create it.</p>\n");
         return;
     };
-    page.push_str("<div class=figures><table class=verdict-stats><caption>verdict: largest linear RGB difference per pixel, as <code>regress</code> judges</caption>");
     let at = j.max_at.map_or(String::new(), |(x, y)| format!(" at ({x}, {y})"));
     let rows = [
         ("largest difference", format!("{:.5}{at}", j.max), "max"),
@@ -207,8 +206,22 @@ fn figures(page: &mut String, row: &RegressRow) {
         ("mean difference", format!("{:.3e}", j.mean), "mean"),
         ("pixels compared", j.pixels.to_string(), "pixels"),
     ];
+    if row.outcome == Outcome::Passed {
+        // A pass needs no table: its figures in one line.
+        page.push_str("<p class=figures-line>");
+        for (k, (label, value, key)) in rows.iter().enumerate() {
+            let sep = if k == 0 { "" } else { " · " };
+            let _ = write!(page, "{sep}{label} <span data-stat={key}>{}</span>", escape(value));
+        }
+        page.push_str("</p>\n");
+        return;
+    }
+    page.push_str(
+        "<div class=figures><div><p class=stat-title>verdict: largest linear RGB difference per pixel, as \
+         <code>regress</code> judges</p><table class=verdict-stats>",
+    );
     stat_rows(page, &rows);
-    page.push_str("</table>");
+    page.push_str("</table></div>");
     if let Some(s) = &row.stored {
         stored_table(page, s);
     }
@@ -224,8 +237,8 @@ fn stat_rows(page: &mut String, rows: &[(&str, String, &str)]) {
 /// `blobtrace diff`'s figures on the two stored PNGs.
 fn stored_table(page: &mut String, s: &StoredStats) {
     page.push_str(
-        "<table class=stored-stats><caption>stored images, as <code>blobtrace diff</code> prints them \
-         (8-bit codes ÷ 255; FLIP)</caption>",
+        "<div><p class=stat-title>stored images, as <code>blobtrace diff</code> prints them \
+         (8-bit codes ÷ 255; FLIP)</p><table class=stored-stats>",
     );
     let max_at = s.max_at.as_ref().map_or(String::new(), |m| {
         let values = |v: &[f32]| v.iter().map(|x| format!("{x:.3}")).collect::<Vec<_>>().join(" ");
@@ -242,7 +255,7 @@ fn stored_table(page: &mut String, s: &StoredStats) {
         ("FLIP weighted median", format!("{:.5}", s.flip_weighted_median), "flip-median"),
     ];
     stat_rows(page, &rows);
-    page.push_str("</table>");
+    page.push_str("</table></div>");
 }
 
 /// The images of an entry: the views of one that differs, or the render
