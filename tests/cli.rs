@@ -1863,7 +1863,8 @@ fn bench_scale_measures_each_point_set_in_its_own_process_and_plots_every_figure
     assert_eq!(beside["rows"], v["rows"], "the JSON beside the plot holds the same figures");
     let img = image::open(&plot).unwrap();
     assert_eq!((img.width(), img.height()), (960, 2 * 320 + 24));
-    let bad = blobtrace(&["bench", "scale", "--points", "12"]);
-    assert_eq!(bad.status.code(), Some(64));
+    for bad in ["12", "2e7", "1500.5"] {
+        assert_eq!(blobtrace(&["bench", "scale", "--points", bad]).status.code(), Some(64), "{bad}");
+    }
     std::fs::remove_dir_all(dir).unwrap();
 }

@@ -44,7 +44,7 @@ pub enum BenchCommand {
 /// Options of `blobtrace bench scale`.
 #[derive(Debug, Args)]
 pub struct ScaleBenchArgs {
-    /// Point counts (each from 1,000 to 100,000,000; counts that would not fit in memory are skipped).
+    /// Point counts (each from 1,000 to 10,000,000, the most a scene holds; counts that would not fit in memory are skipped).
     #[arg(long, value_delimiter = ',', default_value = "1000,10000,100000,1000000", value_parser = parse_count)]
     pub points: Vec<usize>,
     /// Point sets: sparse (the particles scene's density at any count), dense (a branching walk), or both.
@@ -95,10 +95,14 @@ pub enum ModelsArg {
     Both,
 }
 
+/// A point count from 1,000 to the most a scene holds.
 fn parse_count(s: &str) -> Result<usize, String> {
+    let most = crate::scene::MAX_PRIMITIVES as f64;
     match s.trim().replace('_', "").parse::<f64>() {
-        Ok(n) if (1e3..=1e8).contains(&n) && n.fract() == 0.0 => Ok(n as usize),
-        _ => Err(format!("expected a whole number of points from 1000 to 100000000 (1e6 is fine), got {s:?}")),
+        Ok(n) if (1e3..=most).contains(&n) && n.fract() == 0.0 => Ok(n as usize),
+        _ => Err(format!(
+            "expected a whole number of points from 1000 to {most} (the most a scene holds; 1e6 is fine), got {s:?}"
+        )),
     }
 }
 
