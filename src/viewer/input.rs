@@ -118,7 +118,12 @@ impl Gestures {
                 Input::Button(button, down, at) => events.extend(self.button(button, down, at)),
             }
         }
-        if let Some(at) = pointer {
+        // The pointer is polled once a turn, and may not yet have seen the
+        // motion that came before a press this turn: the press's own place
+        // stands for it until the next look (else a quick click after a
+        // move could start as a drag from the old place).
+        let pressed_now = inputs.iter().any(|i| matches!(i, Input::Button(_, true, _)));
+        if let Some(at) = pointer.filter(|_| !pressed_now) {
             events.extend(self.pointer_at(at));
         }
         let notches = wheel.round();
@@ -270,6 +275,19 @@ mod tests {
         let up = [Input::Button(MouseButton::Right, false, (25.0, 14.0))];
         steps.extend(actions(&g.events(&up, Some((25.0, 14.0)), 0.0, now, true)));
         assert_eq!(steps, [Action::Pan(10.0, 4.0), Action::Pan(5.0, 0.0)], "within the slack, then the rest");
+    }
+
+    #[test]
+    fn a_press_with_a_pointer_polled_before_the_move_to_it_is_still_a_click() {
+        let mut g = Gestures::default();
+        let now = Instant::now();
+        // The press came at (170, 150); the pointer, polled this turn, still says (160, 60).
+        let down = [Input::Button(MouseButton::Left, true, (170.0, 150.0))];
+        let mut seen = actions(&g.events(&down, Some((160.0, 60.0)), 0.0, now, true));
+        seen.extend(actions(&g.events(&[], Some((170.0, 150.0)), 0.0, now, true)));
+        let up = [Input::Button(MouseButton::Left, false, (170.0, 150.0))];
+        seen.extend(actions(&g.events(&up, Some((170.0, 150.0)), 0.0, now, true)));
+        assert_eq!(seen, [Action::SelectAt(170, 150)]);
     }
 
     #[test]
