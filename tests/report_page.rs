@@ -22,10 +22,10 @@ fn chromium() -> &'static str {
     panic!("chromium is needed (scripts/test installs the Debian package)");
 }
 
-/// Runs headless Chromium on `page` (with `query`), in a profile of its own
-/// so tests may run it at once; `extra` picks what it does.
+/// Runs headless Chromium on `page` (with `query`), in a profile in the
+/// test's own folder so tests may run it at once; `extra` picks what it does.
 fn browse(dir: &Path, page: &Path, query: &str, extra: &[&str]) -> Vec<u8> {
-    let profile = dir.join(format!("profile-{}", extra.len() + query.len()));
+    let profile = dir.join("chromium-profile");
     let url = format!("file://{}{query}", page.canonicalize().unwrap().display());
     let out = Command::new(chromium())
         .args(["--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--no-first-run"])
