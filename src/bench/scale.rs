@@ -22,7 +22,8 @@ use crate::frame::Size;
 use crate::mesh::quality::QualityLevel;
 use crate::output::FileSet;
 use crate::pipeline::{
-    MAX_RES, PipelineError, PolygonizeSettings, Result, Silent, polygonize, render_field, with_threads,
+    MAX_RES, PipelineError, PolygonizeSettings, Result, Silent, available_memory_bytes, polygonize, render_field,
+    with_threads,
 };
 use crate::progress::Progress;
 use crate::scene::Scene;
@@ -138,7 +139,7 @@ fn too_large(rows: &[ScaleRow], model: PointModel, n: usize) -> Option<String> {
     let last = rows.iter().rev().find(|r| r.model == model)?;
     let per_point = last.peak_mb? / last.points as f64;
     let need = per_point * n as f64 * 1.5;
-    let available = available_mb()?;
+    let available = available_memory_bytes()? / (1024.0 * 1024.0);
     (need > 0.8 * available)
         .then(|| format!("{} {n}: would need about {need:.0} MB, {available:.0} MB available", model.name()))
 }
@@ -219,13 +220,6 @@ fn resident_mb(key: &str) -> Option<f64> {
 /// Resets the peak resident memory (`VmHWM`) to the current, on Linux.
 fn reset_peak() {
     let _ = std::fs::write("/proc/self/clear_refs", "5");
-}
-
-/// Memory available to the process, in MB, on Linux.
-fn available_mb() -> Option<f64> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemAvailable"))?;
-    Some(line.split_whitespace().nth(1)?.parse::<f64>().ok()? / 1024.0)
 }
 
 /// Load time, memory, render and mesh time against the point count, log–log.

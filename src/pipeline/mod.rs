@@ -70,8 +70,8 @@ pub use eval::{EvalSettings, ExactLookup, FieldChoice, MB};
 pub use image_diff::{DiffOutput, ImageDiffError, ImageDiffSettings, diff_images};
 pub use mesh_repair::{MAX_SNAP, MeshRepair, RepairReport, SnapEffect, repair_mesh};
 pub use polygonize::{
-    MAX_REFINE, MAX_RES, MeshReport, PolygonizeSettings, cells_name, color_by_cache_error, polygonize, polygonizer_on,
-    vertex_name,
+    MAX_REFINE, MAX_RES, MeshReport, PolygonizeSettings, available_memory_bytes, cells_name, color_by_cache_error,
+    polygonize, polygonizer_on, vertex_name,
 };
 pub use regress::{
     Counts, Entry, EntryImages, EntryPixels, EntryTolerances, Judgement, Kind, Manifest, Outcome, RegressRow,

@@ -86,7 +86,7 @@ impl PolygonizeSettings {
         let crossed =
             run_polygonizer(model, EvalMode::Indexed, probe, probe_options, 0, &Silent).1.crossed_cells as f64;
         let needed = crossed * (fine_res as f64 / f64::from(probe_res)).powi(2) * BYTES_PER_CROSSED_CELL;
-        let available = available_memory_bytes();
+        let available = available_memory_bytes().unwrap_or(8.0 * GIB);
         if needed >= 0.8 * available {
             return Err(PipelineError::MeshTooLarge {
                 res: self.res,
@@ -125,15 +125,12 @@ impl PolygonizeSettings {
     }
 }
 
-/// Memory available to the process in bytes (Linux `MemAvailable`; 8 GiB where unknown).
-fn available_memory_bytes() -> f64 {
-    std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|s| {
-            let line = s.lines().find(|l| l.starts_with("MemAvailable:"))?;
-            line.split_whitespace().nth(1)?.parse::<f64>().ok()
-        })
-        .map_or(8.0 * GIB, |kb| kb * 1024.0)
+/// Memory available to the process in bytes (Linux `MemAvailable`; `None` where unknown).
+#[must_use]
+pub fn available_memory_bytes() -> Option<f64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    Some(line.split_whitespace().nth(1)?.parse::<f64>().ok()? * 1024.0)
 }
 
 /// Statistics of one polygonization.
