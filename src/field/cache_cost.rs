@@ -135,7 +135,7 @@ impl Model {
         let children = |cs: &[NodeId]| cs.iter().map(|&c| inside(c) * self.exact_cost(c, decided)).sum::<f32>();
         match &node.kind {
             NodeKind::Primitive(p) => primitive_cost(p),
-            NodeKind::Blend { index: Some(ix), .. } => {
+            NodeKind::Blend { index: Some(ix), .. } | NodeKind::Points { index: ix, .. } => {
                 NODE_COST
                     + ix.mean_listing(|leaf| match &leaf.leaf {
                         Leaf::Primitive(p) => primitive_cost(p),

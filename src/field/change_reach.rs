@@ -22,6 +22,10 @@ impl Model {
                 super::Skeleton::Point { center } => Support::ball(center, p.radius),
                 _ => Support::Box(self.node(id).bounds),
             }),
+            NodeKind::Points { set, .. } => out.extend((0..set.len()).map(|i| {
+                let (center, radius) = set.ball(i);
+                Support::ball(center, radius)
+            })),
             NodeKind::Transform { placement, child } => {
                 self.supports(*child, out);
                 out[first..].iter_mut().for_each(|s| *s = s.transformed(&placement.to_world));

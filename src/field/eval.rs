@@ -47,17 +47,11 @@ impl Model {
         match &node.kind {
             NodeKind::Primitive(prim) => prim.value(p),
             NodeKind::Blend { children, index } => match (mode, index) {
-                (m, Some(ix)) if m.indexed() => {
-                    let sum = ix.point_sum(p).unwrap_or_else(|| {
-                        let leaves = &ix.leaves;
-                        ix.candidates(p)
-                            .iter()
-                            .fold(0.0f64, |s, &i| s + f64::from(self.leaf_value(&leaves[i as usize], p, mode)))
-                    });
-                    sum as f32
-                }
+                (m, Some(ix)) if m.indexed() => self.indexed_sum(ix, p, mode) as f32,
                 _ => self.nested_blend_sum(children, p, mode) as f32,
             },
+            // A point set has no other form than its index, in every mode.
+            NodeKind::Points { index, .. } => self.indexed_sum(index, p, mode) as f32,
             NodeKind::Union(cs) => cs.iter().map(|&c| self.node_value(c, p, mode)).fold(f32::MIN, f32::max),
             NodeKind::Intersection(cs) => cs.iter().map(|&c| self.node_value(c, p, mode)).fold(f32::MAX, f32::min),
             NodeKind::Difference(a, b) => {
@@ -75,6 +69,16 @@ impl Model {
             }
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_value(*child, p, mode),
         }
+    }
+
+    /// The sum of the leaves of index `ix` at `p`.
+    #[inline]
+    fn indexed_sum(&self, ix: &BlendIndex, p: Vec3A, mode: EvalMode) -> f64 {
+        ix.point_sum(p).unwrap_or_else(|| {
+            ix.candidates(p)
+                .iter()
+                .fold(0.0f64, |s, &i| s + f64::from(self.leaf_value(&ix.leaves.get(i as usize), p, mode)))
+        })
     }
 
     /// The first node at or below `id` that is not a pass-through in `mode`
@@ -127,6 +131,11 @@ impl Model {
                     ix.point_sum_and_gradient(p).unwrap_or_else(|| self.leaves_value_and_gradient(ix, p, mode));
                 return (v as f32, g);
             }
+            NodeKind::Points { index: ix, .. } => {
+                let (v, g) =
+                    ix.point_sum_and_gradient(p).unwrap_or_else(|| self.leaves_value_and_gradient(ix, p, mode));
+                return (v as f32, g);
+            }
             NodeKind::Blend { children, index } if index.is_none() || !mode.indexed() => {
                 let (v, g) = self.nested_blend_value_and_gradient(children, p, mode);
                 return (v as f32, g);
@@ -156,9 +165,9 @@ impl Model {
     /// blend of points sums its values and gradients in one pass.
     fn leaves_value_and_gradient(&self, ix: &BlendIndex, p: Vec3A, mode: EvalMode) -> (f64, Vec3A) {
         ix.candidates(p).iter().fold((0.0f64, Vec3A::ZERO), |(sum, gradient), &i| {
-            let (v, g) = match &ix.leaves[i as usize].leaf {
+            let (v, g) = match ix.leaves.get(i as usize).leaf {
                 Leaf::Primitive(prim) => (prim.value(p), prim.gradient(p)),
-                Leaf::Node(id) => self.node_value_and_gradient(*id, p, mode),
+                Leaf::Node(id) => self.node_value_and_gradient(id, p, mode),
             };
             (sum + f64::from(v), gradient + g)
         })
@@ -201,16 +210,10 @@ impl Model {
         match &node.kind {
             NodeKind::Primitive(prim) => prim.gradient(p),
             NodeKind::Blend { children, index } => match (mode, index) {
-                (m, Some(ix)) if m.indexed() => ix.point_gradient(p).unwrap_or_else(|| {
-                    ix.candidates(p).iter().fold(Vec3A::ZERO, |s, &i| {
-                        s + match &ix.leaves[i as usize].leaf {
-                            Leaf::Primitive(prim) => prim.gradient(p),
-                            Leaf::Node(id) => self.node_gradient(*id, p, mode),
-                        }
-                    })
-                }),
+                (m, Some(ix)) if m.indexed() => self.indexed_gradient(ix, p, mode),
                 _ => children.iter().fold(Vec3A::ZERO, |s, &c| s + self.node_gradient(c, p, mode)),
             },
+            NodeKind::Points { index, .. } => self.indexed_gradient(index, p, mode),
             NodeKind::Union(cs) => self.node_gradient(self.extreme_child(cs, p, mode, true), p, mode),
             NodeKind::Intersection(cs) => self.node_gradient(self.extreme_child(cs, p, mode, false), p, mode),
             NodeKind::Difference(a, b) => {
@@ -246,6 +249,18 @@ impl Model {
         }
     }
 
+    /// The sum of the gradients of the leaves of index `ix` at `p`.
+    fn indexed_gradient(&self, ix: &BlendIndex, p: Vec3A, mode: EvalMode) -> Vec3A {
+        ix.point_gradient(p).unwrap_or_else(|| {
+            ix.candidates(p).iter().fold(Vec3A::ZERO, |s, &i| {
+                s + match ix.leaves.get(i as usize).leaf {
+                    Leaf::Primitive(prim) => prim.gradient(p),
+                    Leaf::Node(id) => self.node_gradient(id, p, mode),
+                }
+            })
+        })
+    }
+
     /// The child with the largest (`max`) or smallest value at `p`; the first on ties.
     fn extreme_child(&self, cs: &[NodeId], p: Vec3A, mode: EvalMode, max: bool) -> NodeId {
         let mut best = cs[0];
@@ -271,13 +286,10 @@ impl Model {
         match &node.kind {
             NodeKind::Primitive(_) => DEFAULT_COLOR,
             NodeKind::Blend { children, index } => match (mode, index) {
-                (m, Some(ix)) if m.indexed() => mix(ix.candidates(p).iter().map(|&i| {
-                    let leaf = &ix.leaves[i as usize];
-                    let w = self.leaf_value(leaf, p, mode);
-                    (w, move || leaf.color.unwrap_or_else(|| self.leaf_color(leaf, p, mode)))
-                })),
+                (m, Some(ix)) if m.indexed() => self.indexed_color(ix, p, mode),
                 _ => mix(children.iter().map(|&c| (self.node_value(c, p, mode), move || self.node_color(c, p, mode)))),
             },
+            NodeKind::Points { index, .. } => self.indexed_color(index, p, mode),
             NodeKind::Ricci { n, children } => mix(children
                 .iter()
                 .map(|&c| (ricci_term(self.node_value(c, p, mode), *n), move || self.node_color(c, p, mode)))),
@@ -295,6 +307,15 @@ impl Model {
             NodeKind::Warp { warp, child } => self.node_color(*child, warp.inverse(p), mode),
             NodeKind::Named { child, .. } | NodeKind::Cache { child, .. } => self.node_color(*child, p, mode),
         }
+    }
+
+    /// The colours of the leaves of index `ix` mixed at `p` (see [`mix`]).
+    fn indexed_color(&self, ix: &BlendIndex, p: Vec3A, mode: EvalMode) -> Vec3 {
+        mix(ix.candidates(p).iter().map(|&i| {
+            let leaf = ix.leaves.get(i as usize);
+            let w = self.leaf_value(&leaf, p, mode);
+            (w, move || leaf.color.unwrap_or_else(|| self.leaf_color(&leaf, p, mode)))
+        }))
     }
 
     /// [`Self::node_gradient`] and [`Self::node_color`] at `p` together, to the

@@ -18,6 +18,7 @@ mod model;
 mod named_edit;
 mod node;
 mod node_id;
+mod point_set;
 mod primitive;
 mod region_bounds;
 mod root_parts;
@@ -33,12 +34,13 @@ pub use cache_cost::{
 };
 pub use eight_wide_sums::{SUMS_ENV, sum_lanes};
 pub use empty::EmptySpace;
-pub use index::{BlendIndex, IndexedLeaf, Leaf};
+pub use index::{BlendIndex, IndexedLeaf, Leaf, Leaves};
 pub use kernel::Kernel;
 pub use model::{Change, Model, ModelBuilder, ModelCounts, ModelError, TracerChoice};
 pub use named_edit::{Edit, Operator};
 pub use node::{Node, NodeKind, Placement};
 pub use node_id::NodeId;
+pub use point_set::PointSet;
 pub use primitive::{Primitive, Skeleton};
 pub use warp::{Axis, Warp};
 

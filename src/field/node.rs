@@ -1,9 +1,12 @@
 //! The nodes of the BlobTree arena.
 
+use std::sync::Arc;
+
 use glam::{Affine3A, Mat3A, Vec3, Vec3A};
 
 use super::index::BlendIndex;
 use super::node_id::NodeId;
+use super::point_set::PointSet;
 use super::primitive::Primitive;
 use super::warp::Warp;
 use crate::cache::CacheSpec;
@@ -37,6 +40,14 @@ pub enum NodeKind {
         children: Vec<NodeId>,
         /// Grid over the blend's leaves; built for wide blends.
         index: Option<Box<BlendIndex>>,
+    },
+    /// The sum of a set of points (a particle file's): one node over packed
+    /// arrays, with its own index over them.
+    Points {
+        /// The points.
+        set: Arc<PointSet>,
+        /// Grid over the points (see [`PointSet::indexed`]).
+        index: Box<BlendIndex>,
     },
     /// `max` of the children (CSG union).
     Union(Vec<NodeId>),
@@ -185,11 +196,22 @@ pub fn singular_value_bounds(m: Mat3A) -> (f32, f32) {
 }
 
 impl NodeKind {
+    /// A `Points` node over `set`, with its index; `None` for an empty set.
+    #[must_use]
+    pub fn points(set: PointSet) -> Option<Self> {
+        if set.is_empty() {
+            return None;
+        }
+        let set = Arc::new(set);
+        let index = Box::new(set.indexed());
+        Some(NodeKind::Points { set, index })
+    }
+
     /// The children of this node, in order.
     #[must_use]
     pub fn children(&self) -> Vec<NodeId> {
         match self {
-            NodeKind::Primitive(_) => vec![],
+            NodeKind::Primitive(_) | NodeKind::Points { .. } => vec![],
             NodeKind::Blend { children, .. }
             | NodeKind::Union(children)
             | NodeKind::Intersection(children)
@@ -212,6 +234,7 @@ impl NodeKind {
                 super::Skeleton::Circle { .. } => "Circle",
             },
             NodeKind::Blend { .. } => "Blend",
+            NodeKind::Points { .. } => "Points",
             NodeKind::Union(_) => "Union",
             NodeKind::Intersection(_) => "Intersection",
             NodeKind::Difference(..) => "Difference",

@@ -88,6 +88,7 @@ impl Model {
                 (m, Some(ix)) if m.indexed() => self.indexed_interval(ix, b, mode),
                 _ => sum(children),
             },
+            NodeKind::Points { index, .. } => self.indexed_interval(index, b, mode),
             NodeKind::Union(cs) => reduce(cs, Interval::max),
             NodeKind::Intersection(cs) => reduce(cs, Interval::min),
             NodeKind::Difference(a, c) => {
@@ -124,6 +125,9 @@ impl Model {
         }
         let miss = match &node.kind {
             NodeKind::Blend { index: Some(ix), .. } if mode.indexed() => {
+                (ix.cells_overlapped(b) <= MAX_CELLS_FOR_LEAF_BOUNDS).then(|| ix.points_miss(b)).flatten()
+            }
+            NodeKind::Points { index: ix, .. } => {
                 (ix.cells_overlapped(b) <= MAX_CELLS_FOR_LEAF_BOUNDS).then(|| ix.points_miss(b)).flatten()
             }
             // A sum of intervals is zero where each is (no field here is a
@@ -175,6 +179,7 @@ impl Model {
                 (m, Some(ix)) if m.indexed() => self.indexed_lipschitz(ix, region, mode),
                 _ => sum(children),
             },
+            NodeKind::Points { index, .. } => self.indexed_lipschitz(index, region, mode),
             NodeKind::Ricci { children, .. } => sum(children),
             NodeKind::Union(cs) | NodeKind::Intersection(cs) => max(cs),
             NodeKind::Difference(a, b) => max(&[*a, *b]),
@@ -219,7 +224,7 @@ impl Model {
                 (m, Some(ix)) if m.indexed() => {
                     let mut total = Some(0.0);
                     for_each_unique_leaf(ix, &segment, |i| {
-                        let leaf = &ix.leaves[i as usize];
+                        let leaf = ix.leaves.get(i as usize);
                         let floor = match &leaf.leaf {
                             Leaf::Node(id) => self.node_slope_floor(*id, (a, b), u, mode),
                             Leaf::Primitive(_) if !segment.meets(&leaf.bounds) => Some(0.0),
@@ -271,6 +276,7 @@ impl Model {
                 (m, Some(ix)) if m.indexed() => self.indexed_curvature(ix, region, mode),
                 _ => children.iter().map(|&c| self.node_curvature(c, region, mode)).sum(),
             },
+            NodeKind::Points { index, .. } => self.indexed_curvature(index, region, mode),
             NodeKind::Transform { placement, child } => {
                 // A unit step is between `least_stretch` and `stretch` long in
                 // the child's frame: a convex child's bound grows by the most,
@@ -315,7 +321,7 @@ impl Model {
             return ix.cell_lipschitz(region);
         }
         let mut total = 0.0;
-        for_each_unique_leaf(ix, region, |i| total += self.leaf_lipschitz(&ix.leaves[i as usize], region, mode));
+        for_each_unique_leaf(ix, region, |i| total += self.leaf_lipschitz(&ix.leaves.get(i as usize), region, mode));
         total
     }
 
@@ -329,7 +335,7 @@ impl Model {
             return ix.cell_curvature(region);
         }
         let mut total = 0.0;
-        for_each_unique_leaf(ix, region, |i| total += self.leaf_curvature(&ix.leaves[i as usize], region, mode));
+        for_each_unique_leaf(ix, region, |i| total += self.leaf_curvature(&ix.leaves.get(i as usize), region, mode));
         total
     }
 
@@ -347,7 +353,7 @@ impl Model {
         }
         let mut total = Interval::ZERO;
         for_each_unique_leaf(ix, &Region::Box(*b), |i| {
-            total = total + self.leaf_interval(&ix.leaves[i as usize], b, mode)
+            total = total + self.leaf_interval(&ix.leaves.get(i as usize), b, mode)
         });
         total
     }

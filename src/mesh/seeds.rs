@@ -81,6 +81,10 @@ fn collect(model: &Model, id: NodeId, placed: Placed, out: &mut Vec<Seed>) {
                 }
             }
         }
+        NodeKind::Points { set, .. } => out.extend((0..set.len()).map(|i| {
+            let (center, radius) = set.ball(i);
+            Seed { point: placed.to_world.transform_point3a(center), reach: radius * placed.stretch }
+        })),
         NodeKind::Transform { placement, child } => collect(model, *child, placed.then(placement.to_world), out),
         NodeKind::Warp { warp, child } => {
             // The child's seeds in its own frame, carried by the warp, then by the frames above.

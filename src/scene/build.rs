@@ -4,7 +4,9 @@ use glam::Vec3A;
 
 use super::desc::NodeDesc;
 use crate::cache::CacheSpec;
-use crate::field::{Model, ModelBuilder, ModelError, NodeId, NodeKind, Placement, Primitive, Skeleton, Warp, spline};
+use crate::field::{
+    Model, ModelBuilder, ModelError, NodeId, NodeKind, Placement, PointSet, Primitive, Skeleton, Warp, spline,
+};
 
 /// Builds the model for the tree `root` with iso-value `threshold`, and the
 /// node each description node became, in the order a depth-first walk of the
@@ -68,16 +70,13 @@ fn add_node(b: &mut ModelBuilder, desc: &NodeDesc, ids: &mut Vec<NodeId>) -> Res
         }
         NodeDesc::Points { file, radius, weight, kernel, color: c, cloud } => {
             let cloud = cloud.0.as_ref().ok_or_else(|| ModelError::Unread(file.clone()))?;
-            b.reserve(cloud.positions.len() + 1);
-            let children = (0..cloud.positions.len())
-                .map(|i| {
-                    let r = cloud.radius.as_ref().map_or(radius.0, |r| r[i]);
-                    let w = cloud.weight.as_ref().map_or(weight.0, |w| w[i]);
-                    let point = prim(Skeleton::Point { center: cloud.positions[i].into() }, r, w, *kernel);
-                    b.add(point, cloud.color.as_ref().map(|colors| colors[i]))
-                })
-                .collect::<Result<Vec<_>, _>>()?;
-            b.add(NodeKind::Blend { children, index: None }, color(c))
+            let points = (0..cloud.positions.len()).map(|i| {
+                let r = cloud.radius.as_ref().map_or(radius.0, |r| r[i]);
+                let w = cloud.weight.as_ref().map_or(weight.0, |w| w[i]);
+                (cloud.positions[i], r, w)
+            });
+            let set = PointSet::new(points, *kernel, cloud.color.clone());
+            b.add(NodeKind::points(set).ok_or(ModelError::NoChildren("Points"))?, color(c))
         }
         NodeDesc::Blend(cs) => {
             let children = add_all(b, &cs.0, ids)?;

@@ -3,7 +3,7 @@
 
 use rayon::prelude::*;
 
-use super::{IndexedLeaf, Leaf, SUPPORT_SLACK};
+use super::{IndexedLeaf, Leaf, Leaves, SUPPORT_SLACK};
 use crate::geom::UniformGrid;
 
 /// Leaves listed per cell of a grid (offsets into one array of leaf indices).
@@ -18,8 +18,11 @@ impl Lists {
     /// The leaves reaching each cell of `grid`, in leaf order (a counting sort
     /// of (cell, leaf) pairs; the cells each leaf reaches are found in
     /// parallel, a run of leaves into one flat list, not one list a leaf).
-    pub(super) fn bucket(grid: UniformGrid, leaves: &[IndexedLeaf]) -> Self {
-        let runs: Vec<Run> = leaves.par_chunks(RUN).map(|run| reached_by_run(&grid, run)).collect();
+    pub(super) fn bucket(grid: UniformGrid, leaves: &Leaves) -> Self {
+        let runs: Vec<Run> = (0..leaves.len().div_ceil(RUN))
+            .into_par_iter()
+            .map(|r| reached_by_run(&grid, leaves, r * RUN..leaves.len().min((r + 1) * RUN)))
+            .collect();
         let cells = grid.cell_count();
         let mut counts = vec![0u32; cells + 1];
         for run in &runs {
@@ -61,12 +64,11 @@ struct Run {
     ends: Vec<u32>,
 }
 
-fn reached_by_run(grid: &UniformGrid, run: &[IndexedLeaf]) -> Run {
+fn reached_by_run(grid: &UniformGrid, leaves: &Leaves, run: std::ops::Range<usize>) -> Run {
     let mut cells = vec![];
     let ends = run
-        .iter()
-        .map(|leaf| {
-            reached_cells(grid, leaf, &mut cells);
+        .map(|i| {
+            reached_cells(grid, &leaves.get(i), &mut cells);
             cells.len() as u32
         })
         .collect();

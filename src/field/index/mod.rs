@@ -18,11 +18,15 @@ mod packed_points;
 #[cfg(test)]
 mod tests;
 
+use std::borrow::Cow;
+use std::sync::Arc;
+
 use glam::{UVec3, Vec3, Vec3A};
 
 use rayon::prelude::*;
 
 use super::node_id::NodeId;
+use super::point_set::PointSet;
 use super::primitive::Primitive;
 use crate::geom::{Aabb, Interval, Region, UniformGrid};
 use lists::Lists;
@@ -88,11 +92,60 @@ pub struct IndexedLeaf {
     pub color: Option<Vec3>,
 }
 
+/// The leaves of an index: each stored with its bounds and colour, or the
+/// points of one set, made into leaves as they are asked for (a million
+/// stored leaves would take 112 MB).
+#[derive(Clone, Debug)]
+pub enum Leaves {
+    /// The leaves of a cluster of blends, in depth-first scene order.
+    Listed(Vec<IndexedLeaf>),
+    /// The points of a `Points` node, in the file's order.
+    Points(Arc<PointSet>),
+}
+
+impl Leaves {
+    /// Number of leaves.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        match self {
+            Leaves::Listed(leaves) => leaves.len(),
+            Leaves::Points(set) => set.len(),
+        }
+    }
+
+    /// True when there is no leaf.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Leaf `i`.
+    #[inline]
+    #[must_use]
+    pub fn get(&self, i: usize) -> Cow<'_, IndexedLeaf> {
+        match self {
+            Leaves::Listed(leaves) => Cow::Borrowed(&leaves[i]),
+            Leaves::Points(set) => {
+                let p = set.primitive(i);
+                Cow::Owned(IndexedLeaf { leaf: Leaf::Primitive(p), bounds: p.bounds(), color: set.color(i) })
+            }
+        }
+    }
+
+    /// True when leaf `i` of these and leaf `j` of `other` are the same.
+    fn same(&self, i: usize, other: &Leaves, j: usize) -> bool {
+        match (self, other) {
+            (Leaves::Points(a), Leaves::Points(b)) if Arc::ptr_eq(a, b) => i == j,
+            _ => self.get(i) == other.get(j),
+        }
+    }
+}
+
 /// The grid: leaves bucketed per cell (sorted by leaf order), plus per-cell bounds.
 #[derive(Clone, Debug)]
 pub struct BlendIndex {
-    /// The leaves of the cluster, in depth-first scene order.
-    pub leaves: Vec<IndexedLeaf>,
+    /// The leaves: of a cluster of blends, or of a point set.
+    pub leaves: Leaves,
     grid: UniformGrid,
     offsets: Vec<u32>,
     items: Vec<u32>,
@@ -117,12 +170,15 @@ impl BlendIndex {
     /// leaf's value range and gradient bound over a cell box.
     pub fn build(
         bounds: Aabb,
-        leaves: Vec<IndexedLeaf>,
+        leaves: Leaves,
         interval: impl Fn(&IndexedLeaf, &Aabb) -> Interval + Sync,
         lipschitz: impl Fn(&IndexedLeaf, &Region) -> f32 + Sync,
     ) -> Self {
         let cell = choose_cell_size(&bounds, &leaves);
-        let has_node_leaves = leaves.iter().any(|l| matches!(l.leaf, Leaf::Node(_)));
+        let has_node_leaves = match &leaves {
+            Leaves::Listed(leaves) => leaves.iter().any(|l| matches!(l.leaf, Leaf::Node(_))),
+            Leaves::Points(_) => false,
+        };
         let dims = (bounds.size() / cell).ceil().as_uvec3();
         let grid = UniformGrid::new(bounds.min, cell, dims);
         let points = PackedPoints::pack(&leaves, grid.cell_count());
@@ -161,7 +217,7 @@ impl BlendIndex {
                 let region = Region::Box(cell_box);
                 let (mut l, mut m, mut range) = (0.0, 0.0, Interval::ZERO);
                 for &i in self.cell_items(c) {
-                    let leaf = &self.leaves[i as usize];
+                    let leaf = &*self.leaves.get(i as usize);
                     l += lipschitz(leaf, &region);
                     m += match &leaf.leaf {
                         Leaf::Primitive(p) => p.curvature_over(&region),
@@ -201,7 +257,7 @@ impl BlendIndex {
                 let list = &items[offsets[c] as usize..offsets[c + 1] as usize];
                 let old_list = &old_items[old_offsets[c] as usize..old_offsets[c + 1] as usize];
                 let same = list.len() == old_list.len()
-                    && list.iter().zip(old_list).all(|(&i, &j)| self.leaves[i as usize] == old.leaves[j as usize]);
+                    && list.iter().zip(old_list).all(|(&i, &j)| self.leaves.same(i as usize, &old.leaves, j as usize));
                 if !same {
                     changed = changed.union(&grid.cell_box(c));
                 }
@@ -225,7 +281,7 @@ impl BlendIndex {
         let (mut total, mut listings) = (0.0f64, 0usize);
         for c in 0..self.offsets.len() - 1 {
             let items = self.cell_items(c);
-            let cell: f64 = items.iter().map(|&i| f64::from(weight(&self.leaves[i as usize]))).sum();
+            let cell: f64 = items.iter().map(|&i| f64::from(weight(&self.leaves.get(i as usize)))).sum();
             total += cell * items.len() as f64;
             listings += items.len();
         }
@@ -323,8 +379,8 @@ impl BlendIndex {
 /// An eighth of the median leaf size, so a cell lists few leaves that cannot
 /// reach the query; grown if the grid gets too big, or if its lists would
 /// list each leaf too many times (see [`MAX_LISTINGS_PER_LEAF`]).
-fn choose_cell_size(bounds: &Aabb, leaves: &[IndexedLeaf]) -> f32 {
-    let mut sizes: Vec<f32> = leaves.iter().map(|l| l.bounds.size().max_element()).collect();
+fn choose_cell_size(bounds: &Aabb, leaves: &Leaves) -> f32 {
+    let mut sizes: Vec<f32> = (0..leaves.len()).map(|i| leaves.get(i).bounds.size().max_element()).collect();
     sizes.sort_by(f32::total_cmp);
     let median = sizes.get(sizes.len() / 2).copied().unwrap_or(1.0);
     let extent = bounds.size().max(Vec3A::splat(1e-6));

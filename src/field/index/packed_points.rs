@@ -2,13 +2,14 @@
 //! four at a time (and eight at a time where [`eight_wide_sums`] run), and
 //! the index's values, gradients and value ranges taken from them.
 
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 use glam::{Mat4, UVec3, Vec3A, Vec4};
 
-use super::{BlendIndex, IndexedLeaf, Leaf};
+use super::{BlendIndex, Leaf, Leaves};
 use crate::field::eight_wide_sums::{self, Chunk};
 use crate::field::kernel::Kernel;
+use crate::field::point_set::PointSet;
 use crate::geom::{Aabb, Interval};
 
 /// Point leaves reduced to what their values need: centre and `1/R²` in one
@@ -17,25 +18,24 @@ use crate::geom::{Aabb, Interval};
 /// cell's list packed for them.
 #[derive(Clone, Debug)]
 pub(super) struct PackedPoints {
-    terms: Vec<Vec4>,
-    weights: Vec<f32>,
+    /// The points: a `Points` node's own set, or one made of the leaves.
+    set: Arc<PointSet>,
     /// Each cell's list packed eight points to a chunk (see [`Self::packed`]).
     pub(super) cells: Option<Vec<OnceLock<Box<[Chunk]>>>>,
 }
 
 impl PackedPoints {
-    pub(super) fn pack(leaves: &[IndexedLeaf], cells: usize) -> Option<Self> {
-        let (terms, weights) = leaves
-            .iter()
-            .map(|l| match &l.leaf {
-                Leaf::Primitive(p) => p.wyvill_point(),
+    pub(super) fn pack(leaves: &Leaves, cells: usize) -> Option<Self> {
+        let set = match leaves {
+            Leaves::Points(set) if set.kernel() == Kernel::Wyvill => Arc::clone(set),
+            Leaves::Points(_) => return None,
+            Leaves::Listed(leaves) => Arc::new(PointSet::of_wyvill_points(leaves.iter().map(|l| match &l.leaf {
+                Leaf::Primitive(p) => Some(p),
                 Leaf::Node(_) => None,
-            })
-            .collect::<Option<Vec<_>>>()?
-            .into_iter()
-            .unzip();
+            }))?),
+        };
         let cells = eight_wide_sums::available().then(|| (0..cells).map(|_| OnceLock::new()).collect());
-        Some(Self { terms, weights, cells })
+        Some(Self { set, cells })
     }
 
     /// The sum of cell `c`'s points' values at `p`, in double precision;
@@ -73,19 +73,19 @@ impl PackedPoints {
     #[inline]
     fn packed<'a>(&'a self, c: usize, items: impl Fn() -> &'a [u32]) -> Option<&'a [Chunk]> {
         let list = self.cells.as_ref()?.get(c)?;
-        Some(list.get_or_init(|| eight_wide_sums::pack(&self.terms, &self.weights, items()).collect()))
+        Some(list.get_or_init(|| eight_wide_sums::pack(self.set.terms(), self.set.weights(), items()).collect()))
     }
 
     /// Point `i`'s value at the nearest point of box `lo..hi`, in the
     /// operations of the eight-wide [`eight_wide_sums::interval`], so that it is zero
     /// exactly where that bound's lane for `i` is.
     fn value_at_nearest(&self, i: usize, lo: Vec3A, hi: Vec3A) -> f32 {
-        let t = self.terms[i];
+        let t = self.set.terms()[i];
         let c = t.truncate();
         let near = (lo - Vec3A::from(c)).max(Vec3A::from(c) - hi).max(Vec3A::ZERO);
         let d2 = near.z.mul_add(near.z, near.y.mul_add(near.y, near.x * near.x));
         let s = (-d2).mul_add(t.w, 1.0).max(0.0);
-        s * s * s * self.weights[i]
+        s * s * s * self.set.weights()[i]
     }
 
     /// The slope, curvature and value bounds over `cell` of the points
@@ -100,7 +100,7 @@ impl PackedPoints {
         chunks: &mut Vec<Chunk>,
     ) -> Option<(f32, f32, Interval)> {
         chunks.clear();
-        chunks.extend(eight_wide_sums::pack(&self.terms, &self.weights, items));
+        chunks.extend(eight_wide_sums::pack(self.set.terms(), self.set.weights(), items));
         let (slope, bend) = eight_wide_sums::slope_bounds(chunks, cell.min, cell.max)?;
         let (low, high) = eight_wide_sums::interval(chunks, cell.min, cell.max)?;
         Some((outward(slope, slope).hi, outward(bend, bend).hi, outward(low, high)))
@@ -112,12 +112,12 @@ impl PackedPoints {
     fn for_each_quad(&self, items: &[u32], p: Vec3A, mut f: impl FnMut(Quad)) {
         let quad = |q: [u32; 4], mask: Vec4| {
             let [a, b, c, d] = q.map(|i| i as usize);
-            let t = &self.terms;
+            let t = self.set.terms();
             // Columns are points; transposed, rows are x, y, z and 1/R².
             let m = Mat4::from_cols(t[a], t[b], t[c], t[d]).transpose();
             let to_center = [m.x_axis - Vec4::splat(p.x), m.y_axis - Vec4::splat(p.y), m.z_axis - Vec4::splat(p.z)];
             let [dx, dy, dz] = to_center;
-            let w = &self.weights;
+            let w = self.set.weights();
             Quad {
                 d2: dx * dx + dy * dy + dz * dz,
                 inv_r2: m.w_axis,

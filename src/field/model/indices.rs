@@ -5,7 +5,7 @@ use glam::Vec3;
 
 use super::Model;
 use crate::field::EvalMode;
-use crate::field::index::{BlendIndex, IndexedLeaf, Leaf, MIN_INDEXED_LEAVES};
+use crate::field::index::{BlendIndex, IndexedLeaf, Leaf, Leaves, MIN_INDEXED_LEAVES};
 use crate::field::node::NodeKind;
 use crate::field::node_id::NodeId;
 use crate::geom::{Aabb, Interval, Region};
@@ -36,7 +36,7 @@ impl Model {
             let bounds = self.nodes[id as usize].bounds;
             Box::new(BlendIndex::build(
                 bounds,
-                leaves,
+                Leaves::Listed(leaves),
                 // Per-cell bounds must hold for exact and cached evaluation alike.
                 |leaf, b| in_every_mode(leaf, |m| self.leaf_interval(leaf, b, m), Interval::join),
                 |leaf, r: &Region| in_every_mode(leaf, |m| self.leaf_lipschitz(leaf, r, m), f32::max),

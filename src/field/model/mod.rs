@@ -311,6 +311,7 @@ impl Model {
     fn extent_of(&self, id: NodeId) -> Aabb {
         match &self.node(id).kind {
             NodeKind::Primitive(p) => p.bounds(),
+            NodeKind::Points { set, .. } => set.bounds(),
             NodeKind::Transform { placement, child } => self.extent_of(*child).transformed(&placement.to_world),
             NodeKind::Warp { warp, child } => warp.forward_box(&self.extent_of(*child)),
             kind => kind.children().iter().fold(Aabb::EMPTY, |a, &c| a.union(&self.extent_of(c))),
@@ -472,6 +473,7 @@ impl Model {
         let kind = &self.nodes[id as usize].kind;
         let b = match kind {
             NodeKind::Primitive(p) => p.bounds(),
+            NodeKind::Points { set, .. } => set.bounds(),
             NodeKind::Intersection(_) => {
                 // Positive only where every child is, negative wherever any
                 // child is: inside the common part and any negative child's box.
@@ -502,6 +504,7 @@ impl Model {
     pub fn primitives_under(&self, id: NodeId) -> usize {
         match &self.node(id).kind {
             NodeKind::Primitive(_) => 1,
+            NodeKind::Points { set, .. } => set.len(),
             kind => kind.children().iter().map(|&c| self.primitives_under(c)).sum(),
         }
     }
@@ -524,6 +527,10 @@ impl Model {
         for n in &self.nodes {
             match n.kind {
                 NodeKind::Primitive(_) => c.primitives += 1,
+                NodeKind::Points { ref set, .. } => {
+                    c.primitives += set.len();
+                    c.indexed_blends += 1;
+                }
                 NodeKind::Cache { .. } => c.caches += 1,
                 NodeKind::Blend { index: Some(_), .. } => c.indexed_blends += 1,
                 _ => {}
@@ -552,6 +559,7 @@ fn may_be_negative(kind: &NodeKind, children: &[(Aabb, bool)]) -> bool {
     let mut negative = children.iter().map(|c| c.1);
     match kind {
         NodeKind::Primitive(p) => p.weight < 0.0,
+        NodeKind::Points { set, .. } => set.has_negative_weight(),
         // The maximum is negative only where every child is (a child is zero
         // outside its support).
         NodeKind::Union(_) => negative.all(|n| n),

@@ -179,6 +179,10 @@ impl KernelSupports {
         match &model.node(id).kind {
             NodeKind::Primitive(p) => self.push(p, frame).or_else(|()| refuse("a circle")),
             NodeKind::Blend { children, .. } => children.iter().try_for_each(|&c| self.gather(model, c, mode, frame)),
+            NodeKind::Points { set, .. } => {
+                self.reserve(set.len());
+                (0..set.len()).try_for_each(|i| self.push(&set.primitive(i), frame).or_else(|()| refuse("a point")))
+            }
             NodeKind::Named { child, .. } => self.gather(model, *child, mode, frame),
             NodeKind::Cache { child, grid, .. } if !model.answers_from_lattice(*grid, mode) => {
                 self.gather(model, *child, mode, frame)
@@ -200,6 +204,13 @@ impl KernelSupports {
             NodeKind::Ricci { .. } => refuse("a Ricci blend"),
             NodeKind::Warp { .. } => refuse("a warp"),
         }
+    }
+
+    /// Makes room for `additional` more supports at once.
+    fn reserve(&mut self, additional: usize) {
+        self.supports.reserve_exact(additional);
+        self.boxes.reserve_exact(additional);
+        self.spheres.reserve_exact(additional);
     }
 
     /// Appends primitive `p`; `Err` for a skeleton no quadratic describes.
