@@ -2,8 +2,10 @@
 //! per-cell and per-box bounds taken from them.
 
 use super::*;
-use crate::field::Skeleton;
+use glam::Vec3;
+
 use crate::field::kernel::Kernel;
+use crate::field::{PointSet, Skeleton};
 
 /// Eleven points of different radii and weights in a cluster, indexed.
 fn cluster() -> BlendIndex {
@@ -20,13 +22,26 @@ fn cluster() -> BlendIndex {
         Leaf::Primitive(p) => *p,
         Leaf::Node(_) => unreachable!("the cluster holds primitives only"),
     };
-    BlendIndex::build(bounds, leaves, |l, b| prim(l).interval(b), |l, _| prim(l).kernel.slope(0.0, prim(l).radius))
+    BlendIndex::build(
+        bounds,
+        Leaves::Listed(leaves),
+        |l, b| prim(l).interval(b),
+        |l, _| prim(l).kernel.slope(0.0, prim(l).radius),
+    )
+}
+
+/// The leaves of an index over listed leaves.
+fn leaves_of(ix: &BlendIndex) -> &[IndexedLeaf] {
+    match &ix.leaves {
+        Leaves::Listed(leaves) => leaves,
+        Leaves::Points(_) => unreachable!("the index lists its leaves"),
+    }
 }
 
 #[test]
 fn cells_list_every_leaf_reaching_them_and_the_packed_sums_match_the_plain_ones() {
     let ix = cluster();
-    let prim = |i: usize| match &ix.leaves[i].leaf {
+    let prim = |i: usize| match &leaves_of(&ix)[i].leaf {
         Leaf::Primitive(p) => *p,
         Leaf::Node(_) => unreachable!(),
     };
@@ -58,7 +73,9 @@ fn cells_list_every_leaf_reaching_them_and_the_packed_sums_match_the_plain_ones(
 fn the_cells_packed_bounds_are_the_leaves_bounds_summed() {
     // One negative weight among the points, for the curvature's other branch.
     let mut ix = cluster();
-    if let Leaf::Primitive(p) = &mut ix.leaves[4].leaf {
+    if let Leaves::Listed(leaves) = &mut ix.leaves
+        && let Leaf::Primitive(p) = &mut leaves[4].leaf
+    {
         p.weight = -0.6;
     }
     let points = PackedPoints::pack(&ix.leaves, ix.grid.cell_count()).expect("all leaves are points");
@@ -70,7 +87,7 @@ fn the_cells_packed_bounds_are_the_leaves_bounds_summed() {
             return;
         };
         let region = Region::Box(cell);
-        let prims = ix.cell_items(c).iter().map(|&i| match &ix.leaves[i as usize].leaf {
+        let prims = ix.cell_items(c).iter().map(|&i| match &leaves_of(&ix)[i as usize].leaf {
             Leaf::Primitive(p) => *p,
             Leaf::Node(_) => unreachable!("the cluster holds primitives only"),
         });
@@ -127,7 +144,7 @@ fn the_lists_over_a_box_hold_every_leaf_reaching_it() {
         let b = Aabb::around(center, ix.grid.cell * (0.2 + 0.05 * (k % 60) as f32));
         let mut listed = vec![false; ix.leaves.len()];
         ix.for_each_list_over(&b, |items| items.iter().for_each(|&i| listed[i as usize] = true));
-        for (i, leaf) in ix.leaves.iter().enumerate() {
+        for (i, leaf) in leaves_of(&ix).iter().enumerate() {
             let Leaf::Primitive(p) = &leaf.leaf else { unreachable!("the cluster holds primitives only") };
             assert!(listed[i] || !p.support_reaches(&b, 1.0), "leaf {i} reaches {b:?} but is not listed");
         }
@@ -147,8 +164,7 @@ fn the_cells_sums_over_a_box_hold_the_field_and_are_no_looser_than_the_leaves_bo
         eprintln!("this processor lacks AVX2 or FMA: boxes take the leaves' bounds");
         return;
     }
-    let prims: Vec<Primitive> = ix
-        .leaves
+    let prims: Vec<Primitive> = leaves_of(&ix)
         .iter()
         .map(|l| match &l.leaf {
             Leaf::Primitive(p) => *p,
@@ -186,7 +202,7 @@ fn a_box_is_missed_exactly_where_its_cells_bound_is_zero_and_asking_packs_nothin
     // Boxes whose nearest corner sits within a few ulps of a support's
     // edge, inside and out, and boxes anywhere.
     let mut boxes = vec![];
-    for leaf in &ix.leaves {
+    for leaf in leaves_of(&ix) {
         let Leaf::Primitive(p) = &leaf.leaf else { unreachable!("the cluster holds primitives only") };
         let Skeleton::Point { center } = p.skeleton else { unreachable!("the cluster holds points only") };
         for (axis, sign) in (0..3).flat_map(|axis| [(axis, -1.0f32), (axis, 1.0)]) {
@@ -222,7 +238,7 @@ fn a_box_is_missed_exactly_where_its_cells_bound_is_zero_and_asking_packs_nothin
 fn cells_list_fewer_leaves_than_their_boxes_overlap() {
     let ix = cluster();
     let listed = ix.items.len();
-    let overlapped: usize = ix.leaves.iter().map(|l| ix.grid.cells_overlapped(&l.bounds)).sum();
+    let overlapped: usize = leaves_of(&ix).iter().map(|l| ix.grid.cells_overlapped(&l.bounds)).sum();
     assert!(listed * 10 < overlapped * 8, "{listed} listings against {overlapped} overlapped cells");
 }
 
@@ -245,11 +261,11 @@ fn crowded_supports_widen_the_cells_so_the_lists_grow_with_the_leaves_not_their_
     let bounds = |leaves: &[IndexedLeaf]| leaves.iter().fold(Aabb::EMPTY, |b, l| b.union(&l.bounds));
     // A few thousand leaves keep cells an eighth of a leaf wide, however they crowd.
     let few = point_leaves(4096, 0.5);
-    assert_eq!(choose_cell_size(&bounds(&few), &few), CELL_PER_LEAF_SIZE * 4.5);
+    assert_eq!(choose_cell_size(&bounds(&few), &Leaves::Listed(few)), CELL_PER_LEAF_SIZE * 4.5);
     // 400,000 supports each meeting hundreds of others: at an eighth of a
     // leaf, each would be listed about 380 times.
     let crowded = point_leaves(400_000, 0.5);
-    let ix = BlendIndex::build(bounds(&crowded), crowded, |_, _| Interval::ZERO, |_, _| 0.0);
+    let ix = BlendIndex::build(bounds(&crowded), Leaves::Listed(crowded), |_, _| Interval::ZERO, |_, _| 0.0);
     let per_leaf = ix.items.len() as f32 / ix.leaves.len() as f32;
     assert!(per_leaf <= MAX_LISTINGS_PER_LEAF, "{per_leaf} listings a leaf");
     assert!(per_leaf > MAX_LISTINGS_PER_LEAF / 3.0, "the cells stay as fine as the budget allows: {per_leaf}");
@@ -261,7 +277,77 @@ fn thinly_spread_leaves_get_at_most_their_share_of_cells() {
     // tens of millions; the grid keeps to the free cells (64 a leaf is less).
     let leaves = point_leaves(20_000, 6.0);
     let bounds = leaves.iter().fold(Aabb::EMPTY, |b, l| b.union(&l.bounds));
-    let cell = choose_cell_size(&bounds, &leaves);
+    let cell = choose_cell_size(&bounds, &Leaves::Listed(leaves));
     let cells = (bounds.size() / cell).ceil().max(Vec3A::ONE).element_product() as usize;
     assert!(cells <= FREE_CELLS && cells > FREE_CELLS / 2, "{cells} cells");
+}
+
+#[test]
+fn a_point_set_is_indexed_as_its_points_listed_would_be() {
+    // Thousands of points, coloured and not, radii and weights varied, so
+    // that cells list many each and the layers of the sort meet.
+    let n = 3000;
+    let points: Vec<(Vec3, f32, f32)> = (0..n)
+        .map(|i| {
+            let f = i as f32;
+            let center = Vec3::new((f * 0.37).sin() * 9.0, (f * 0.71).cos() * 7.0, (f * 0.13).sin() * 5.0);
+            (center, 0.8 + 0.3 * (f * 0.19).sin().abs(), 1.0 + 0.5 * (f * 0.07).cos())
+        })
+        .collect();
+    let colors: Vec<Vec3> = (0..n).map(|i| Vec3::splat(i as f32 / n as f32)).collect();
+    let set = Arc::new(PointSet::new(points.iter().copied(), Kernel::Wyvill, Some(colors.clone())));
+    let from_set = set.indexed();
+    let leaves: Vec<IndexedLeaf> = points
+        .iter()
+        .zip(&colors)
+        .map(|(&(center, radius, weight), &color)| {
+            let p = Primitive::new(Skeleton::Point { center: center.into() }, radius, weight, Kernel::Wyvill);
+            IndexedLeaf { bounds: p.bounds(), leaf: Leaf::Primitive(p), color: Some(color) }
+        })
+        .collect();
+    let bounds = leaves.iter().fold(Aabb::EMPTY, |b, l| b.union(&l.bounds));
+    assert_eq!(bounds, set.bounds());
+    let listed = BlendIndex::build(
+        bounds,
+        Leaves::Listed(leaves),
+        |l, b| match &l.leaf {
+            Leaf::Primitive(p) if l.bounds.overlaps(b) => p.interval(b),
+            _ => Interval::ZERO,
+        },
+        |l, r| match &l.leaf {
+            Leaf::Primitive(p) if r.meets(&l.bounds) => p.lipschitz_over(r),
+            _ => 0.0,
+        },
+    );
+    assert_eq!(from_set.grid, listed.grid);
+    assert_eq!((&from_set.offsets, &from_set.items), (&listed.offsets, &listed.items));
+    assert!(from_set.items.len() > 20 * n, "{} listings", from_set.items.len());
+    assert_eq!((&from_set.blocks.offsets, &from_set.blocks.items), (&listed.blocks.offsets, &listed.blocks.items));
+    assert_eq!(from_set.cell_range, listed.cell_range);
+    assert_eq!(from_set.cell_lipschitz, listed.cell_lipschitz);
+    for i in (0..n).step_by(97) {
+        assert_eq!(from_set.leaves.get(i), listed.leaves.get(i), "leaf {i}");
+    }
+    for k in 0..500 {
+        let f = k as f32;
+        let q = Vec3A::new((f * 0.29).sin() * 9.0, (f * 0.53).cos() * 7.0, (f * 0.97).sin() * 5.0);
+        assert_eq!(from_set.point_sum_and_gradient(q), listed.point_sum_and_gradient(q), "at {q}");
+    }
+    assert_eq!(from_set.changed_since(&from_set.clone()), Aabb::EMPTY);
+}
+
+#[test]
+fn the_layered_sort_lists_exactly_the_cells_each_leaf_reaches() {
+    let ix = cluster();
+    for c in 0..ix.grid.cell_count() {
+        let cell = ix.grid.cell_box(c);
+        let expected: Vec<u32> = (0..leaves_of(&ix).len() as u32)
+            .filter(|&i| {
+                let leaf = &leaves_of(&ix)[i as usize];
+                let Leaf::Primitive(p) = &leaf.leaf else { unreachable!("the cluster holds primitives only") };
+                leaf.bounds.overlaps(&cell) && p.support_reaches(&cell, SUPPORT_SLACK)
+            })
+            .collect();
+        assert_eq!(ix.cell_items(c), &expected[..], "cell {c}");
+    }
 }
