@@ -18,7 +18,7 @@ use crate::geom::{Aabb, Interval};
 /// 16-byte load, weights apart (a sixth of a leaf's size, so the leaves of a
 /// dense model stay in cache); and where the eight-wide sums run, each
 /// cell's list packed for them.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub(super) struct PackedPoints {
     /// The points: a `Points` node's own set, or one made of the leaves.
     set: Arc<PointSet>,
@@ -27,6 +27,15 @@ pub(super) struct PackedPoints {
     /// first): 8 bytes a cell where a `OnceLock` took 24, 64 MB less for
     /// the 4 M cells of a million sparse points.
     pub(super) cells: Option<Vec<OnceBox<Box<[Chunk]>>>>,
+}
+
+/// The set and which cells are packed (not where: a slot's pointer is no
+/// part of what the index is).
+impl std::fmt::Debug for PackedPoints {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let packed = self.cells.as_ref().map(|cells| cells.iter().map(|c| c.get().is_some()).collect::<Vec<_>>());
+        f.debug_struct("PackedPoints").field("set", &self.set).field("packed", &packed).finish()
+    }
 }
 
 impl PackedPoints {
