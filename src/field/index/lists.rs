@@ -32,7 +32,7 @@ impl Lists {
         counts[1..].par_chunks_mut(layer_cells).zip(layers.par_iter()).enumerate().for_each(|(z, (counts, layer))| {
             let first = z * layer_cells;
             for &i in layer {
-                reached_in_layer(&grid, &leaves.get(i as usize), z as u32, |c| counts[c - first] += 1);
+                reached_in_layer(&grid, leaves, i as usize, z as u32, |c| counts[c - first] += 1);
             }
         });
         for i in 0..grid.cell_count() {
@@ -51,7 +51,7 @@ impl Lists {
             let (first, start) = (z * layer_cells, counts[z * layer_cells]);
             let mut cursor: Vec<u32> = counts[first..first + layer_cells].iter().map(|&o| o - start).collect();
             for &i in layer {
-                reached_in_layer(&grid, &leaves.get(i as usize), z as u32, |c| {
+                reached_in_layer(&grid, leaves, i as usize, z as u32, |c| {
                     slice[cursor[c - first] as usize] = i;
                     cursor[c - first] += 1;
                 });
@@ -69,7 +69,7 @@ impl Lists {
 fn leaves_by_layer(grid: &UniformGrid, leaves: &Leaves) -> Vec<Vec<u32>> {
     let ranges: Vec<Option<(u32, u32)>> = (0..leaves.len())
         .into_par_iter()
-        .map(|i| grid.cell_range_of(&leaves.get(i).bounds).map(|(lo, hi, _)| (lo.z, hi.z)))
+        .map(|i| grid.cell_range_of(&leaves.bounds(i)).map(|(lo, hi, _)| (lo.z, hi.z)))
         .collect();
     let mut layers = vec![Vec::new(); grid.dims.z as usize];
     for (i, range) in ranges.into_iter().enumerate() {
@@ -82,17 +82,28 @@ fn leaves_by_layer(grid: &UniformGrid, leaves: &Leaves) -> Vec<Vec<u32>> {
     layers
 }
 
-/// Calls `f` with each cell of layer `z` of `grid` where `leaf` can be
+/// Calls `f` with each cell of layer `z` of `grid` where leaf `i` can be
 /// non-zero: those its box overlaps, less, for a primitive, those wholly
 /// outside its support (a ball's box holds twice the ball, so a dense
 /// model's cells list about half as many leaves).
-fn reached_in_layer(grid: &UniformGrid, leaf: &IndexedLeaf, z: u32, mut f: impl FnMut(usize)) {
+fn reached_in_layer(grid: &UniformGrid, leaves: &Leaves, i: usize, z: u32, f: impl FnMut(usize)) {
+    let ball = match leaves {
+        // A point set's ball, without making the point a leaf.
+        Leaves::Points(set) => set.ball(i),
+        Leaves::Listed(listed) => match listed[i].leaf {
+            Leaf::Primitive(Primitive { skeleton: Skeleton::Point { center }, radius, .. }) => (center, radius),
+            _ => return reached_by_leaf(grid, &listed[i], z, f),
+        },
+    };
+    let Some((lo, hi, _)) = grid.cell_range_of(&leaves.bounds(i)) else { return };
+    // A hair wider than the support, against rounding in the value.
+    let reach = ball.1 * SUPPORT_SLACK;
+    ball_in_layer(grid, (ball.0, reach * reach), (lo, hi), z, f);
+}
+
+/// [`reached_in_layer`] for any leaf but a point.
+fn reached_by_leaf(grid: &UniformGrid, leaf: &IndexedLeaf, z: u32, mut f: impl FnMut(usize)) {
     let Some((lo, hi, _)) = grid.cell_range_of(&leaf.bounds) else { return };
-    if let Leaf::Primitive(Primitive { skeleton: Skeleton::Point { center }, radius, .. }) = leaf.leaf {
-        // A hair wider than the support, against rounding in the value.
-        let reach = radius * SUPPORT_SLACK;
-        return ball_in_layer(grid, (center, reach * reach), (lo, hi), z, f);
-    }
     for y in lo.y..=hi.y {
         for x in lo.x..=hi.x {
             let i = UVec3::new(x, y, z);

@@ -133,6 +133,19 @@ impl Leaves {
         }
     }
 
+    /// Leaf `i`'s bounds (a point's made as [`Primitive::bounds`] makes them).
+    #[inline]
+    #[must_use]
+    pub fn bounds(&self, i: usize) -> Aabb {
+        match self {
+            Leaves::Listed(leaves) => leaves[i].bounds,
+            Leaves::Points(set) => {
+                let (center, radius) = set.ball(i);
+                Aabb::around(center, radius)
+            }
+        }
+    }
+
     /// True when leaf `i` of these and leaf `j` of `other` are the same.
     fn same(&self, i: usize, other: &Leaves, j: usize) -> bool {
         match (self, other) {
@@ -384,7 +397,7 @@ impl BlendIndex {
 /// reach the query; grown if the grid gets too big, or if its lists would
 /// list each leaf too many times (see [`MAX_LISTINGS_PER_LEAF`]).
 fn choose_cell_size(bounds: &Aabb, leaves: &Leaves) -> f32 {
-    let mut sizes: Vec<f32> = (0..leaves.len()).map(|i| leaves.get(i).bounds.size().max_element()).collect();
+    let mut sizes: Vec<f32> = (0..leaves.len()).map(|i| leaves.bounds(i).size().max_element()).collect();
     sizes.sort_by(f32::total_cmp);
     let median = sizes.get(sizes.len() / 2).copied().unwrap_or(1.0);
     let extent = bounds.size().max(Vec3A::splat(1e-6));
