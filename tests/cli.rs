@@ -1847,7 +1847,7 @@ fn bench_scale_measures_each_point_set_in_its_own_process_and_plots_every_figure
     let args = ["bench", "scale", "--points", "1000,3000", "--mesh-up-to", "1000", "--size", "64x64"];
     let v = run_json(&[&args[..], &["--threads", "1", "-o", plot.to_str().unwrap(), "--json"]].concat());
     let rows = v["rows"].as_array().unwrap();
-    assert_eq!(rows.len(), 4, "two models at two counts: {v}");
+    assert_eq!(rows.len(), 6, "three models at two counts: {v}");
     for row in rows {
         assert_keys(row, &["model", "points", "load_seconds", "resident_mb", "peak_mb", "render_seconds", "tracer"]);
         assert!(row["load_seconds"].as_f64().unwrap() > 0.0 && row["render_seconds"].as_f64().unwrap() > 0.0);
@@ -1857,7 +1857,9 @@ fn bench_scale_measures_each_point_set_in_its_own_process_and_plots_every_figure
         assert_eq!(row["mesh"].is_array(), meshed, "{row}");
         assert_eq!(row["mesh_skipped"].is_string(), !meshed, "{row}");
     }
-    assert!(rows.iter().any(|r| r["model"] == "dense") && rows.iter().any(|r| r["model"] == "sparse"));
+    for model in ["sparse", "dense", "spline"] {
+        assert!(rows.iter().any(|r| r["model"] == model), "{model}: {v}");
+    }
     let beside: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(plot.with_extension("json")).unwrap()).unwrap();
     assert_eq!(beside["rows"], v["rows"], "the JSON beside the plot holds the same figures");

@@ -25,7 +25,14 @@ pub enum PointModel {
     /// One branching random walk, step 1.8: each point steps from the one
     /// before, or with probability 0.3 from a uniformly chosen earlier one.
     Dense,
+    /// One `SplinePoints` node: a Catmull-Rom curve through a random walk
+    /// of one control point per [`SPLINE_SPAN`] points, its points about
+    /// half a step (0.9) apart, so each support meets about five along it.
+    Spline,
 }
+
+/// Spline points per control point of the spline model.
+pub const SPLINE_SPAN: usize = 64;
 
 impl PointModel {
     /// The model's name, as `make_points.py` takes it.
@@ -34,10 +41,12 @@ impl PointModel {
         match self {
             PointModel::Sparse => "sparse",
             PointModel::Dense => "dense",
+            PointModel::Spline => "spline",
         }
     }
 
-    /// `n` points of the model, the same for the same `seed`.
+    /// `n` points of the model, the same for the same `seed`; for the
+    /// spline, the control points of a spline of `n` points.
     #[must_use]
     pub fn points(self, n: usize, seed: u64) -> Vec<Vec3> {
         let mut rng = SplitMix(seed);
@@ -51,6 +60,14 @@ impl PointModel {
                         points.push(p);
                         p += rng.step();
                     }
+                }
+            }
+            PointModel::Spline => {
+                // A control step as long as the half steps of the points between.
+                let mut p = Vec3::ZERO;
+                for _ in 0..n / SPLINE_SPAN + 2 {
+                    points.push(p);
+                    p += rng.step() * (SPLINE_SPAN as f32 / 2.0);
                 }
             }
             PointModel::Dense => {
@@ -123,7 +140,23 @@ pub fn ply_bytes(points: &[Vec3]) -> Vec<u8> {
 /// scene's folder), blended, seen whole from above one corner.
 #[must_use]
 pub fn scene_text(ply: &Path, points: &[Vec3], size: (u32, u32)) -> String {
-    let (lo, hi) = points.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let model = format!("Points(file: {:?}, radius: {RADIUS})", ply.display().to_string());
+    scene_around(points, size, &model)
+}
+
+/// A scene of a spline of `n` points through `control` (see
+/// [`PointModel::Spline`]), seen whole from above one corner.
+#[must_use]
+pub fn spline_scene_text(control: &[Vec3], n: usize, size: (u32, u32)) -> String {
+    let v = |p: &Vec3| format!("({}, {}, {})", p.x, p.y, p.z);
+    let listed: Vec<String> = control.iter().map(v).collect();
+    let model = format!("SplinePoints(control: [{}], count: {n}, radius: {RADIUS})", listed.join(", "));
+    scene_around(control, size, &model)
+}
+
+/// A scene of `model`, framing the points `around`.
+fn scene_around(around: &[Vec3], size: (u32, u32), model: &str) -> String {
+    let (lo, hi) = around.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
     let (center, radius) = ((lo + hi) / 2.0, ((hi - lo).length() / 2.0 + RADIUS).max(1.0));
     // Far enough that the bounding sphere fits a 40° view.
     let eye = center + Vec3::new(0.35, 0.45, 1.0).normalize() * radius / (20f32.to_radians().sin());
@@ -131,13 +164,11 @@ pub fn scene_text(ply: &Path, points: &[Vec3], size: (u32, u32)) -> String {
     let mut text = String::new();
     let _ = write!(
         text,
-        "Scene(\n    camera: Camera(eye: {}, target: {}, fov_y: 40.0),\n    size: ({}, {}),\n    \
-         model: Points(file: {:?}, radius: {RADIUS}),\n)\n",
+        "Scene(\n    camera: Camera(eye: {}, target: {}, fov_y: 40.0),\n    size: ({}, {}),\n    model: {model},\n)\n",
         v(eye),
         v(center),
         size.0,
         size.1,
-        ply.display().to_string()
     );
     text
 }
@@ -160,6 +191,19 @@ mod tests {
         let half = 14.0 * 5f32.cbrt() + 50.0 * STEP;
         assert!(sparse.iter().all(|p| p.abs().max_element() < half));
         assert!(sparse.iter().any(|p| p.x > 14.0) && sparse.iter().any(|p| p.x < -14.0), "spread over the cube");
+    }
+
+    #[test]
+    fn the_spline_model_is_one_node_of_its_count_with_points_half_a_step_apart() {
+        let control = PointModel::Spline.points(100_000, 5);
+        assert_eq!(control.len(), 100_000 / SPLINE_SPAN + 2);
+        let scene = crate::scene::Scene::parse(&spline_scene_text(&control, 100_000, (64, 48)), "spline").unwrap();
+        assert_eq!(scene.model.counts().primitives, 100_000);
+        let root = &scene.model.node(scene.model.root()).kind;
+        let crate::field::NodeKind::Points { set, .. } = root else { panic!("a spline this long is a point set") };
+        let gaps: Vec<f32> = (1..set.len()).map(|i| set.ball(i).0.distance(set.ball(i - 1).0)).collect();
+        let mean = gaps.iter().sum::<f32>() / gaps.len() as f32;
+        assert!((0.5..1.3).contains(&mean), "the points are {mean} apart");
     }
 
     #[test]

@@ -15,7 +15,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use super::point_sets::{PointModel, ply_bytes, scene_text};
+use super::point_sets::{PointModel, ply_bytes, scene_text, spline_scene_text};
 use crate::draw::{Panel, scaling_plot};
 use crate::field::EvalMode;
 use crate::frame::Size;
@@ -26,7 +26,7 @@ use crate::pipeline::{
     with_threads,
 };
 use crate::progress::Progress;
-use crate::scene::Scene;
+use crate::scene::{MAX_SPLINE_POINTS, Scene};
 
 /// What the scale benchmark measures.
 #[derive(Clone, Debug)]
@@ -122,6 +122,10 @@ fn measure_all(settings: &ScaleBenchSettings, progress: &dyn Progress, run: RowR
         for &n in &settings.counts {
             progress.update("point sets", done, total);
             done += 1;
+            if model == PointModel::Spline && n as u64 > MAX_SPLINE_POINTS {
+                stopped.push(format!("spline {n}: a SplinePoints holds at most {MAX_SPLINE_POINTS} points"));
+                continue;
+            }
             if let Some(why) = too_large(&rows, model, n) {
                 stopped.push(why);
                 continue;
@@ -203,8 +207,14 @@ fn write_point_set(scratch: &Path, model: PointModel, n: usize, size: Size) -> R
     let ply = PathBuf::from(format!("{stem}.ply"));
     let scene = scratch.join(format!("{stem}.ron"));
     let mut files = FileSet::new();
-    files.add(scratch.join(&ply), ply_bytes(&points));
-    files.add(&scene, scene_text(&ply, &points, (size.0, size.1)).into_bytes());
+    let text = match model {
+        PointModel::Spline => spline_scene_text(&points, n, (size.0, size.1)),
+        PointModel::Sparse | PointModel::Dense => {
+            files.add(scratch.join(&ply), ply_bytes(&points));
+            scene_text(&ply, &points, (size.0, size.1))
+        }
+    };
+    files.add(&scene, text.into_bytes());
     files.commit()?;
     Ok(scene)
 }

@@ -36,8 +36,8 @@ pub enum BenchCommand {
     /// median and slowest frame time and the frame rate it allows.
     View(ViewBenchArgs),
     /// Load time, resident memory, render and mesh time of point sets of 10³
-    /// points and up (sparse, and a dense cloud), with a log–log plot of each
-    /// against the count (PNG) and the figures as JSON beside it.
+    /// points and up (sparse, a dense cloud, one long spline), with a log–log
+    /// plot of each against the count (PNG) and the figures as JSON beside it.
     Scale(ScaleBenchArgs),
 }
 
@@ -47,8 +47,8 @@ pub struct ScaleBenchArgs {
     /// Point counts (each from 1,000 to 10,000,000, the most a scene holds; counts that would not fit in memory are skipped).
     #[arg(long, value_delimiter = ',', default_value = "1000,10000,100000,1000000", value_parser = parse_count)]
     pub points: Vec<usize>,
-    /// Point sets: sparse (the particles scene's density at any count), dense (a branching walk), or both.
-    #[arg(long, value_enum, default_value_t = ModelsArg::Both)]
+    /// Point sets: sparse (the particles scene's density at any count), dense (a branching walk), spline (one SplinePoints node, up to 10⁶ points), or all.
+    #[arg(long, value_enum, default_value_t = ModelsArg::All)]
     pub model: ModelsArg,
     /// Image size of the renders WIDTHxHEIGHT.
     #[arg(long, value_parser = parse_size, default_value = "500x500")]
@@ -79,7 +79,8 @@ fn parse_one(s: &str) -> Result<(PointModel, usize), String> {
     let model = match model {
         "sparse" => PointModel::Sparse,
         "dense" => PointModel::Dense,
-        _ => return Err(format!("no point set {model:?} (sparse or dense)")),
+        "spline" => PointModel::Spline,
+        _ => return Err(format!("no point set {model:?} (sparse, dense or spline)")),
     };
     Ok((model, parse_count(n)?))
 }
@@ -91,8 +92,12 @@ pub enum ModelsArg {
     Sparse,
     /// One branching random walk.
     Dense,
-    /// Both.
+    /// One `SplinePoints` node along a random walk.
+    Spline,
+    /// Sparse and dense.
     Both,
+    /// All three.
+    All,
 }
 
 /// A point count from 1,000 to the most a scene holds.
@@ -286,7 +291,9 @@ impl ScaleBenchArgs {
         let models = match self.model {
             ModelsArg::Sparse => vec![PointModel::Sparse],
             ModelsArg::Dense => vec![PointModel::Dense],
+            ModelsArg::Spline => vec![PointModel::Spline],
             ModelsArg::Both => vec![PointModel::Sparse, PointModel::Dense],
+            ModelsArg::All => vec![PointModel::Sparse, PointModel::Dense, PointModel::Spline],
         };
         ScaleBenchSettings {
             counts,

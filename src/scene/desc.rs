@@ -562,7 +562,10 @@ impl<'de> serde::Deserialize<'de> for Children {
     }
 }
 
-/// A primitive count in `1..=1_000_000`.
+/// Most points a `SplinePoints` node may have.
+pub const MAX_SPLINE_POINTS: u64 = 1_000_000;
+
+/// A primitive count in `1..=MAX_SPLINE_POINTS`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(transparent)]
 pub struct Count(pub u32);
@@ -570,7 +573,7 @@ pub struct Count(pub u32);
 impl<'de> serde::Deserialize<'de> for Count {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let v = u32::deserialize(d)?;
-        if (1..=1_000_000).contains(&v) {
+        if (1..=MAX_SPLINE_POINTS).contains(&u64::from(v)) {
             Ok(Count(v))
         } else {
             Err(de::Error::custom(format!("count must lie in 1..=1000000, got {v}")))

@@ -18,7 +18,7 @@ use std::path::Path;
 use glam::Vec3;
 
 pub use crate::frame::Size;
-pub use desc::{CameraDesc, Children, MAX_DEPTH, MAX_PRIMITIVES, NodeDesc, Resolution, SceneDesc};
+pub use desc::{CameraDesc, Children, MAX_DEPTH, MAX_PRIMITIVES, MAX_SPLINE_POINTS, NodeDesc, Resolution, SceneDesc};
 pub use edit_desc::{EditDesc, OperatorDesc};
 pub use point_files::{PointCloud, read_points};
 pub use script::{Script, entry_positions, load_script, parse_script};
