@@ -47,11 +47,20 @@ const SUPPORT_SLACK: f32 = 1.001;
 /// Most cells a grid may have, whatever the leaf count.
 const MAX_CELLS: usize = 1 << 22;
 
-/// Cells any grid may have before [`MAX_CELLS_PER_LEAF`] applies: Medusa's
-/// grid, an eighth of a leaf wide, has 1.4 M.
+/// Cells a grid of at most [`FREE_CELLS_UP_TO`] leaves may have, however
+/// few its leaves: Medusa's grid, an eighth of a leaf wide, has 1.4 M.
 const FREE_CELLS: usize = 1 << 21;
 
-/// Cells a grid may have per leaf past [`FREE_CELLS`]. Each cell costs about
+/// Most leaves a grid may have for [`FREE_CELLS`] to apply: every bundled
+/// scene has fewer (Medusa 9,490), and keeps its grid. Larger models get
+/// [`MAX_CELLS_PER_LEAF`] a leaf: a hundred thousand sparse points took the
+/// 2 M free cells, 20 a point and 60 listings, and 0.13 s to index; at 2 a
+/// point, 0.03 s, meshing as fast (the segment tracer renders them 20%
+/// slower; the kernel tracer renders them, and does not read the cells).
+const FREE_CELLS_UP_TO: usize = 1 << 14;
+
+/// Cells a grid may have per leaf (beyond [`FREE_CELLS`], where those
+/// apply). Each cell costs about
 /// 28 bytes (its list's offset, three bounds, a packing slot) whether it
 /// lists anything or not, and the cells a leaf reaches grow as the cells
 /// shrink: a million sparse points at 4 cells a leaf took 4 M cells and 25
@@ -227,6 +236,11 @@ impl BlendIndex {
             .cell_count())
             .into_par_iter()
             .map_init(Vec::new, |chunks, c| {
+                // What the sums below give for no leaf, without their setup
+                // (many cells of a sparse cloud's grid list nothing).
+                if self.cell_items(c).is_empty() {
+                    return (0.0, 0.0, Interval::ZERO);
+                }
                 let cell_box = self.grid.cell_box(c);
                 let packed = self.points.as_ref().and_then(|p| p.cell_bounds(self.cell_items(c), &cell_box, chunks));
                 if let Some(bounds) = packed {
@@ -402,7 +416,8 @@ fn choose_cell_size(bounds: &Aabb, leaves: &Leaves) -> f32 {
     let median = sizes.get(sizes.len() / 2).copied().unwrap_or(1.0);
     let extent = bounds.size().max(Vec3A::splat(1e-6));
     let mut cell = (CELL_PER_LEAF_SIZE * median).max(extent.max_element() / 512.0);
-    let per_leaf = FREE_CELLS.max(MAX_CELLS_PER_LEAF * leaves.len());
+    let free = if leaves.len() <= FREE_CELLS_UP_TO { FREE_CELLS } else { 0 };
+    let per_leaf = free.max(MAX_CELLS_PER_LEAF * leaves.len());
     let limit = MAX_CELLS.min(512 * leaves.len() + 4096).min(per_leaf) as f32;
     let count = |c: f32| (extent / c).ceil().max(Vec3A::ONE).element_product();
     while count(cell) > limit {

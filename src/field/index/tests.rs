@@ -273,13 +273,19 @@ fn crowded_supports_widen_the_cells_so_the_lists_grow_with_the_leaves_not_their_
 
 #[test]
 fn thinly_spread_leaves_get_at_most_their_share_of_cells() {
-    // 20,000 supports far apart: cells an eighth of a leaf wide would need
-    // tens of millions; the grid keeps to the free cells (64 a leaf is less).
-    let leaves = point_leaves(20_000, 6.0);
-    let bounds = leaves.iter().fold(Aabb::EMPTY, |b, l| b.union(&l.bounds));
-    let cell = choose_cell_size(&bounds, &Leaves::Listed(leaves));
-    let cells = (bounds.size() / cell).ceil().max(Vec3A::ONE).element_product() as usize;
-    assert!(cells <= FREE_CELLS && cells > FREE_CELLS / 2, "{cells} cells");
+    // Supports far apart: cells an eighth of a leaf wide would need tens of
+    // millions. Up to FREE_CELLS_UP_TO leaves the grid keeps to the free
+    // cells; past it, to MAX_CELLS_PER_LEAF a leaf.
+    let cells = |n: usize| {
+        let leaves = Leaves::Listed(point_leaves(n, 6.0));
+        let bounds = (0..n).fold(Aabb::EMPTY, |b, i| b.union(&leaves.bounds(i)));
+        let cell = choose_cell_size(&bounds, &leaves);
+        (bounds.size() / cell).ceil().max(Vec3A::ONE).element_product() as usize
+    };
+    let few = cells(FREE_CELLS_UP_TO);
+    assert!(few <= FREE_CELLS && few > FREE_CELLS / 2, "{few} cells");
+    let many = cells(20_000);
+    assert!(many <= MAX_CELLS_PER_LEAF * 20_000 && many > MAX_CELLS_PER_LEAF * 20_000 / 2, "{many} cells");
 }
 
 #[test]
