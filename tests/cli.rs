@@ -479,6 +479,13 @@ fn mesh_writes_every_format_and_reports_json() {
         let v = run_json(&["mesh", "scenes/pair.ron", "--res", "24", "-o", path.to_str().unwrap(), "--json"]);
         assert_keys(&v, &["triangles", "vertices", "field_evals", "seconds", "evals_per_triangle", "quality"]);
         assert_eq!(v["closed_manifold"], true);
+        if cfg!(target_os = "linux") {
+            // The meshing's own memory: at least its triangles' indices, and a peak above the start.
+            let memory = &v["memory"];
+            let (before, peak) = (memory["before_mb"].as_f64().unwrap(), memory["peak_mb"].as_f64().unwrap());
+            assert!(before > 0.0 && peak >= before, "{memory}");
+            assert!(memory["bytes_per_triangle"].as_f64().unwrap() >= 0.0, "{memory}");
+        }
         let bytes = std::fs::read(&path).expect("the mesh was written");
         let triangles = v["triangles"].as_u64().unwrap();
         match ext {

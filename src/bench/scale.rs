@@ -22,8 +22,8 @@ use crate::frame::Size;
 use crate::mesh::quality::QualityLevel;
 use crate::output::FileSet;
 use crate::pipeline::{
-    MAX_RES, PipelineError, PolygonizeSettings, Result, Silent, available_memory_bytes, polygonize, render_field,
-    with_threads,
+    MAX_RES, PipelineError, PolygonizeSettings, Result, Silent, available_memory_bytes, peak_resident_bytes,
+    polygonize, render_field, reset_peak_resident, resident_bytes, with_threads,
 };
 use crate::progress::Progress;
 use crate::scene::{MAX_SPLINE_POINTS, Scene};
@@ -161,13 +161,13 @@ pub fn measure_point_set(settings: &ScaleBenchSettings, model: PointModel, n: us
 
 fn measure(settings: &ScaleBenchSettings, scratch: &Path, model: PointModel, n: usize) -> Result<ScaleRow> {
     let scene_path = write_point_set(scratch, model, n, settings.size)?;
-    let before = resident_mb("VmRSS");
-    reset_peak();
+    let before = resident_mb(resident_bytes);
+    reset_peak_resident();
     let start = Instant::now();
     let scene = Scene::load(&scene_path)?;
     let load_seconds = start.elapsed().as_secs_f64();
-    let peak_mb = resident_mb("VmHWM");
-    let added_mb = resident_mb("VmRSS").zip(before).map(|(after, before)| after - before);
+    let peak_mb = resident_mb(peak_resident_bytes);
+    let added_mb = resident_mb(resident_bytes).zip(before).map(|(after, before)| after - before);
     let (_, render) = render_field(&scene, (settings.size, 1), EvalMode::Indexed, &Silent);
     let mut row = ScaleRow {
         model,
@@ -219,17 +219,9 @@ fn write_point_set(scratch: &Path, model: PointModel, n: usize, size: Size) -> R
     Ok(scene)
 }
 
-/// A line of `/proc/self/status` (`VmRSS`, `VmHWM`) in MB, on Linux.
-fn resident_mb(key: &str) -> Option<f64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with(key))?;
-    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb / 1024.0)
-}
-
-/// Resets the peak resident memory (`VmHWM`) to the current, on Linux.
-fn reset_peak() {
-    let _ = std::fs::write("/proc/self/clear_refs", "5");
+/// A reading of the process's memory in MB.
+fn resident_mb(read: fn() -> Option<f64>) -> Option<f64> {
+    read().map(|bytes| bytes / (1024.0 * 1024.0))
 }
 
 /// Load time, memory, render and mesh time against the point count, log–log.

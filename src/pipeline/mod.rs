@@ -47,6 +47,7 @@ mod edit_session;
 mod error;
 mod eval;
 mod image_diff;
+mod memory;
 mod mesh_repair;
 mod polygonize;
 mod regress;
@@ -68,10 +69,11 @@ pub use edit_session::{EditSession, FrameRow, FrameUpdate, IDLE_SAMPLES, Pending
 pub use error::{PipelineError, Result};
 pub use eval::{EvalSettings, ExactLookup, FieldChoice, MB};
 pub use image_diff::{DiffOutput, ImageDiffError, ImageDiffSettings, diff_images};
+pub use memory::{available_memory_bytes, peak_resident_bytes, reset_peak_resident, resident_bytes};
 pub use mesh_repair::{MAX_SNAP, MeshRepair, RepairReport, SnapEffect, repair_mesh};
 pub use polygonize::{
-    MAX_REFINE, MAX_RES, MeshReport, PolygonizeSettings, available_memory_bytes, cells_name, color_by_cache_error,
-    polygonize, polygonizer_on, vertex_name,
+    MAX_REFINE, MAX_RES, MeshMemory, MeshReport, PolygonizeSettings, cells_name, color_by_cache_error, polygonize,
+    polygonizer_on, vertex_name,
 };
 pub use regress::{
     Counts, Entry, EntryImages, EntryPixels, EntryTolerances, Judgement, Kind, Manifest, Outcome, RegressRow,

@@ -6,6 +6,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use super::available_memory_bytes;
 use super::cache_report::CacheReport;
 use super::error::{PipelineError, Result};
 use super::mesh_repair::{MeshRepair, RepairReport, repair_mesh};
@@ -125,14 +126,6 @@ impl PolygonizeSettings {
     }
 }
 
-/// Memory available to the process in bytes (Linux `MemAvailable`; `None` where unknown).
-#[must_use]
-pub fn available_memory_bytes() -> Option<f64> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    Some(line.split_whitespace().nth(1)?.parse::<f64>().ok()? * 1024.0)
-}
-
 /// Statistics of one polygonization.
 #[derive(Clone, Debug, Serialize)]
 pub struct MeshReport {
@@ -176,6 +169,10 @@ pub struct MeshReport {
     pub quality: Option<MeshQuality>,
     /// Wall-clock seconds measuring `quality` (not in `seconds`).
     pub quality_seconds: f64,
+    /// The process's memory as the meshing began and at its peak (Linux;
+    /// `None` elsewhere).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub memory: Option<MeshMemory>,
     /// What the remedies asked for did (after `seconds`, before `quality`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub repairs: Option<RepairReport>,
@@ -189,6 +186,39 @@ pub struct MeshReport {
     /// error_C at the vertices, when the mesh is coloured by it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error_c: Option<CacheErrorStats>,
+}
+
+/// What memory a polygonization took: the process's resident memory as it
+/// began (the model, its caches and whatever else the process holds) and its
+/// peak while it ran (the vertices, the polygonizer's stores and the
+/// mesh, less the quality report, which comes after). Measuring resets the
+/// process's peak to its memory at the start ([`super::reset_peak_resident`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct MeshMemory {
+    /// Resident memory as the meshing began, in MB.
+    pub before_mb: f64,
+    /// The process's peak resident memory while meshing, in MB.
+    pub peak_mb: f64,
+    /// The meshing's own peak: `peak_mb - before_mb`, in MB.
+    pub meshing_mb: f64,
+    /// The meshing's own peak per triangle of the mesh, in bytes.
+    pub bytes_per_triangle: Option<f64>,
+}
+
+impl MeshMemory {
+    /// The memory of a meshing that began holding `before` bytes and made
+    /// `triangles` triangles, read now.
+    fn measured(before: Option<f64>, triangles: usize) -> Option<Self> {
+        let (before, peak) = (before?, super::peak_resident_bytes()?);
+        let own = (peak - before).max(0.0);
+        let mb = |bytes: f64| bytes / (1024.0 * 1024.0);
+        Some(Self {
+            before_mb: mb(before),
+            peak_mb: mb(peak),
+            meshing_mb: mb(own),
+            bytes_per_triangle: (triangles > 0).then(|| own / triangles as f64),
+        })
+    }
 }
 
 /// The warning of a mesh without triangles.
@@ -216,12 +246,15 @@ pub(super) fn polygonize_checked(
     progress: &dyn Progress,
 ) -> (Mesh, MeshReport) {
     let coarse = Lattice::for_model(model, settings.res);
+    let before = super::resident_bytes();
+    super::reset_peak_resident();
     let (mut mesh, counts) = run_polygonizer(model, mode, coarse, settings.options(), settings.refine, progress);
     let fine = coarse.refined(settings.refine);
     let repairs = (!settings.repair.is_none())
         .then(|| stage(progress, "repairing the mesh", || repair_mesh(model, fine, &mut mesh, &settings.repair)));
+    let memory = MeshMemory::measured(before, mesh.triangles.len());
     let mut report = report(model, mode, settings, &mesh, counts, fine.cell, progress);
-    report.repairs = repairs;
+    (report.repairs, report.memory) = (repairs, memory);
     (mesh, report)
 }
 
@@ -260,6 +293,7 @@ fn report(
         warning: mesh.triangles.is_empty().then(|| NO_SURFACE.to_string()),
         quality,
         quality_seconds,
+        memory: None,
         repairs: None,
         eval: format!("{mode:?}").to_lowercase(),
         threads: rayon::current_num_threads(),
