@@ -127,15 +127,9 @@ impl Model {
         }
         match &node.kind {
             NodeKind::Blend { index: Some(ix), .. } if mode.indexed() => {
-                let (v, g) =
-                    ix.point_sum_and_gradient(p).unwrap_or_else(|| self.leaves_value_and_gradient(ix, p, mode));
-                return (v as f32, g);
+                return self.indexed_value_and_gradient(ix, p, mode);
             }
-            NodeKind::Points { index: ix, .. } => {
-                let (v, g) =
-                    ix.point_sum_and_gradient(p).unwrap_or_else(|| self.leaves_value_and_gradient(ix, p, mode));
-                return (v as f32, g);
-            }
+            NodeKind::Points { index, .. } => return self.indexed_value_and_gradient(index, p, mode),
             NodeKind::Blend { children, index } if index.is_none() || !mode.indexed() => {
                 let (v, g) = self.nested_blend_value_and_gradient(children, p, mode);
                 return (v as f32, g);
@@ -157,6 +151,12 @@ impl Model {
             _ => {}
         }
         (self.node_value(id, p, mode), self.node_gradient(id, p, mode))
+    }
+
+    /// The sum of the leaves of index `ix` at `p` and of their gradients, in one pass.
+    fn indexed_value_and_gradient(&self, ix: &BlendIndex, p: Vec3A, mode: EvalMode) -> (f32, Vec3A) {
+        let (v, g) = ix.point_sum_and_gradient(p).unwrap_or_else(|| self.leaves_value_and_gradient(ix, p, mode));
+        (v as f32, g)
     }
 
     /// The sum of the values and of the gradients of the leaves listed around

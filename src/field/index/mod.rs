@@ -60,13 +60,12 @@ const FREE_CELLS: usize = 1 << 21;
 const FREE_CELLS_UP_TO: usize = 1 << 14;
 
 /// Cells a grid may have per leaf (beyond [`FREE_CELLS`], where those
-/// apply). Each cell costs about
-/// 28 bytes (its list's offset, three bounds, a packing slot) whether it
-/// lists anything or not, and the cells a leaf reaches grow as the cells
-/// shrink: a million sparse points at 4 cells a leaf took 4 M cells and 25
-/// listings a point; at 2, 2 M cells and 16.5 listings, and load in 0.56 s
-/// and 167 MB instead of 0.83 s and 342 MB. The kernel tracer does not read
-/// the cells; the segment tracer renders them 7% slower.
+/// apply). Each cell costs about 28 bytes (its list's offset, three bounds,
+/// a packing slot) whether it lists anything or not, and the cells a leaf
+/// reaches grow as the cells shrink: a million sparse points at 4 cells a
+/// leaf took 4 M cells and 25 listings a point; at 2, 2 M cells and 16.5
+/// listings, 0.27 s less to load and 175 MB less to hold. The kernel tracer
+/// does not read the cells; the segment tracer renders them 7% slower.
 const MAX_CELLS_PER_LEAF: usize = 2;
 
 /// Listings (a leaf in a cell's list) the cell lists may hold on average per
