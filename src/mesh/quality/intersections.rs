@@ -32,7 +32,11 @@ pub fn self_intersections(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<(u3
         })
         .collect();
     let tree = Tree::over(&boxes);
-    let walk = Walk { tree: &tree, boxes: &boxes, positions, triangles };
+    // In the tree's order, so that a leaf's triangles and their neighbours'
+    // are read from nearby memory.
+    let boxes: Vec<Box3> = tree.order.par_iter().map(|&t| boxes[t as usize]).collect();
+    let sorted: Vec<[u32; 3]> = tree.order.par_iter().map(|&t| triangles[t as usize]).collect();
+    let walk = Walk { tree: &tree, boxes: &boxes, positions, triangles: &sorted };
     let mut found = vec![];
     walk.within(tree.root(), 0, &mut found);
     found.par_sort_unstable();
@@ -119,9 +123,9 @@ impl Tree {
         (Node { level, index: first }, second)
     }
 
-    /// The triangles of leaf `n`.
-    fn leaf(&self, n: Node) -> &[u32] {
-        &self.order[n.index * LEAF..((n.index + 1) * LEAF).min(self.order.len())]
+    /// The places in [`Self::order`] of the triangles of leaf `n`.
+    fn leaf(&self, n: Node) -> std::ops::Range<u32> {
+        (n.index * LEAF) as u32..((n.index + 1) * LEAF).min(self.order.len()) as u32
     }
 }
 
@@ -135,7 +139,8 @@ fn spread(v: u32) -> u64 {
     (x | x << 2) & 0x1249_2492_4924_9249
 }
 
-/// The tree walked against itself, and what a candidate pair is decided from.
+/// The tree walked against itself, and what a candidate pair is decided
+/// from (boxes and triangles in the tree's order).
 struct Walk<'a> {
     tree: &'a Tree,
     boxes: &'a [Box3],
@@ -148,8 +153,8 @@ impl Walk<'_> {
     fn within(&self, n: Node, depth: u32, found: &mut Vec<(u32, u32)>) {
         if n.level == 0 {
             let tris = self.tree.leaf(n);
-            for (k, &s) in tris.iter().enumerate() {
-                tris[k + 1..].iter().for_each(|&t| self.decide(s, t, found));
+            for s in tris.clone() {
+                (s + 1..tris.end).for_each(|t| self.decide(s, t, found));
             }
             return;
         }
@@ -167,8 +172,8 @@ impl Walk<'_> {
             return;
         }
         if a.level == 0 && b.level == 0 {
-            for &s in self.tree.leaf(a) {
-                self.tree.leaf(b).iter().for_each(|&t| self.decide(s, t, found));
+            for s in self.tree.leaf(a) {
+                self.tree.leaf(b).for_each(|t| self.decide(s, t, found));
             }
             return;
         }
@@ -206,10 +211,10 @@ impl Walk<'_> {
         found.append(&mut b);
     }
 
-    /// Adds `(s, t)`, in order, to `found` when the two triangles share no
+    /// Adds the triangles at places `s` and `t` of the tree's order to
+    /// `found`, as a pair of triangle numbers in order, when they share no
     /// vertex and cut through each other.
     fn decide(&self, s: u32, t: u32, found: &mut Vec<(u32, u32)>) {
-        let (s, t) = (s.min(t), s.max(t));
         if !self.boxes[s as usize].meets(&self.boxes[t as usize]) {
             return;
         }
@@ -219,7 +224,8 @@ impl Walk<'_> {
         }
         let corners = |t: [u32; 3]| t.map(|i| self.positions[i as usize].as_dvec3());
         if triangles_cross(corners(ts), corners(tt)) {
-            found.push((s, t));
+            let (s, t) = (self.tree.order[s as usize], self.tree.order[t as usize]);
+            found.push((s.min(t), s.max(t)));
         }
     }
 }
