@@ -172,7 +172,8 @@ impl Walk<'_> {
             return;
         }
         if a.level == 0 && b.level == 0 {
-            for s in self.tree.leaf(a) {
+            // A triangle whose box misses the other leaf's meets none of its triangles.
+            for s in self.tree.leaf(a).filter(|&s| self.boxes[s as usize].meets(bb)) {
                 self.tree.leaf(b).for_each(|t| self.decide(s, t, found));
             }
             return;
