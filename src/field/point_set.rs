@@ -1,8 +1,8 @@
-//! The points of a `Points` node (a particle file's): one node over packed
-//! arrays, not a node and an index leaf per point. A million points take
-//! 24 bytes each (centre and `1/R²` in one 16-byte load for the sums, radius
-//! and weight), and 12 more where the file gives colours; as nodes and
-//! leaves they took 240.
+//! The points of a `Points` node (a particle file's, or a long spline's):
+//! one node over packed arrays, not a node and an index leaf per point. A
+//! million points take 24 bytes each (centre and `1/R²` in one 16-byte load
+//! for the sums, radius and weight), and 12 more where the file gives
+//! colours; as nodes and leaves they took 240.
 
 use std::sync::Arc;
 
@@ -29,7 +29,8 @@ pub struct PointSet {
 }
 
 impl PointSet {
-    /// The set of `primitives` (all points of `kernel`), coloured by `colors` where given.
+    /// The set of `points` (centre, support radius, weight), all of
+    /// `kernel`, coloured by `colors` where given.
     ///
     /// # Panics
     /// If `colors` is given with another length than the points.
@@ -59,13 +60,12 @@ impl PointSet {
     /// grid and lists, the same sums to the bit.
     #[must_use]
     pub fn indexed(self: &Arc<Self>) -> BlendIndex {
-        // A point's bounds in any evaluation mode are its own (see `Model::build_indices`).
-        let reaches = |leaf: &super::IndexedLeaf, b: &Aabb| leaf.bounds.overlaps(b);
+        // A point's bounds are the same in every evaluation mode (see `Model::build_indices`).
         BlendIndex::build(
             self.bounds,
             Leaves::Points(Arc::clone(self)),
             |leaf, b| match &leaf.leaf {
-                Leaf::Primitive(p) if reaches(leaf, b) => p.interval(b),
+                Leaf::Primitive(p) if leaf.bounds.overlaps(b) => p.interval(b),
                 _ => Interval::ZERO,
             },
             |leaf, region| match &leaf.leaf {
