@@ -35,6 +35,9 @@ pub enum PointModel {
 pub const SPLINE_SPAN: usize = 64;
 
 impl PointModel {
+    /// Every point set, in the order `bench scale` measures them.
+    pub const ALL: [PointModel; 3] = [PointModel::Sparse, PointModel::Dense, PointModel::Spline];
+
     /// The model's name, as `make_points.py` takes it.
     #[must_use]
     pub fn name(self) -> &'static str {

@@ -1,7 +1,8 @@
 //! How load time, memory, rendering and meshing grow with the number of
 //! primitives: point sets of 10³ … 10⁷ points (sparse at the particles
-//! scene's density, and a dense cloud), each written as a binary PLY and
-//! loaded as a scene, then rendered and meshed at a fixed cell; a log–log
+//! scene's density and a dense cloud, each written as a binary PLY, and one
+//! long spline), each loaded as a scene, then rendered and meshed at a fixed
+//! cell; a log–log
 //! plot of each figure against the count, with a line of slope one beside
 //! it, and the same figures as JSON beside the plot.
 //!
@@ -22,7 +23,7 @@ use crate::frame::Size;
 use crate::mesh::quality::QualityLevel;
 use crate::output::FileSet;
 use crate::pipeline::{
-    MAX_RES, PipelineError, PolygonizeSettings, Result, Silent, available_memory_bytes, peak_resident_bytes,
+    MAX_RES, MB, PipelineError, PolygonizeSettings, Result, Silent, available_memory_bytes, peak_resident_bytes,
     polygonize, render_field, reset_peak_resident, resident_bytes, with_threads,
 };
 use crate::progress::Progress;
@@ -50,11 +51,11 @@ pub struct ScaleBenchSettings {
 /// One point set at one count.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ScaleRow {
-    /// `sparse` or `dense`.
+    /// `sparse`, `dense` or `spline`.
     pub model: PointModel,
     /// Points.
     pub points: usize,
-    /// Seconds to load the scene: read the PLY, build the model and its index.
+    /// Seconds to load the scene: read its file, build the model and its index.
     pub load_seconds: f64,
     /// Resident memory the loaded scene added, in MB (Linux; `None` elsewhere).
     pub resident_mb: Option<f64>,
@@ -143,7 +144,7 @@ fn too_large(rows: &[ScaleRow], model: PointModel, n: usize) -> Option<String> {
     let last = rows.iter().rev().find(|r| r.model == model)?;
     let per_point = last.peak_mb? / last.points as f64;
     let need = per_point * n as f64 * 1.5;
-    let available = available_memory_bytes()? / (1024.0 * 1024.0);
+    let available = available_memory_bytes()? / MB;
     (need > 0.8 * available)
         .then(|| format!("{} {n}: would need about {need:.0} MB, {available:.0} MB available", model.name()))
 }
@@ -221,7 +222,7 @@ fn write_point_set(scratch: &Path, model: PointModel, n: usize, size: Size) -> R
 
 /// A reading of the process's memory in MB.
 fn resident_mb(read: fn() -> Option<f64>) -> Option<f64> {
-    read().map(|bytes| bytes / (1024.0 * 1024.0))
+    read().map(|bytes| bytes / MB)
 }
 
 /// Load time, memory, render and mesh time against the point count, log–log.

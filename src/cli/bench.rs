@@ -76,11 +76,8 @@ pub struct ScaleBenchArgs {
 
 fn parse_one(s: &str) -> Result<(PointModel, usize), String> {
     let (model, n) = s.split_once(':').ok_or_else(|| format!("expected MODEL:POINTS, got {s:?}"))?;
-    let model = match model {
-        "sparse" => PointModel::Sparse,
-        "dense" => PointModel::Dense,
-        "spline" => PointModel::Spline,
-        _ => return Err(format!("no point set {model:?} (sparse, dense or spline)")),
+    let Some(model) = PointModel::ALL.into_iter().find(|m| m.name() == model) else {
+        return Err(format!("no point set {model:?} (sparse, dense or spline)"));
     };
     Ok((model, parse_count(n)?))
 }
@@ -293,7 +290,7 @@ impl ScaleBenchArgs {
             ModelsArg::Dense => vec![PointModel::Dense],
             ModelsArg::Spline => vec![PointModel::Spline],
             ModelsArg::Both => vec![PointModel::Sparse, PointModel::Dense],
-            ModelsArg::All => vec![PointModel::Sparse, PointModel::Dense, PointModel::Spline],
+            ModelsArg::All => PointModel::ALL.to_vec(),
         };
         ScaleBenchSettings {
             counts,

@@ -123,13 +123,11 @@ impl Model {
         if !node.bounds.overlaps(b) {
             return true;
         }
+        let points_miss =
+            |ix: &BlendIndex| (ix.cells_overlapped(b) <= MAX_CELLS_FOR_LEAF_BOUNDS).then(|| ix.points_miss(b));
         let miss = match &node.kind {
-            NodeKind::Blend { index: Some(ix), .. } if mode.indexed() => {
-                (ix.cells_overlapped(b) <= MAX_CELLS_FOR_LEAF_BOUNDS).then(|| ix.points_miss(b)).flatten()
-            }
-            NodeKind::Points { index: ix, .. } => {
-                (ix.cells_overlapped(b) <= MAX_CELLS_FOR_LEAF_BOUNDS).then(|| ix.points_miss(b)).flatten()
-            }
+            NodeKind::Blend { index: Some(ix), .. } if mode.indexed() => points_miss(ix).flatten(),
+            NodeKind::Points { index, .. } => points_miss(index).flatten(),
             // A sum of intervals is zero where each is (no field here is a
             // nonzero constant over a box, to cancel another).
             NodeKind::Blend { children, .. } => Some(children.iter().all(|&c| self.node_is_zero_over(c, b, mode))),

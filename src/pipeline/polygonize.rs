@@ -9,6 +9,7 @@ use serde::Serialize;
 use super::available_memory_bytes;
 use super::cache_report::CacheReport;
 use super::error::{PipelineError, Result};
+use super::eval::MB;
 use super::mesh_repair::{MeshRepair, RepairReport, repair_mesh};
 use crate::compare::{CacheErrorStats, cache_error_at, cache_error_stats};
 use crate::draw::error_colors;
@@ -211,11 +212,10 @@ impl MeshMemory {
     fn measured(before: Option<f64>, triangles: usize) -> Option<Self> {
         let (before, peak) = (before?, super::peak_resident_bytes()?);
         let own = (peak - before).max(0.0);
-        let mb = |bytes: f64| bytes / (1024.0 * 1024.0);
         Some(Self {
-            before_mb: mb(before),
-            peak_mb: mb(peak),
-            meshing_mb: mb(own),
+            before_mb: before / MB,
+            peak_mb: peak / MB,
+            meshing_mb: own / MB,
             bytes_per_triangle: (triangles > 0).then(|| own / triangles as f64),
         })
     }

@@ -292,7 +292,9 @@ fn ascii_rows(bytes: &[u8], h: &PlyHeader) -> Result<Vec<f64>, String> {
     let header_lines = bytes[..h.body].iter().filter(|&&b| b == b'\n').count();
     let mut lines = body.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
     let width = h.properties.len();
-    let mut table = Vec::with_capacity(h.count * width);
+    // A value takes two bytes of text at the least: a header claiming more
+    // vertices than its body holds reserves no more than the body could fill.
+    let mut table = Vec::with_capacity((h.count * width).min(body.len() / 2));
     for i in 0..h.count {
         let Some((n, line)) = lines.next() else {
             return Err(format!("vertex {i}: the file ends after {i} of its {} vertices", h.count));

@@ -24,8 +24,8 @@ pub(super) struct PackedPoints {
     set: Arc<PointSet>,
     /// Each cell's list packed eight points to a chunk (see [`Self::packed`]).
     /// A cell's slot is one pointer, set once (by whichever thread packs it
-    /// first): 8 bytes a cell where a `OnceLock` took 24, 64 MB less for
-    /// the 4 M cells of a million sparse points.
+    /// first): 8 bytes a cell where a `OnceLock` took 24, 32 MB less for
+    /// the 2 M cells of a million sparse points.
     pub(super) cells: Option<Vec<OnceBox<Box<[Chunk]>>>>,
 }
 

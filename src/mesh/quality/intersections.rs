@@ -34,9 +34,8 @@ pub fn self_intersections(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<(u3
     let tree = Tree::over(&boxes);
     // In the tree's order, so that a leaf's triangles and their neighbours'
     // are read from nearby memory.
-    let boxes: Vec<Box3> = tree.order.par_iter().map(|&t| boxes[t as usize]).collect();
     let sorted: Vec<[u32; 3]> = tree.order.par_iter().map(|&t| triangles[t as usize]).collect();
-    let walk = Walk { tree: &tree, boxes: &boxes, positions, triangles: &sorted };
+    let walk = Walk { tree: &tree, positions, triangles: &sorted };
     let mut found = vec![];
     walk.within(tree.root(), 0, &mut found);
     found.par_sort_unstable();
@@ -65,12 +64,14 @@ impl Box3 {
     }
 }
 
-/// The triangles in Morton order, and the boxes of each level of an
-/// implicit binary tree over them: level 0 the leaves of [`LEAF`]
-/// triangles, node `i` of level `k` the box of nodes `2i` and `2i + 1` of
-/// level `k − 1` (one alone at an odd end), the top level one node.
+/// The triangles in Morton order with their boxes, and the boxes of each
+/// level of an implicit binary tree over them: level 0 the leaves of
+/// [`LEAF`] triangles, node `i` of level `k` the box of nodes `2i` and
+/// `2i + 1` of level `k − 1` (one alone at an odd end), the top level one node.
 struct Tree {
     order: Vec<u32>,
+    /// The box of each triangle, in [`Self::order`].
+    boxes: Vec<Box3>,
     levels: Vec<Vec<Box3>>,
 }
 
@@ -95,17 +96,12 @@ impl Tree {
             .collect();
         keyed.par_sort_unstable();
         let order: Vec<u32> = keyed.into_iter().map(|(_, i)| i).collect();
-        let leaves: Vec<Box3> = order
-            .par_chunks(LEAF)
-            .map(|run| run.iter().fold(boxes[run[0] as usize], |a, &t| a.union(boxes[t as usize])))
-            .collect();
-        let mut levels = vec![leaves];
-        while levels.last().is_some_and(|l| l.len() > 1) {
-            let below = levels.last().unwrap_or(&levels[0]);
-            let up: Vec<Box3> = below.par_chunks(2).map(|pair| pair.iter().fold(pair[0], |a, &b| a.union(b))).collect();
-            levels.push(up);
+        let boxes: Vec<Box3> = order.par_iter().map(|&t| boxes[t as usize]).collect();
+        let mut levels = vec![hull_of_runs(&boxes, LEAF)];
+        while levels[levels.len() - 1].len() > 1 {
+            levels.push(hull_of_runs(&levels[levels.len() - 1], 2));
         }
-        Self { order, levels }
+        Self { order, boxes, levels }
     }
 
     fn root(&self) -> Node {
@@ -129,6 +125,11 @@ impl Tree {
     }
 }
 
+/// The box of each run of `n` boxes.
+fn hull_of_runs(boxes: &[Box3], n: usize) -> Vec<Box3> {
+    boxes.par_chunks(n).map(|run| run.iter().fold(run[0], |a, &b| a.union(b))).collect()
+}
+
 /// `v`'s low 21 bits spread to every third bit.
 fn spread(v: u32) -> u64 {
     let mut x = u64::from(v) & 0x1f_ffff;
@@ -140,10 +141,9 @@ fn spread(v: u32) -> u64 {
 }
 
 /// The tree walked against itself, and what a candidate pair is decided
-/// from (boxes and triangles in the tree's order).
+/// from (the triangles in the tree's order).
 struct Walk<'a> {
     tree: &'a Tree,
-    boxes: &'a [Box3],
     positions: &'a [Vec3],
     triangles: &'a [[u32; 3]],
 }
@@ -173,7 +173,7 @@ impl Walk<'_> {
         }
         if a.level == 0 && b.level == 0 {
             // A triangle whose box misses the other leaf's meets none of its triangles.
-            for s in self.tree.leaf(a).filter(|&s| self.boxes[s as usize].meets(bb)) {
+            for s in self.tree.leaf(a).filter(|&s| self.tree.boxes[s as usize].meets(bb)) {
                 self.tree.leaf(b).for_each(|t| self.decide(s, t, found));
             }
             return;
@@ -216,7 +216,7 @@ impl Walk<'_> {
     /// `found`, as a pair of triangle numbers in order, when they share no
     /// vertex and cut through each other.
     fn decide(&self, s: u32, t: u32, found: &mut Vec<(u32, u32)>) {
-        if !self.boxes[s as usize].meets(&self.boxes[t as usize]) {
+        if !self.tree.boxes[s as usize].meets(&self.tree.boxes[t as usize]) {
             return;
         }
         let (ts, tt) = (self.triangles[s as usize], self.triangles[t as usize]);

@@ -49,7 +49,7 @@ pub struct MeshQuality {
 }
 
 /// How much of the quality report to compute: the self-intersections cost
-/// more than the rest together (a BVH query per triangle), so a user meshing
+/// more than the rest together (a walk over pairs of nearby boxes), so a user meshing
 /// large clouds may keep the cheap figures, or skip the report.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]

@@ -34,12 +34,12 @@ pub struct ShapeQuality {
 pub fn triangle_shape(a: DVec3, b: DVec3, c: DVec3) -> (f64, f64) {
     let (ab, bc, ca) = (b - a, c - b, a - c);
     let doubled_area = ab.cross(-ca).length();
-    let squares = ab.length_squared() + bc.length_squared() + ca.length_squared();
+    let (l_ab, l_bc, l_ca) = (ab.length_squared(), bc.length_squared(), ca.length_squared());
+    let squares = l_ab + l_bc + l_ca;
     let quality = if squares > 0.0 { (3f64.sqrt() * 2.0 * doubled_area / squares).min(1.0) } else { 0.0 };
     // The smallest angle faces the shortest side (the law of sines): one
     // arctangent instead of three.
     let angle = |u: DVec3, v: DVec3| u.cross(v).length().atan2(u.dot(v)).to_degrees();
-    let (l_ab, l_bc, l_ca) = (ab.length_squared(), bc.length_squared(), ca.length_squared());
     let smallest = if l_ab.min(l_bc).min(l_ca) == 0.0 {
         // Two corners in one place: the angle facing them is nothing.
         0.0
