@@ -8,7 +8,7 @@ use super::RayTarget;
 use crate::field::DEFAULT_COLOR;
 use crate::frame::Frame;
 use crate::trace::{
-    CENTRE, PixelRect, PixelSample, Refinement, RenderSettings, Retrace, assemble, blank_frame, hits_of, render_pixels,
+    CENTRE, PixelRect, PixelSample, PixelTotals, Refinement, RenderSettings, Retrace, blank_frame, render_pixels,
     rerender_pixels, retrace_listed,
 };
 
@@ -24,15 +24,9 @@ pub struct MeshRenderStats {
 }
 
 impl MeshRenderStats {
-    /// The totals over cast `pixels` of `samples` rays each, whose first
-    /// counter is triangle tests.
-    fn of(pixels: &[PixelSample], samples: u32) -> Self {
-        let mut stats = MeshRenderStats { rays: pixels.len() as u64 * u64::from(samples), ..Default::default() };
-        for p in pixels {
-            stats.hits += hits_of(p, samples);
-            stats.triangle_tests += u64::from(p.counts[0]);
-        }
-        stats
+    /// The mesh caster's totals, whose first counter is triangle tests.
+    fn of(t: PixelTotals) -> Self {
+        MeshRenderStats { rays: t.rays, hits: t.hits, triangle_tests: t.counts[0] }
     }
 }
 
@@ -46,8 +40,9 @@ pub fn render_mesh(
     settings: &RenderSettings,
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Frame, MeshRenderStats) {
-    let samples = render_pixels(settings, progress, |x, y, at| shade_pixel(target, settings, (x, y, at)));
-    (assemble(&samples, settings, MESH_COUNTERS), MeshRenderStats::of(&samples, settings.samples.max(1)))
+    let (frame, totals) =
+        render_pixels(settings, MESH_COUNTERS, progress, |x, y, at| shade_pixel(target, settings, (x, y, at)));
+    (frame, MeshRenderStats::of(totals))
 }
 
 /// A frame of `settings`' size showing the background, with the mesh
@@ -69,7 +64,7 @@ pub fn rerender_mesh(
     let done = rerender_pixels(frame, rects, MESH_COUNTERS, |x, y, _| {
         Some(Retrace::Changed(shade_pixel(target, settings, (x, y, CENTRE))))
     });
-    MeshRenderStats::of(&done.changed, 1)
+    MeshRenderStats::of(PixelTotals::of(&done.changed, 1))
 }
 
 /// Casts the next batch of about `max_rays` stale pixels of `refinement`
@@ -86,7 +81,7 @@ pub fn refine_mesh(
         Some(Retrace::Changed(shade_pixel(target, settings, (x, y, CENTRE))))
     });
     refinement.finish(&batch);
-    MeshRenderStats::of(&done.changed, 1)
+    MeshRenderStats::of(PixelTotals::of(&done.changed, 1))
 }
 
 /// Casts the ray through point `at` of pixel (`x`, `y`).

@@ -5,6 +5,7 @@ mod exr_io;
 mod size;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 pub use exr_io::{ExrChannels, channels_exr_bytes, read_exr_channels};
 pub use size::{MAX_PIXELS, MAX_SIDE, Size};
@@ -20,6 +21,13 @@ pub struct GeometryDifference {
     pub mean_depth_err: f64,
     /// 99th percentile of the angle between normals over pixels hit in both (degrees).
     pub p99_normal_err_deg: f32,
+}
+
+/// `n` copies of `value`, written by every thread: a frame's fresh pages
+/// are then faulted in by all of them, not one.
+#[must_use]
+pub fn filled<T: Copy + Send + Sync>(n: usize, value: T) -> Vec<T> {
+    (0..n).into_par_iter().map(|_| value).collect()
 }
 
 /// A rendered image and its AOVs, row 0 at the top.
@@ -49,10 +57,10 @@ impl Frame {
         Self {
             width,
             height,
-            color: vec![background; n],
-            alpha: vec![0.0; n],
-            depth: vec![f32::INFINITY; n],
-            normal: vec![Vec3::ZERO; n],
+            color: filled(n, background),
+            alpha: filled(n, 0.0),
+            depth: filled(n, f32::INFINITY),
+            normal: filled(n, Vec3::ZERO),
             extra: vec![],
         }
     }

@@ -11,7 +11,7 @@ use super::changed_space::ChangedSpace;
 use super::coverage::Coverage;
 use super::kernel::KernelTracer;
 use super::progressive::{PixelState, Refinement};
-use super::samples::{PixelSample, combine, sample_offset};
+use super::samples::{PixelSample, PixelTotals, combine, sample_offset};
 use super::segment::{Crossing, TraceOptions, march, snap_reach, trace_ray_from};
 use super::shade::Lighting;
 use crate::camera::Camera;
@@ -69,23 +69,10 @@ pub struct RenderStats {
 }
 
 impl RenderStats {
-    /// The totals over traced `pixels` of `samples` rays each, whose
-    /// counters are steps and evaluations.
-    fn of(pixels: &[PixelSample], samples: u32) -> Self {
-        let mut stats = RenderStats { rays: pixels.len() as u64 * u64::from(samples), ..Default::default() };
-        for p in pixels {
-            stats.hits += hits_of(p, samples);
-            stats.steps += u64::from(p.counts[0]);
-            stats.field_evals += u64::from(p.counts[1]);
-        }
-        stats
+    /// The field tracer's totals, whose counters are steps and evaluations.
+    fn of(t: PixelTotals) -> Self {
+        RenderStats { rays: t.rays, hits: t.hits, steps: t.counts[0], field_evals: t.counts[1] }
     }
-}
-
-/// The rays of a pixel of `samples` rays that hit: its coverage times the rays.
-#[must_use]
-pub fn hits_of(p: &PixelSample, samples: u32) -> u64 {
-    (p.alpha * samples as f32).round() as u64
 }
 
 /// Names of the frame channels holding the field tracer's counters.
@@ -112,8 +99,9 @@ pub fn render_covered<F: Field + ?Sized>(
     coverage: Option<&Coverage>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Frame, RenderStats) {
-    let samples = render_pixels(settings, progress, |x, y, at| trace_pixel(field, settings, (x, y, at), coverage));
-    (assemble(&samples, settings, FIELD_COUNTERS), RenderStats::of(&samples, settings.samples.max(1)))
+    let (frame, totals) =
+        render_pixels(settings, FIELD_COUNTERS, progress, |x, y, at| trace_pixel(field, settings, (x, y, at), coverage));
+    (frame, RenderStats::of(totals))
 }
 
 /// Renders `model` in `mode`: by kernels where the model's tracer choice
@@ -370,7 +358,7 @@ pub struct Rerendered {
 impl Rerendered {
     /// The field tracer's totals over every pixel traced again.
     fn stats(&self) -> RenderStats {
-        let mut stats = RenderStats::of(&self.changed, 1);
+        let mut stats = RenderStats::of(PixelTotals::of(&self.changed, 1));
         for kept in &self.kept {
             stats.rays += 1;
             stats.hits += u64::from(kept.hit);
@@ -392,30 +380,50 @@ fn write_sample(frame: &mut Frame, i: usize, p: &PixelSample) {
 /// A pixel's centre, in pixel units from its top-left corner: where its one ray goes.
 pub const CENTRE: Vec2 = Vec2::splat(0.5);
 
-/// Calls `pixel` for every pixel, rows in parallel, in row-major order, at
-/// each of the settings' samples in it (see [`super::samples`]), and
-/// combines each pixel's samples.
+/// Calls `pixel` for every pixel, rows in parallel, at each of the
+/// settings' samples in it (see [`super::samples`]), combines each pixel's
+/// samples and writes them in place into a frame, the two counters into
+/// the extra channels named `counters`; returns the frame and the totals.
 pub fn render_pixels(
     settings: &RenderSettings,
+    counters: [&str; 2],
     progress: &(dyn Fn(usize) + Sync),
     pixel: impl Fn(u32, u32, Vec2) -> PixelSample + Sync,
-) -> Vec<PixelSample> {
-    let (w, h) = (settings.width, settings.height);
+) -> (Frame, PixelTotals) {
+    let w = settings.width as usize;
+    let mut frame = blank_frame(settings, counters);
     let done = AtomicUsize::new(0);
     let samples = settings.samples.max(1);
-    (0..h)
+    let Frame { color, depth, normal, alpha, extra, .. } = &mut frame;
+    let [(_, first), (_, second)] = &mut extra[..] else { unreachable!("a blank frame has two counter channels") };
+    let rows = (
+        color.par_chunks_mut(w),
+        depth.par_chunks_mut(w),
+        normal.par_chunks_mut(w),
+        alpha.par_chunks_mut(w),
+        first.par_chunks_mut(w),
+        second.par_chunks_mut(w),
+    );
+    let totals = rows
         .into_par_iter()
-        .flat_map_iter(|y| {
-            let row: Vec<PixelSample> = (0..w)
-                .map(|x| match samples {
-                    1 => pixel(x, y, CENTRE),
-                    n => combine(&(0..n).map(|k| pixel(x, y, sample_offset(x, y, k))).collect::<Vec<_>>()),
-                })
-                .collect();
+        .enumerate()
+        .map(|(y, (color, depth, normal, alpha, first, second))| {
+            let mut totals = PixelTotals::default();
+            for x in 0..w {
+                let (px, py) = (x as u32, y as u32);
+                let p = match samples {
+                    1 => pixel(px, py, CENTRE),
+                    n => combine(&(0..n).map(|k| pixel(px, py, sample_offset(px, py, k))).collect::<Vec<_>>()),
+                };
+                (color[x], depth[x], normal[x], alpha[x]) = (p.color, p.depth, p.normal, p.alpha);
+                (first[x], second[x]) = (p.counts[0] as f32, p.counts[1] as f32);
+                totals = totals.with(&p, samples);
+            }
             progress(done.fetch_add(1, Ordering::Relaxed) + 1);
-            row
+            totals
         })
-        .collect()
+        .reduce(PixelTotals::default, PixelTotals::plus);
+    (frame, totals)
 }
 
 /// Traces sample `k` (see [`super::samples`]) of every pixel of `rows`,
@@ -494,20 +502,6 @@ pub fn blank_field_frame(settings: &RenderSettings) -> Frame {
 pub fn blank_frame(settings: &RenderSettings, counters: [&str; 2]) -> Frame {
     let mut frame = Frame::new(settings.width, settings.height, settings.background);
     let pixels = frame.len();
-    frame.extra = counters.into_iter().map(|name| (name.into(), vec![0.0; pixels])).collect();
-    frame
-}
-
-/// The frame of `samples` (row-major), with the two counters as the extra
-/// channels named `counters`.
-#[must_use]
-pub fn assemble(samples: &[PixelSample], s: &RenderSettings, counters: [&str; 2]) -> Frame {
-    let mut frame = Frame::new(s.width, s.height, s.background);
-    for (i, p) in samples.iter().enumerate() {
-        write_sample(&mut frame, i, p);
-    }
-    for (k, name) in counters.into_iter().enumerate() {
-        frame.extra.push((name.into(), samples.iter().map(|p| p.counts[k] as f32).collect()));
-    }
+    frame.extra = counters.into_iter().map(|name| (name.into(), crate::frame::filled(pixels, 0.0))).collect();
     frame
 }

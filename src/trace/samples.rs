@@ -35,6 +35,47 @@ impl PixelSample {
     }
 }
 
+/// Totals over traced pixels: their rays, the rays that hit, and the two
+/// work counters summed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PixelTotals {
+    /// Rays traced.
+    pub rays: u64,
+    /// Rays that hit.
+    pub hits: u64,
+    /// The pixels' work counters, summed.
+    pub counts: [u64; 2],
+}
+
+impl PixelTotals {
+    /// The totals over `pixels` of `samples` rays each.
+    #[must_use]
+    pub fn of(pixels: &[PixelSample], samples: u32) -> Self {
+        pixels.iter().fold(Self::default(), |t, p| t.with(p, samples))
+    }
+
+    /// These totals and `p`, a pixel of `samples` rays.
+    #[must_use]
+    pub fn with(self, p: &PixelSample, samples: u32) -> Self {
+        Self {
+            rays: self.rays + u64::from(samples),
+            // One ray hits or not; several hit in the fraction alpha.
+            hits: self.hits + if samples == 1 { u64::from(p.alpha > 0.5) } else { (p.alpha * samples as f32).round() as u64 },
+            counts: [self.counts[0] + u64::from(p.counts[0]), self.counts[1] + u64::from(p.counts[1])],
+        }
+    }
+
+    /// Both totals together.
+    #[must_use]
+    pub fn plus(self, o: Self) -> Self {
+        Self {
+            rays: self.rays + o.rays,
+            hits: self.hits + o.hits,
+            counts: [self.counts[0] + o.counts[0], self.counts[1] + o.counts[1]],
+        }
+    }
+}
+
 /// Most samples per pixel a render takes.
 pub const MAX_SAMPLES: u32 = 1024;
 
