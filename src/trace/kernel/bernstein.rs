@@ -122,7 +122,8 @@ impl Rise {
     /// The stretch narrowed around the one root of `c` (negative at the start,
     /// positive at the end) by Illinois false position, to within `width`.
     /// The polynomial is evaluated in power form in double precision: six
-    /// fused steps instead of de Casteljau's twenty-one, and no rounding that
+    /// Horner steps instead of de Casteljau's twenty-one (plain products:
+    /// built for any x86-64, `mul_add` is a library call), and no rounding that
     /// matters (the coefficients grow at most 729-fold from the control
     /// points', far inside what 53 bits hold); the snap that follows decides
     /// the hit on the field's own values whatever this brackets.
@@ -131,7 +132,7 @@ impl Rise {
         let power = power_form(c);
         let at = |x: f32| {
             let x = f64::from(x);
-            power.iter().rev().fold(0.0f64, |acc, &k| acc.mul_add(x, k)) as f32
+            power.iter().rev().fold(0.0f64, |acc, &k| acc * x + k) as f32
         };
         let ((xa, xb), _) = false_position(at, (0.0, c[0]), (1.0, c[6]), width / (b - a));
         Rise::Within(a + (b - a) * xa, a + (b - a) * xb)
