@@ -40,8 +40,9 @@ pub fn render_mesh(
     settings: &RenderSettings,
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Frame, MeshRenderStats) {
-    let (frame, totals) =
-        render_pixels(settings, MESH_COUNTERS, progress, |x, y, at| shade_pixel(target, settings, (x, y, at)));
+    let (frame, totals) = render_pixels(blank_mesh_frame(settings), settings, progress, |x, y, at| {
+        shade_pixel(target, settings, (x, y, at))
+    });
     (frame, MeshRenderStats::of(totals))
 }
 

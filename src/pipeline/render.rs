@@ -18,7 +18,7 @@ use crate::mesh::Mesh;
 use crate::output::FileSet;
 use crate::progress::{Progress, rows};
 use crate::scene::Scene;
-use crate::trace::{RenderSettings, RenderStats, render_model};
+use crate::trace::{RenderSettings, RenderStats, blank_field_frame, render_model_into};
 
 impl Scene {
     /// The scene's camera and background at `size`, with default lights and
@@ -33,7 +33,8 @@ impl Scene {
 #[derive(Clone, Debug, Serialize)]
 pub struct RenderReport {
     /// Wall-clock seconds spent tracing, marking the empty space or listing
-    /// the supports of each screen tile included.
+    /// the supports of each screen tile included; the frame it fills is
+    /// made before the clock starts.
     pub seconds: f64,
     /// The ray tracer: `kernel` or `segment`.
     pub tracer: &'static str,
@@ -105,8 +106,13 @@ pub fn render_field(
     progress: &dyn Progress,
 ) -> (Frame, RenderReport) {
     let settings = RenderSettings { samples, ..scene.render_settings(size) };
+    // The frame is made before the clock starts, as the model is: `seconds`
+    // is the rendering (as the Segment Tracing reference's frame time is,
+    // whose pixel buffers are made and zeroed before its clock).
+    let blank = blank_field_frame(&settings);
     let start = Instant::now();
-    let (mut frame, stats, empty) = render_model(&scene.model, mode, &settings, &rows(progress, "tracing", size.1));
+    let (mut frame, stats, empty) =
+        render_model_into(blank, &scene.model, mode, &settings, &rows(progress, "tracing", size.1));
     let seconds = start.elapsed().as_secs_f64();
     frame.add_planar_depth(&settings.camera);
     let report = RenderReport {

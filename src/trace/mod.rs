@@ -17,8 +17,8 @@ pub use coverage::Coverage;
 pub use dirty_rects::{PixelRect, merge_rects, screen_rect};
 pub use progressive::{PASS_STEPS, PixelState, Refinement};
 pub use render::{
-    CENTRE, KeptPixel, RenderSettings, RenderStats, Rerendered, Retrace, blank_field_frame, blank_frame,
-    changed_space, kernel_tracer, outward_normal, refine, render, render_covered, render_model, render_pixels,
+    CENTRE, KeptPixel, RenderSettings, RenderStats, Rerendered, Retrace, blank_field_frame, blank_frame, changed_space,
+    kernel_tracer, outward_normal, refine, render, render_covered, render_model, render_model_into, render_pixels,
     rerender, rerender_pixels, retrace_listed, retrace_whole, trace_sample_rows,
 };
 pub use samples::{PixelSample, PixelTotals};

@@ -99,8 +99,19 @@ pub fn render_covered<F: Field + ?Sized>(
     coverage: Option<&Coverage>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Frame, RenderStats) {
+    render_covered_into(blank_field_frame(settings), field, settings, coverage, progress)
+}
+
+/// [`render_covered`] into `frame`, a blank frame of the settings' (see [`blank_field_frame`]).
+fn render_covered_into<F: Field + ?Sized>(
+    frame: Frame,
+    field: &F,
+    settings: &RenderSettings,
+    coverage: Option<&Coverage>,
+    progress: &(dyn Fn(usize) + Sync),
+) -> (Frame, RenderStats) {
     let (frame, totals) =
-        render_pixels(settings, FIELD_COUNTERS, progress, |x, y, at| trace_pixel(field, settings, (x, y, at), coverage));
+        render_pixels(frame, settings, progress, |x, y, at| trace_pixel(field, settings, (x, y, at), coverage));
     (frame, RenderStats::of(totals))
 }
 
@@ -115,10 +126,24 @@ pub fn render_model(
     settings: &RenderSettings,
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Frame, RenderStats, Option<EmptySpace>) {
+    render_model_into(blank_field_frame(settings), model, mode, settings, progress)
+}
+
+/// [`render_model`] into `frame`, a blank frame of the settings' (see
+/// [`blank_field_frame`]), made beforehand: a caller timing the rendering
+/// alone makes its frame first, as it makes the model (a fresh frame's
+/// pages are faulted in as it is filled).
+pub fn render_model_into(
+    frame: Frame,
+    model: &Model,
+    mode: EvalMode,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(usize) + Sync),
+) -> (Frame, RenderStats, Option<EmptySpace>) {
     let field = ModelField::new(model, mode);
     if let Some(kernel) = kernel_tracer(model, mode, settings) {
         let coverage = Coverage::of_kernels(kernel, settings.width);
-        let (mut frame, stats) = render_covered(&field, settings, Some(&coverage), progress);
+        let (mut frame, stats) = render_covered_into(frame, &field, settings, Some(&coverage), progress);
         // The kernel tracer's steps are the supports each ray crossed.
         if let Some(steps) = frame.extra.iter_mut().find(|(name, _)| name == FIELD_COUNTERS[0]) {
             steps.0 = KERNEL_STEPS.into();
@@ -127,7 +152,7 @@ pub fn render_model(
     }
     let empty = EmptySpace::build(&field);
     let coverage = Coverage::of(&empty, &model.bounds(), &settings.camera, settings.width, settings.height);
-    let (frame, stats) = render_covered(&field.skipping(&empty), settings, Some(&coverage), progress);
+    let (frame, stats) = render_covered_into(frame, &field.skipping(&empty), settings, Some(&coverage), progress);
     (frame, stats, Some(empty))
 }
 
@@ -382,20 +407,27 @@ pub const CENTRE: Vec2 = Vec2::splat(0.5);
 
 /// Calls `pixel` for every pixel, rows in parallel, at each of the
 /// settings' samples in it (see [`super::samples`]), combines each pixel's
-/// samples and writes them in place into a frame, the two counters into
-/// the extra channels named `counters`; returns the frame and the totals.
+/// samples and writes them in place into `frame` (of the settings' size,
+/// with two counter channels: see [`blank_frame`]), the two counters into
+/// its extra channels; returns the frame and the totals.
+///
+/// # Panics
+/// Where `frame` is not of the settings' size or has not two extra channels.
 pub fn render_pixels(
+    mut frame: Frame,
     settings: &RenderSettings,
-    counters: [&str; 2],
     progress: &(dyn Fn(usize) + Sync),
     pixel: impl Fn(u32, u32, Vec2) -> PixelSample + Sync,
 ) -> (Frame, PixelTotals) {
     let w = settings.width as usize;
-    let mut frame = blank_frame(settings, counters);
+    assert!(
+        (frame.width, frame.height) == (settings.width, settings.height) && frame.extra.len() == 2,
+        "render_pixels fills a blank frame of the settings' size with two counter channels"
+    );
     let done = AtomicUsize::new(0);
     let samples = settings.samples.max(1);
     let Frame { color, depth, normal, alpha, extra, .. } = &mut frame;
-    let [(_, first), (_, second)] = &mut extra[..] else { unreachable!("a blank frame has two counter channels") };
+    let [(_, first), (_, second)] = &mut extra[..] else { unreachable!("checked above") };
     let rows = (
         color.par_chunks_mut(w),
         depth.par_chunks_mut(w),
