@@ -128,7 +128,7 @@ impl KernelTracer {
             loop {
                 while pos < entries.len() && entries[pos].near <= bound {
                     let e = &entries[pos];
-                    if dir.dot(e.cone) >= e.cone.w {
+                    if self.tiles.may_cross(e, dir) {
                         self.supports.crossings(e.support as usize, ray, &mut local, span, crossings);
                     }
                     pos += 1;

@@ -132,8 +132,13 @@ impl KernelSupports {
         let mid = radii.len() / 2;
         let cell = *radii.select_nth_unstable_by(mid, f32::total_cmp).1;
         let volume: f64 = self.spheres.iter().map(|s| 4.0 / 3.0 * std::f64::consts::PI * f64::from(s.1).powi(3)).sum();
-        let mut cells: Vec<[i32; 3]> =
-            self.spheres.par_iter().map(|s| (s.0 / cell).floor().as_ivec3().to_array()).collect();
+        // Each cell as one 63-bit key (21 bits an axis, clamped: a model
+        // more than a million cells wide counts its far cells as the edge's).
+        let key = |c: Vec3A| {
+            let c = ((c / cell).floor() + Vec3A::splat(CELL_KEY_HALF)).clamp(Vec3A::ZERO, Vec3A::splat(CELL_KEY_MAX));
+            (c.x as u64) << 42 | (c.y as u64) << 21 | c.z as u64
+        };
+        let mut cells: Vec<u64> = self.spheres.par_iter().map(|s| key(s.0)).collect();
         cells.par_sort_unstable();
         cells.dedup();
         (volume / (cells.len() as f64 * f64::from(cell).powi(3))) as f32
@@ -275,6 +280,11 @@ impl KernelSupports {
         s.primitive.value(local)
     }
 }
+
+/// Half the range of a cell coordinate in [`KernelSupports::overlap`]'s keys.
+const CELL_KEY_HALF: f32 = (1 << 20) as f32;
+/// The largest cell coordinate its keys hold.
+const CELL_KEY_MAX: f32 = ((1 << 21) - 1) as f32;
 
 /// A ray seen in one placement's frame, kept while consecutive supports share it.
 #[derive(Clone, Copy, Debug, Default)]

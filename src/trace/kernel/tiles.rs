@@ -31,13 +31,16 @@ pub struct TileLists {
     /// Where each tile's list starts in `entries`; one more than the tiles.
     starts: Vec<u32>,
     entries: Vec<Entry>,
+    /// The cone from the eye holding each support (see `cone`), kept once
+    /// rather than in every tile listing it: a million supports list six
+    /// million times, and eight bytes an entry instead of thirty-two is most
+    /// of what building the lists costs (fresh pages, faulted in one by one).
+    cones: Vec<Vec4>,
 }
 
 /// A support listed in a tile.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Entry {
-    /// The cone from the eye holding the support (see `cone`).
-    pub cone: Vec4,
     /// No ray meets the support nearer the eye than this.
     pub near: f32,
     /// The support.
@@ -60,6 +63,13 @@ fn cone(eye: Vec3A, (centre, radius): (Vec3A, f32)) -> Vec4 {
     (v / distance).extend(cos)
 }
 
+/// No ray from the eye meets a support with bounding sphere (`centre`,
+/// `radius`) nearer than this: shortened a little, as the coverage's
+/// distances are, against rounding.
+fn near_of(eye: Vec3A, (centre, radius): (Vec3A, f32)) -> f32 {
+    (((centre - eye).length() - radius) * (1.0 - 1e-4)).max(0.0)
+}
+
 impl TileLists {
     /// The lists of `supports` seen through `camera` at `width × height`.
     #[must_use]
@@ -67,11 +77,10 @@ impl TileLists {
         let (columns, rows) = (width.div_ceil(TILE), height.div_ceil(TILE));
         let tiles = (columns * rows) as usize;
         let eye = camera.eye;
-        let projected: Vec<(Option<PixelRect>, Vec4)> = (0..supports.len())
+        let (rects, cones): (Vec<Option<PixelRect>>, Vec<Vec4>) = (0..supports.len())
             .into_par_iter()
             .map(|i| (screen_rect(camera, width, height, supports.world_box(i)), cone(eye, supports.world_sphere(i))))
-            .collect();
-        let rects: Vec<Option<PixelRect>> = projected.iter().map(|p| p.0).collect();
+            .unzip();
         let tile_span = |r: &PixelRect| (r.x0 / TILE, r.y0 / TILE, (r.x1 - 1) / TILE + 1, (r.y1 - 1) / TILE + 1);
         let mut starts = vec![0u32; tiles + 1];
         for r in rects.iter().flatten() {
@@ -90,10 +99,7 @@ impl TileLists {
         for (i, r) in rects.iter().enumerate() {
             let Some(r) = r else { continue };
             let (tx0, ty0, tx1, ty1) = tile_span(r);
-            let (centre, radius) = supports.world_sphere(i);
-            // Shortened a little, as the coverage's distances are, against rounding.
-            let near = (((centre - eye).length() - radius) * (1.0 - 1e-4)).max(0.0);
-            let entry = Entry { cone: projected[i].1, near, support: i as u32 };
+            let entry = Entry { near: near_of(eye, supports.world_sphere(i)), support: i as u32 };
             for ty in ty0..ty1 {
                 for tx in tx0..tx1 {
                     let slot = &mut fill[(ty * columns + tx) as usize];
@@ -110,7 +116,16 @@ impl TileLists {
             rest = after;
         }
         lists.par_iter_mut().for_each(|list| list.sort_unstable_by(|a, b| a.near.total_cmp(&b.near)));
-        Self { columns, starts, entries }
+        Self { columns, starts, entries, cones }
+    }
+
+    /// True when `dir`, a unit direction from the eye, lies inside the cone
+    /// holding support `e`: a ray along it may cross the support.
+    #[inline]
+    #[must_use]
+    pub fn may_cross(&self, e: &Entry, dir: Vec4) -> bool {
+        let cone = self.cones[e.support as usize];
+        dir.dot(cone) >= cone.w
     }
 
     /// The supports the rays through pixel (`x`, `y`) can cross, nearest first.
