@@ -11,10 +11,12 @@
 //! the projection onto the axis (linear in `t`) lies on the segment: up to
 //! three such quadratics, each on its own stretch of the ray.
 
+use std::sync::Arc;
+
 use glam::{Affine3A, Vec3A};
 use rayon::prelude::*;
 
-use crate::field::{EvalMode, Kernel, Model, NodeId, NodeKind, Primitive, Skeleton};
+use crate::field::{EvalMode, Kernel, Model, NodeId, NodeKind, PointSet, Primitive, Skeleton};
 use crate::geom::{Aabb, Ray};
 
 /// Why a model is not a sum of polynomial kernels, for `info` and errors.
@@ -52,19 +54,54 @@ struct Support {
     placement: u32,
 }
 
-/// Every kernel primitive of a model, in the tree's order (which fixes the
-/// order a ray's crossings are summed in, so a ray's sum does not depend on
-/// how the supports were found).
+/// Every kernel primitive of a model, numbered in the tree's order (which
+/// fixes the order a ray's crossings are summed in, so a ray's sum does not
+/// depend on how the supports were found). Primitives of the tree are
+/// copied here; the points of a point set are read from the set itself, as
+/// its node's grid reads them (a million points would take 184 MB copied).
 #[derive(Clone, Debug, Default)]
 pub struct KernelSupports {
-    supports: Vec<Support>,
+    /// Where each run of consecutive support numbers is kept, by first number.
+    runs: Vec<Run>,
+    /// The primitives copied from the tree.
+    listed: Vec<Support>,
     /// World-to-local maps; the first is the identity.
     placements: Vec<Affine3A>,
-    /// The world box of each support, for binning onto the screen.
+    /// The world box of each listed support, for binning onto the screen.
     boxes: Vec<Aabb>,
-    /// A world sphere (centre, radius) holding each support, for the cone
-    /// test each ray makes before it solves for a crossing.
+    /// A world sphere (centre, radius) holding each listed support, for the
+    /// cone test each ray makes before it solves for a crossing.
     spheres: Vec<(Vec3A, f32)>,
+    /// Supports in all.
+    len: usize,
+}
+
+/// A run of consecutive support numbers from `first`.
+#[derive(Clone, Debug)]
+struct Run {
+    first: usize,
+    kept: Kept,
+}
+
+/// Where a run's supports are kept.
+#[derive(Clone, Debug)]
+enum Kept {
+    /// In [`KernelSupports::listed`] from this index.
+    Listed(usize),
+    /// The points of a set, in order, under one placement.
+    Set(Arc<SetPlacement>),
+}
+
+/// A point set and where it is placed.
+#[derive(Debug)]
+struct SetPlacement {
+    set: Arc<PointSet>,
+    /// Index into [`KernelSupports::placements`].
+    placement: u32,
+    /// Local-to-world map.
+    to_world: Affine3A,
+    /// How far the map stretches any direction at most.
+    stretch: f32,
 }
 
 /// Where a ray is inside one support: `w·(a₀ - k (t - t_m)²)³` on `[t_in, t_out]`.
@@ -125,20 +162,21 @@ impl KernelSupports {
     /// stretch grows with it.
     #[must_use]
     pub fn overlap(&self) -> f32 {
-        if self.spheres.is_empty() {
+        if self.is_empty() {
             return 0.0;
         }
-        let mut radii: Vec<f32> = self.spheres.iter().map(|s| s.1).collect();
+        let spheres: Vec<(Vec3A, f32)> = (0..self.len).into_par_iter().map(|i| self.world_sphere(i)).collect();
+        let mut radii: Vec<f32> = spheres.iter().map(|s| s.1).collect();
         let mid = radii.len() / 2;
         let cell = *radii.select_nth_unstable_by(mid, f32::total_cmp).1;
-        let volume: f64 = self.spheres.iter().map(|s| 4.0 / 3.0 * std::f64::consts::PI * f64::from(s.1).powi(3)).sum();
+        let volume: f64 = spheres.iter().map(|s| 4.0 / 3.0 * std::f64::consts::PI * f64::from(s.1).powi(3)).sum();
         // Each cell as one 63-bit key (21 bits an axis, clamped: a model
         // more than a million cells wide counts its far cells as the edge's).
         let key = |c: Vec3A| {
             let c = ((c / cell).floor() + Vec3A::splat(CELL_KEY_HALF)).clamp(Vec3A::ZERO, Vec3A::splat(CELL_KEY_MAX));
             (c.x as u64) << 42 | (c.y as u64) << 21 | c.z as u64
         };
-        let mut cells: Vec<u64> = self.spheres.par_iter().map(|s| key(s.0)).collect();
+        let mut cells: Vec<u64> = spheres.par_iter().map(|s| key(s.0)).collect();
         cells.par_sort_unstable();
         cells.dedup();
         (volume / (cells.len() as f64 * f64::from(cell).powi(3))) as f32
@@ -147,25 +185,34 @@ impl KernelSupports {
     /// Number of primitives.
     #[must_use]
     pub fn len(&self) -> usize {
-        self.supports.len()
+        self.len
     }
 
     /// True when the model sums no primitive.
     #[must_use]
     pub fn is_empty(&self) -> bool {
-        self.supports.is_empty()
+        self.len == 0
     }
 
     /// The world box of support `i`.
     #[must_use]
-    pub fn world_box(&self, i: usize) -> &Aabb {
-        &self.boxes[i]
+    pub fn world_box(&self, i: usize) -> Aabb {
+        match self.run_of(i) {
+            (Kept::Listed(at), k) => self.boxes[at + k],
+            (Kept::Set(s), k) => s.set.primitive(k).bounds().transformed(&s.to_world),
+        }
     }
 
     /// A world sphere (centre, radius) holding support `i`.
     #[must_use]
     pub fn world_sphere(&self, i: usize) -> (Vec3A, f32) {
-        self.spheres[i]
+        match self.run_of(i) {
+            (Kept::Listed(at), k) => self.spheres[at + k],
+            (Kept::Set(s), k) => {
+                let (center, radius) = s.set.ball(k);
+                world_sphere(Shape::Point { center }, radius, &s.to_world, s.stretch)
+            }
+        }
     }
 
     /// Appends what lies below node `id`, seen through placement
@@ -185,8 +232,13 @@ impl KernelSupports {
             NodeKind::Primitive(p) => self.push(p, frame).or_else(|()| refuse("a circle")),
             NodeKind::Blend { children, .. } => children.iter().try_for_each(|&c| self.gather(model, c, mode, frame)),
             NodeKind::Points { set, .. } => {
-                self.reserve(set.len());
-                (0..set.len()).try_for_each(|i| self.push(&set.primitive(i), frame).or_else(|()| refuse("a point")))
+                let Kernel::Wyvill = set.kernel();
+                let (placement, _, to_world) = frame;
+                let stretch = stretch_of(placement, &to_world);
+                let run = SetPlacement { set: Arc::clone(set), placement, to_world, stretch };
+                self.runs.push(Run { first: self.len, kept: Kept::Set(Arc::new(run)) });
+                self.len += set.len();
+                Ok(())
             }
             NodeKind::Named { child, .. } => self.gather(model, *child, mode, frame),
             NodeKind::Cache { child, grid, .. } if !model.answers_from_lattice(*grid, mode) => {
@@ -211,13 +263,6 @@ impl KernelSupports {
         }
     }
 
-    /// Makes room for `additional` more supports at once.
-    fn reserve(&mut self, additional: usize) {
-        self.supports.reserve_exact(additional);
-        self.boxes.reserve_exact(additional);
-        self.spheres.reserve_exact(additional);
-    }
-
     /// Appends primitive `p`; `Err` for a skeleton no quadratic describes.
     fn push(&mut self, p: &Primitive, (placement, _, to_world): (u32, Affine3A, Affine3A)) -> Result<(), ()> {
         let Kernel::Wyvill = p.kernel;
@@ -233,28 +278,41 @@ impl KernelSupports {
             }
             Skeleton::Circle { .. } => return Err(()),
         };
-        self.supports.push(Support { shape, primitive: *p, placement });
+        if !matches!(self.runs.last(), Some(Run { kept: Kept::Listed(_), .. })) {
+            self.runs.push(Run { first: self.len, kept: Kept::Listed(self.listed.len()) });
+        }
+        self.listed.push(Support { shape, primitive: *p, placement });
         self.boxes.push(p.bounds().transformed(&to_world));
-        let (centre, radius) = match shape {
-            Shape::Point { center } => (center, p.radius),
-            Shape::Segment { a, axis, length } => (a + axis * (0.5 * length), 0.5 * length + p.radius),
-        };
-        // The Frobenius norm bounds how far the map stretches any direction.
-        let m = to_world.matrix3;
-        let stretch = if placement == 0 {
-            1.0
-        } else {
-            (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt()
-        };
-        self.spheres.push((to_world.transform_point3a(centre), radius * stretch));
+        self.spheres.push(world_sphere(shape, p.radius, &to_world, stretch_of(placement, &to_world)));
+        self.len += 1;
         Ok(())
+    }
+
+    /// The run holding support `i`, and `i`'s place in it.
+    #[inline]
+    fn run_of(&self, i: usize) -> (&Kept, usize) {
+        let run = &self.runs[self.runs.partition_point(|r| r.first <= i) - 1];
+        (&run.kept, i - run.first)
+    }
+
+    /// Support `i`: copied from the tree, or made from its point set.
+    #[inline]
+    fn support(&self, i: usize) -> Support {
+        match self.run_of(i) {
+            (Kept::Listed(at), k) => self.listed[at + k],
+            (Kept::Set(s), k) => {
+                let primitive = s.set.primitive(k);
+                let Skeleton::Point { center } = primitive.skeleton else { unreachable!("a set holds points") };
+                Support { shape: Shape::Point { center }, primitive, placement: s.placement }
+            }
+        }
     }
 
     /// Appends to `out` where `ray` crosses support `i` within `[t_min, t_max]`.
     /// `local` caches the ray seen in the last placement asked for.
     #[inline]
     pub fn crossings(&self, i: usize, ray: &Ray, local: &mut LocalRay, span: (f32, f32), out: &mut Vec<Crossing>) {
-        let s = &self.supports[i];
+        let s = &self.support(i);
         let (o, d, scale) = local.get(self, s.placement, ray);
         let first = out.len();
         match s.shape {
@@ -275,10 +333,30 @@ impl KernelSupports {
     #[inline]
     #[must_use]
     pub fn value(&self, i: usize, p: Vec3A) -> f32 {
-        let s = &self.supports[i];
+        let s = &self.support(i);
         let local = if s.placement == 0 { p } else { self.placements[s.placement as usize].transform_point3a(p) };
         s.primitive.value(local)
     }
+}
+
+/// How far `to_world` (placement number `placement`, 0 the identity)
+/// stretches any direction at most: its Frobenius norm.
+fn stretch_of(placement: u32, to_world: &Affine3A) -> f32 {
+    if placement == 0 {
+        return 1.0;
+    }
+    let m = to_world.matrix3;
+    (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt()
+}
+
+/// A world sphere holding a support of `shape` and support radius `radius`
+/// placed by `to_world`, which stretches by at most `stretch`.
+fn world_sphere(shape: Shape, radius: f32, to_world: &Affine3A, stretch: f32) -> (Vec3A, f32) {
+    let (centre, radius) = match shape {
+        Shape::Point { center } => (center, radius),
+        Shape::Segment { a, axis, length } => (a + axis * (0.5 * length), 0.5 * length + radius),
+    };
+    (to_world.transform_point3a(centre), radius * stretch)
 }
 
 /// Half the range of a cell coordinate in [`KernelSupports::overlap`]'s keys.

@@ -198,3 +198,52 @@ fn a_ray_grazing_a_sphere_is_hit_and_depths_match_the_analytic_sphere() {
         assert!(r.evals <= 2, "offset {offset}: {} evaluations; the crossed supports' sum settles most snaps", r.evals);
     }
 }
+
+#[test]
+fn a_placed_point_set_is_traced_as_the_same_points_listed_one_by_one() {
+    // The same points under the same non-uniform placement, once as a point
+    // set read from a file (traced from the set's arrays) and once as a
+    // blend of points (copied one by one): the supports, and so every hit,
+    // must be the same.
+    let dir = std::env::temp_dir().join(format!("blobtrace-kernel-set-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let points: Vec<Vec3> =
+        (0..40).map(|i| Vec3::new((i % 5) as f32 * 0.7, (i / 5 % 4) as f32 * 0.8, (i / 20) as f32 * 0.9)).collect();
+    let text: String = points.iter().map(|p| format!("{} {} {}\n", p.x, p.y, p.z)).collect();
+    std::fs::write(dir.join("pts.xyz"), text).unwrap();
+    let blend: Vec<String> =
+        points.iter().map(|p| format!("Point(center: ({}, {}, {}), radius: 1.1)", p.x, p.y, p.z)).collect();
+    let scene = |child: &str| {
+        let text = format!(
+            "Scene(camera: Camera(eye: (1.5, 1.0, 9.0), target: (1.5, 1.0, 0.5), up: (0.0, 1.0, 0.0), fov_y: 50.0), \
+             size: (48, 40), threshold: 0.5, model: Blend([Point(center: (-1.0, 0.0, 0.0), radius: 1.2), \
+             Transform(translate: (0.3, -0.2, 0.1), rotate: (10.0, 20.0, 5.0), scale: (1.3, 0.8, 1.1), child: {child})]))"
+        );
+        let path = dir.join(format!("{}.ron", child.len()));
+        std::fs::write(&path, text).unwrap();
+        Scene::load(&path).unwrap()
+    };
+    let from_set = scene("Points(file: \"pts.xyz\", radius: 1.1)");
+    let listed = scene(&format!("Blend([{}])", blend.join(", ")));
+    let (a, b) = [&from_set, &listed].map(|s| KernelSupports::of(&s.model, EvalMode::Indexed).unwrap()).into();
+    assert_eq!(a.len(), 41);
+    assert_eq!(a.len(), b.len());
+    for i in 0..a.len() {
+        assert_eq!(a.world_box(i), b.world_box(i), "support {i}");
+        assert_eq!(a.world_sphere(i), b.world_sphere(i), "support {i}");
+    }
+    let s = from_set.render_settings(Size(48, 40));
+    let tracers = [&from_set, &listed].map(|sc| KernelTracer::new(&sc.model, EvalMode::Indexed, &s.camera, (48, 40)));
+    let fields = [&from_set, &listed].map(|sc| ModelField::new(&sc.model, EvalMode::Indexed));
+    let mut hits = 0;
+    for y in 0..40 {
+        for x in 0..48 {
+            let ray = s.camera.ray(x, y, 48, 40);
+            let [ka, kb] = [0, 1].map(|k| tracers[k].as_ref().unwrap().trace(&fields[k], &ray, (x, y), &s.trace));
+            assert_eq!((ka.hit, ka.steps), (kb.hit, kb.steps), "pixel {x},{y}");
+            hits += u32::from(ka.hit.is_some());
+        }
+    }
+    assert!(hits > 300, "{hits} hits");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

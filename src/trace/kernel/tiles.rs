@@ -79,7 +79,7 @@ impl TileLists {
         let eye = camera.eye;
         let (rects, cones): (Vec<Option<PixelRect>>, Vec<Vec4>) = (0..supports.len())
             .into_par_iter()
-            .map(|i| (screen_rect(camera, width, height, supports.world_box(i)), cone(eye, supports.world_sphere(i))))
+            .map(|i| (screen_rect(camera, width, height, &supports.world_box(i)), cone(eye, supports.world_sphere(i))))
             .unzip();
         let tile_span = |r: &PixelRect| (r.x0 / TILE, r.y0 / TILE, (r.x1 - 1) / TILE + 1, (r.y1 - 1) / TILE + 1);
         let mut starts = vec![0u32; tiles + 1];
