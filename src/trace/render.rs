@@ -419,7 +419,8 @@ pub fn render_pixels(
     progress: &(dyn Fn(usize) + Sync),
     pixel: impl Fn(u32, u32, Vec2) -> PixelSample + Sync,
 ) -> (Frame, PixelTotals) {
-    let w = settings.width as usize;
+    // A row's chunk; at least one, so a frame with no pixels has no rows.
+    let w = (settings.width as usize).max(1);
     assert!(
         (frame.width, frame.height) == (settings.width, settings.height) && frame.extra.len() == 2,
         "render_pixels fills a blank frame of the settings' size with two counter channels"
@@ -536,4 +537,42 @@ pub fn blank_frame(settings: &RenderSettings, counters: [&str; 2]) -> Frame {
     let pixels = frame.len();
     frame.extra = counters.into_iter().map(|name| (name.into(), crate::frame::filled(pixels, 0.0))).collect();
     frame
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Scene;
+
+    #[test]
+    fn pixels_are_written_in_place_with_their_counters_and_totals() {
+        let scene = Scene::parse(
+            "Scene(camera: Camera(eye: (0.0, 0.0, 5.0), target: (0.0, 0.0, 0.0), up: (0.0, 1.0, 0.0), fov_y: 40.0), \
+             size: (7, 3), threshold: 0.5, model: Point(center: (0.0, 0.0, 0.0), radius: 1.0))",
+            "inline",
+        )
+        .unwrap();
+        let s = scene.render_settings(Size(7, 3));
+        let sample = |x: u32, y: u32| PixelSample {
+            color: Vec3::splat(x as f32),
+            depth: y as f32,
+            normal: Vec3::Z,
+            alpha: f32::from(u8::from(x % 2 == 0)),
+            counts: [x, 10 * y],
+        };
+        let (frame, totals) = render_pixels(blank_frame(&s, ["a.Y", "b.Y"]), &s, &|_| {}, |x, y, _| sample(x, y));
+        for (i, (x, y)) in (0..3).flat_map(|y| (0..7).map(move |x| (x, y))).enumerate() {
+            assert_eq!(
+                (frame.color[i], frame.depth[i], frame.alpha[i]),
+                (Vec3::splat(x as f32), y as f32, sample(x, y).alpha)
+            );
+            assert_eq!((frame.extra[0].1[i], frame.extra[1].1[i]), (x as f32, (10 * y) as f32));
+        }
+        assert_eq!(totals, PixelTotals { rays: 21, hits: 12, counts: [63, 210] });
+        // A frame of no pixels has no rows to fill.
+        let empty = RenderSettings { width: 0, ..s };
+        let (frame, totals) =
+            render_pixels(blank_frame(&empty, ["a.Y", "b.Y"]), &empty, &|_| {}, |_, _, _| unreachable!());
+        assert_eq!((frame.len(), totals), (0, PixelTotals::default()));
+    }
 }
