@@ -557,7 +557,7 @@ mod tests {
             color: Vec3::splat(x as f32),
             depth: y as f32,
             normal: Vec3::Z,
-            alpha: f32::from(u8::from(x % 2 == 0)),
+            alpha: f32::from(u8::from(x.is_multiple_of(2))),
             counts: [x, 10 * y],
         };
         let (frame, totals) = render_pixels(blank_frame(&s, ["a.Y", "b.Y"]), &s, &|_| {}, |x, y, _| sample(x, y));
