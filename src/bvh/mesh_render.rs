@@ -40,9 +40,20 @@ pub fn render_mesh(
     settings: &RenderSettings,
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Frame, MeshRenderStats) {
-    let (frame, totals) = render_pixels(blank_mesh_frame(settings), settings, progress, |x, y, at| {
-        shade_pixel(target, settings, (x, y, at))
-    });
+    render_mesh_into(blank_mesh_frame(settings), target, settings, progress)
+}
+
+/// [`render_mesh`] into `frame`, a blank frame of the settings' (see
+/// [`blank_mesh_frame`]) made beforehand, as a caller timing the casting
+/// alone makes it.
+pub fn render_mesh_into(
+    frame: Frame,
+    target: &impl RayTarget,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(usize) + Sync),
+) -> (Frame, MeshRenderStats) {
+    let (frame, totals) =
+        render_pixels(frame, settings, progress, |x, y, at| shade_pixel(target, settings, (x, y, at)));
     (frame, MeshRenderStats::of(totals))
 }
 

@@ -15,7 +15,9 @@ use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::triangle::Triangle;
 
 pub use dynamic::{BvhUpdate, DynamicMesh};
-pub use mesh_render::{MeshRenderStats, blank_mesh_frame, refine_mesh, render_mesh, rerender_mesh, surface_at};
+pub use mesh_render::{
+    MeshRenderStats, blank_mesh_frame, refine_mesh, render_mesh, render_mesh_into, rerender_mesh, surface_at,
+};
 
 use crate::geom::Ray;
 use crate::mesh::Mesh;

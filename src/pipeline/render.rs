@@ -11,7 +11,7 @@ use super::cache_report::CacheReport;
 use super::cost_map::cost_map;
 use super::error::Result;
 use super::polygonize::MeshReport;
-use crate::bvh::{MeshBvh, MeshRenderStats, StaticMesh, render_mesh as cast_mesh};
+use crate::bvh::{MeshBvh, MeshRenderStats, StaticMesh, blank_mesh_frame, render_mesh_into as cast_mesh};
 use crate::field::{EmptySpace, EvalMode};
 use crate::frame::{Frame, Size};
 use crate::mesh::Mesh;
@@ -78,7 +78,7 @@ pub struct RenderReport {
 /// Statistics of a mesh render, with the polygonization's.
 #[derive(Clone, Debug, Serialize)]
 pub struct MeshRenderReport {
-    /// Wall-clock seconds spent ray casting the mesh.
+    /// Wall-clock seconds spent ray casting the mesh (its frame made before the clock starts).
     pub seconds: f64,
     /// Image width.
     pub width: u32,
@@ -148,9 +148,11 @@ pub fn render_mesh(
 ) -> (Frame, MeshRenderReport) {
     let settings = RenderSettings { samples, ..scene.render_settings(size) };
     let bvh = MeshBvh::build(mesh);
+    // Made before the clock, as a field render's frame is.
+    let blank = blank_mesh_frame(&settings);
     let start = Instant::now();
-    let (mut frame, stats) =
-        cast_mesh(&StaticMesh { mesh, bvh: &bvh }, &settings, &rows(progress, "ray casting the mesh", size.1));
+    let target = StaticMesh { mesh, bvh: &bvh };
+    let (mut frame, stats) = cast_mesh(blank, &target, &settings, &rows(progress, "ray casting the mesh", size.1));
     let seconds = start.elapsed().as_secs_f64();
     frame.add_planar_depth(&settings.camera);
     let report = MeshRenderReport {

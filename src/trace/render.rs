@@ -440,23 +440,38 @@ pub fn render_pixels(
     let totals = rows
         .into_par_iter()
         .enumerate()
-        .map(|(y, (color, depth, normal, alpha, first, second))| {
-            let mut totals = PixelTotals::default();
-            for x in 0..w {
-                let (px, py) = (x as u32, y as u32);
-                let p = match samples {
-                    1 => pixel(px, py, CENTRE),
-                    n => combine(&(0..n).map(|k| pixel(px, py, sample_offset(px, py, k))).collect::<Vec<_>>()),
-                };
-                (color[x], depth[x], normal[x], alpha[x]) = (p.color, p.depth, p.normal, p.alpha);
-                (first[x], second[x]) = (p.counts[0] as f32, p.counts[1] as f32);
-                totals = totals.with(&p, samples);
-            }
+        .map(|(y, row)| {
+            let totals = fill_row(y as u32, row, samples, &pixel);
             progress(done.fetch_add(1, Ordering::Relaxed) + 1);
             totals
         })
         .reduce(PixelTotals::default, PixelTotals::plus);
     (frame, totals)
+}
+
+/// One row of a frame's channels: colour, depth, normal, coverage and the two counters.
+type RowChannels<'a> = (&'a mut [Vec3], &'a mut [f32], &'a mut [Vec3], &'a mut [f32], &'a mut [f32], &'a mut [f32]);
+
+/// Fills row `y` with `pixel`'s samples, `samples` rays a pixel combined;
+/// returns the row's totals.
+fn fill_row(
+    y: u32,
+    (color, depth, normal, alpha, first, second): RowChannels,
+    samples: u32,
+    pixel: &impl Fn(u32, u32, Vec2) -> PixelSample,
+) -> PixelTotals {
+    let mut totals = PixelTotals::default();
+    for x in 0..color.len() {
+        let px = x as u32;
+        let p = match samples {
+            1 => pixel(px, y, CENTRE),
+            n => combine(&(0..n).map(|k| pixel(px, y, sample_offset(px, y, k))).collect::<Vec<_>>()),
+        };
+        (color[x], depth[x], normal[x], alpha[x]) = (p.color, p.depth, p.normal, p.alpha);
+        (first[x], second[x]) = (p.counts[0] as f32, p.counts[1] as f32);
+        totals = totals.with(&p, samples);
+    }
+    totals
 }
 
 /// Traces sample `k` (see [`super::samples`]) of every pixel of `rows`,

@@ -59,7 +59,8 @@ impl PixelTotals {
     pub fn with(self, p: &PixelSample, samples: u32) -> Self {
         Self {
             rays: self.rays + u64::from(samples),
-            // One ray hits or not; several hit in the fraction alpha.
+            // One ray hits or not (no rounding, a library call on builds for
+            // any x86-64); several hit in the fraction alpha.
             hits: self.hits
                 + if samples == 1 { u64::from(p.alpha > 0.5) } else { (p.alpha * samples as f32).round() as u64 },
             counts: [self.counts[0] + u64::from(p.counts[0]), self.counts[1] + u64::from(p.counts[1])],

@@ -198,10 +198,10 @@ pub struct TracerDecision {
 /// tracer render it, with the decision behind that.
 #[must_use]
 pub fn decide(model: &Model, mode: EvalMode) -> (Option<KernelSupports>, TracerDecision) {
-    let segment = |reason: String, supports: Option<&KernelSupports>| TracerDecision {
+    let segment = |reason: String, counted: Option<(usize, f32)>| TracerDecision {
         tracer: "segment",
-        supports: supports.map(KernelSupports::len),
-        overlap: supports.map(KernelSupports::overlap),
+        supports: counted.map(|c| c.0),
+        overlap: counted.map(|c| c.1),
         reason,
     };
     if model.tracer() == TracerChoice::Segment {
@@ -216,7 +216,7 @@ pub fn decide(model: &Model, mode: EvalMode) -> (Option<KernelSupports>, TracerD
         let why = format!(
             "supports overlap {overlap:.0} deep, past {MAX_AUTO_OVERLAP:.0}: summing each ray's crossings costs more than marching"
         );
-        return (None, segment(why, Some(&supports)));
+        return (None, segment(why, Some((supports.len(), overlap))));
     }
     let reason = if model.tracer() == TracerChoice::Kernel {
         "--tracer kernel".to_string()

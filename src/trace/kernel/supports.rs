@@ -165,18 +165,20 @@ impl KernelSupports {
         if self.is_empty() {
             return 0.0;
         }
-        let spheres: Vec<(Vec3A, f32)> = (0..self.len).into_par_iter().map(|i| self.world_sphere(i)).collect();
-        let mut radii: Vec<f32> = spheres.iter().map(|s| s.1).collect();
+        let mut radii: Vec<f32> = (0..self.len).into_par_iter().map(|i| self.world_sphere(i).1).collect();
+        let volume: f64 = radii.iter().map(|&r| 4.0 / 3.0 * std::f64::consts::PI * f64::from(r).powi(3)).sum();
         let mid = radii.len() / 2;
         let cell = *radii.select_nth_unstable_by(mid, f32::total_cmp).1;
-        let volume: f64 = spheres.iter().map(|s| 4.0 / 3.0 * std::f64::consts::PI * f64::from(s.1).powi(3)).sum();
-        // Each cell as one 63-bit key (21 bits an axis, clamped: a model
-        // more than a million cells wide counts its far cells as the edge's).
-        let key = |c: Vec3A| {
-            let c = ((c / cell).floor() + Vec3A::splat(CELL_KEY_HALF)).clamp(Vec3A::ZERO, Vec3A::splat(CELL_KEY_MAX));
+        let cell_of = |i: usize| (self.world_sphere(i).0 / cell).floor();
+        let low = (0..self.len).into_par_iter().map(cell_of).reduce(|| Vec3A::INFINITY, Vec3A::min);
+        // Each cell as one 63-bit key, 21 bits an axis counted from the
+        // lowest cell (a model more than two million cells wide counts its
+        // farthest cells as the edge's: the estimate only steers `auto`).
+        let key = |i: usize| {
+            let c = (cell_of(i) - low).min(Vec3A::splat(CELL_KEY_MAX));
             (c.x as u64) << 42 | (c.y as u64) << 21 | c.z as u64
         };
-        let mut cells: Vec<u64> = spheres.par_iter().map(|s| key(s.0)).collect();
+        let mut cells: Vec<u64> = (0..self.len).into_par_iter().map(key).collect();
         cells.par_sort_unstable();
         cells.dedup();
         (volume / (cells.len() as f64 * f64::from(cell).powi(3))) as f32
@@ -359,9 +361,7 @@ fn world_sphere(shape: Shape, radius: f32, to_world: &Affine3A, stretch: f32) ->
     (to_world.transform_point3a(centre), radius * stretch)
 }
 
-/// Half the range of a cell coordinate in [`KernelSupports::overlap`]'s keys.
-const CELL_KEY_HALF: f32 = (1 << 20) as f32;
-/// The largest cell coordinate its keys hold.
+/// The largest cell coordinate [`KernelSupports::overlap`]'s keys hold.
 const CELL_KEY_MAX: f32 = ((1 << 21) - 1) as f32;
 
 /// A ray seen in one placement's frame, kept while consecutive supports share it.

@@ -223,15 +223,21 @@ fn a_placed_point_set_is_traced_as_the_same_points_listed_one_by_one() {
         std::fs::write(&path, text).unwrap();
         Scene::load(&path).unwrap()
     };
-    let from_set = scene("Points(file: \"pts.xyz\", radius: 1.1)");
-    let listed = scene(&format!("Blend([{}])", blend.join(", ")));
+    // Sets before and after a listed point: runs of every kind, in order.
+    let set = "Points(file: \"pts.xyz\", radius: 1.1)";
+    let extra = "Point(center: (1.0, 3.5, 0.5), radius: 0.9)";
+    let from_set = scene(&format!("Blend([{set}, {extra}, {set}])"));
+    let listed = scene(&format!("Blend([{0}, {extra}, {0}])", blend.join(", ")));
     let (a, b) = [&from_set, &listed].map(|s| KernelSupports::of(&s.model, EvalMode::Indexed).unwrap()).into();
-    assert_eq!(a.len(), 41);
+    assert_eq!(a.len(), 82);
     assert_eq!(a.len(), b.len());
+    let probe = Vec3A::new(1.2, 1.0, 0.7);
     for i in 0..a.len() {
         assert_eq!(a.world_box(i), b.world_box(i), "support {i}");
         assert_eq!(a.world_sphere(i), b.world_sphere(i), "support {i}");
+        assert_eq!(a.value(i, probe), b.value(i, probe), "support {i}");
     }
+    assert!((0..a.len()).filter(|&i| a.value(i, probe) > 0.0).count() > 3, "the probe lies in some supports");
     let s = from_set.render_settings(Size(48, 40));
     let tracers = [&from_set, &listed].map(|sc| KernelTracer::new(&sc.model, EvalMode::Indexed, &s.camera, (48, 40)));
     let fields = [&from_set, &listed].map(|sc| ModelField::new(&sc.model, EvalMode::Indexed));
@@ -246,4 +252,30 @@ fn a_placed_point_set_is_traced_as_the_same_points_listed_one_by_one() {
     }
     assert!(hits > 300, "{hits} hits");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn the_overlap_estimate_does_not_depend_on_where_the_model_lies() {
+    // A lattice of points 0.3 apart with radius 0.25 and a point 1000 units
+    // away, then the same 900,000 units off the origin (map coordinates,
+    // say): 3.6 million cells of the estimate from it.
+    let blend = |offset: f32| {
+        let points: Vec<String> = (0..216)
+            .map(|i| {
+                let (x, y, z) = ((i % 6) as f32 * 0.3, (i / 6 % 6) as f32 * 0.3 + offset, (i / 36) as f32 * 0.3);
+                format!("Point(center: ({x}, {y}, {z}), radius: 0.25)")
+            })
+            .collect();
+        let text = format!(
+            "Scene(camera: Camera(eye: (0.0, {offset}, 20.0), target: (0.0, {offset}, 0.0), up: (0.0, 1.0, 0.0), \
+             fov_y: 40.0), size: (8, 8), threshold: 0.5, model: Blend([{}, Point(center: (0.0, {}, 0.0), radius: 0.25)]))",
+            points.join(", "),
+            offset + 1000.0
+        );
+        let scene = Scene::parse(&text, "inline").unwrap();
+        KernelSupports::of(&scene.model, EvalMode::Indexed).unwrap().overlap()
+    };
+    let (near, far) = (blend(0.0), blend(9.0e5));
+    assert!(near > 1.0, "{near}");
+    assert!((far / near - 1.0).abs() < 0.1, "{near} at the origin, {far} 900,000 units off");
 }

@@ -4,7 +4,7 @@
 //! with a pixel of slack, so any ray through any point of a pixel is
 //! covered), and listed in every tile that rectangle touches.
 //!
-//! Each entry carries the cone from the eye that holds its support's
+//! The lists keep, once a support, the cone from the eye that holds its
 //! bounding sphere: every ray of a pinhole camera starts at the eye, so a
 //! ray whose direction falls outside the cone misses the support, known
 //! from one dot product.
