@@ -135,8 +135,10 @@ impl PointSet {
     #[inline]
     #[must_use]
     pub fn primitive(&self, i: usize) -> Primitive {
-        let center = Vec3A::from(self.terms[i].truncate());
-        Primitive::new(Skeleton::Point { center }, self.radii[i], self.weights[i], self.kernel)
+        let term = self.terms[i];
+        let center = Vec3A::from(term.truncate());
+        // The term's `1/R²` is the one `Primitive::new` computes (see `new`).
+        Primitive::with_inverse_square(Skeleton::Point { center }, self.radii[i], self.weights[i], self.kernel, term.w)
     }
 
     /// Centre and support radius of point `i`.

@@ -53,6 +53,21 @@ impl Primitive {
         Self { skeleton, radius, weight, kernel, inv_r2: 1.0 / (radius * radius) }
     }
 
+    /// A primitive from its parts and the `1/R²` that [`Primitive::new`]
+    /// computed for them before (a point set keeps it beside each centre):
+    /// the same primitive, without the division.
+    #[inline]
+    #[must_use]
+    pub(crate) fn with_inverse_square(
+        skeleton: Skeleton,
+        radius: f32,
+        weight: f32,
+        kernel: Kernel,
+        inv_r2: f32,
+    ) -> Self {
+        Self { skeleton, radius, weight, kernel, inv_r2 }
+    }
+
     /// `1/R²`, `R` the support radius.
     #[inline]
     #[must_use]

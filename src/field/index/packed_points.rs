@@ -157,6 +157,14 @@ impl PackedPoints {
 }
 
 impl BlendIndex {
+    /// The Wyvill points this index sums, in its leaves' order (for a blend,
+    /// its descendants through nested blends, depth first), when every leaf
+    /// is one (`None` otherwise).
+    #[must_use]
+    pub fn wyvill_points(&self) -> Option<&Arc<PointSet>> {
+        self.points.as_ref().map(|p| &p.set)
+    }
+
     /// The blend's gradient at `p` when all its leaves are points (`None` otherwise).
     #[inline]
     #[must_use]

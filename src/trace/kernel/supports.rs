@@ -16,7 +16,7 @@ use std::sync::Arc;
 use glam::{Affine3A, Vec3A};
 use rayon::prelude::*;
 
-use crate::field::{EvalMode, Kernel, Model, NodeId, NodeKind, PointSet, Primitive, Skeleton};
+use crate::field::{BlendIndex, EvalMode, Kernel, Model, NodeId, NodeKind, PointSet, Primitive, Skeleton};
 use crate::geom::{Aabb, Ray};
 
 /// Why a model is not a sum of polynomial kernels, for `info` and errors.
@@ -232,14 +232,17 @@ impl KernelSupports {
         };
         match &model.node(id).kind {
             NodeKind::Primitive(p) => self.push(p, frame).or_else(|()| refuse("a circle")),
-            NodeKind::Blend { children, .. } => children.iter().try_for_each(|&c| self.gather(model, c, mode, frame)),
+            NodeKind::Blend { children, index } => match index.as_deref().and_then(BlendIndex::wyvill_points) {
+                // A wide blend of Wyvill points is read from the set its index
+                // sums: the same points, in the same (depth-first) order.
+                Some(set) => {
+                    self.push_set(set, frame);
+                    Ok(())
+                }
+                None => children.iter().try_for_each(|&c| self.gather(model, c, mode, frame)),
+            },
             NodeKind::Points { set, .. } => {
-                let Kernel::Wyvill = set.kernel();
-                let (placement, _, to_world) = frame;
-                let stretch = stretch_of(placement, &to_world);
-                let run = SetPlacement { set: Arc::clone(set), placement, to_world, stretch };
-                self.runs.push(Run { first: self.len, kept: Kept::Set(Arc::new(run)) });
-                self.len += set.len();
+                self.push_set(set, frame);
                 Ok(())
             }
             NodeKind::Named { child, .. } => self.gather(model, *child, mode, frame),
@@ -263,6 +266,15 @@ impl KernelSupports {
             NodeKind::Ricci { .. } => refuse("a Ricci blend"),
             NodeKind::Warp { .. } => refuse("a warp"),
         }
+    }
+
+    /// Appends the points of `set`, read from the set itself.
+    fn push_set(&mut self, set: &Arc<PointSet>, (placement, _, to_world): (u32, Affine3A, Affine3A)) {
+        let Kernel::Wyvill = set.kernel();
+        let stretch = stretch_of(placement, &to_world);
+        let run = SetPlacement { set: Arc::clone(set), placement, to_world, stretch };
+        self.runs.push(Run { first: self.len, kept: Kept::Set(Arc::new(run)) });
+        self.len += set.len();
     }
 
     /// Appends primitive `p`; `Err` for a skeleton no quadratic describes.
