@@ -89,11 +89,11 @@ enum Kept {
     /// In [`KernelSupports::listed`] from this index.
     Listed(usize),
     /// The points of a set, in order, under one placement.
-    Set(Arc<SetPlacement>),
+    Set(SetPlacement),
 }
 
 /// A point set and where it is placed.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 struct SetPlacement {
     set: Arc<PointSet>,
     /// Index into [`KernelSupports::placements`].
@@ -273,7 +273,7 @@ impl KernelSupports {
         let Kernel::Wyvill = set.kernel();
         let stretch = stretch_of(placement, &to_world);
         let run = SetPlacement { set: Arc::clone(set), placement, to_world, stretch };
-        self.runs.push(Run { first: self.len, kept: Kept::Set(Arc::new(run)) });
+        self.runs.push(Run { first: self.len, kept: Kept::Set(run) });
         self.len += set.len();
     }
 
@@ -314,11 +314,11 @@ impl KernelSupports {
     fn support(&self, i: usize) -> Support {
         match self.run_of(i) {
             (Kept::Listed(at), k) => self.listed[at + k],
-            (Kept::Set(s), k) => {
-                let primitive = s.set.primitive(k);
-                let Skeleton::Point { center } = primitive.skeleton else { unreachable!("a set holds points") };
-                Support { shape: Shape::Point { center }, primitive, placement: s.placement }
-            }
+            (Kept::Set(s), k) => Support {
+                shape: Shape::Point { center: s.set.ball(k).0 },
+                primitive: s.set.primitive(k),
+                placement: s.placement,
+            },
         }
     }
 
