@@ -25,6 +25,7 @@
 mod bcc;
 mod corners;
 mod cubes;
+mod digest;
 mod edge_vertices;
 mod export;
 mod lattice;
