@@ -60,7 +60,11 @@ fn every_bundled_scene_meshes_as_recorded() {
     let recorded = std::fs::read_to_string(RECORD).expect("the record exists");
     let recorded: Vec<&str> = recorded.lines().collect();
     assert_eq!(recorded.len(), lines.len(), "one line per polygonization");
-    let differing: Vec<String> =
-        recorded.iter().zip(&lines).filter(|(r, l)| r != l).map(|(r, l)| format!("recorded {r}\n     now {l}")).collect();
+    let differing: Vec<String> = recorded
+        .iter()
+        .zip(&lines)
+        .filter(|(r, l)| r != l)
+        .map(|(r, l)| format!("recorded {r}\n     now {l}"))
+        .collect();
     assert!(differing.is_empty(), "{} meshes differ:\n{}", differing.len(), differing.join("\n"));
 }

@@ -210,11 +210,13 @@ fn crossed_faces() -> &'static [u8; 256] {
 /// the owned edges of all crossed cubes list each crossed edge once.
 pub fn owned_crossed_edges(cell: Cell, mask: u8, out: &mut Vec<[LatticePoint; 2]>) {
     let lowest = cell.cube * 2;
-    for far in [1, 2, 4] {
-        if (mask ^ mask >> far) & 1 == 1 {
-            out.push([lowest, lowest + corner_offset(far) * 2]);
-        }
-    }
+    out.extend(owned_crossed_axes(mask).map(|axis| [lowest, lowest + corner_offset(1 << axis) * 2]));
+}
+
+/// The axes (0 for x, 1 for y, 2 for z) of the crossed edges a cube of
+/// sign case `mask` owns, in order: [`owned_crossed_edges`] by axis.
+pub fn owned_crossed_axes(mask: u8) -> impl Iterator<Item = usize> {
+    [1, 2, 4].into_iter().enumerate().filter(move |&(_, far)| (mask ^ mask >> far) & 1 == 1).map(|(axis, _)| axis)
 }
 
 /// The triangles of sign case `mask`, each as three of the cube's edge numbers

@@ -1,21 +1,25 @@
-//! The vertices placed on crossed edges: kept side by side in one array and
-//! found by edge through dense bricks of their slots there.
+//! The vertices placed on crossed edges, kept block by block: each block of
+//! 8³ cubes (the bricks visited cells are kept in) owns the vertices of the
+//! edges its cubes own, in one array sorted by edge, with a table of where
+//! each cube's edges start in it.
 //!
 //! An edge's key (the sum of its ends, in half-cell coordinates) names a
 //! cube (`key >> 2`) and, by its remainders mod 4, one of the few kinds of
 //! edge a cube owns: three axis edges from its lowest corner, and for
 //! tetrahedra also three between centres and eight from its centre to its
-//! corners. Slots live in bricks of 4³ cubes, one array per brick, so the
-//! edges of neighbouring cells are found next to each other in memory.
+//! corners. Within its block an edge is numbered `cube · kinds + kind`, the
+//! cube counted x fastest, so the array's order is a pure function of which
+//! edges hold vertices: the vertices can be numbered block after block
+//! without a pass over the cells, and a local update that ends with the same
+//! edges as a fresh polygonization numbers them the same way.
 //!
-//! A hash map from every edge to its slot made the mesh's assembly slow:
-//! its million lookups, spread over a table larger than the processor's
-//! caches, each missed them.
+//! Blocks are filled and read whole, one thread each: a block is found with
+//! one lookup, and an edge inside it with a table read and a step or two.
 
 use glam::{IVec3, Vec3};
 use rustc_hash::FxHashMap;
 
-use super::lattice::EdgeKey;
+use super::lattice::{EdgeKey, LatticePoint, ordered_edge};
 
 /// A vertex on a crossed edge: position, unit outward normal, colour.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -28,11 +32,10 @@ pub struct EdgeVertex {
     pub color: Vec3,
 }
 
-/// Bricks hold 4³ cubes.
-const BRICK_SHIFT: i32 = 2;
-const BRICK_CUBES: usize = 1 << (3 * BRICK_SHIFT);
-/// A slot no vertex holds.
-const NONE: u32 = u32::MAX;
+/// Cubes along each side of a block, as a power of two (the visited cells' bricks).
+pub(super) const BLOCK_SHIFT: i32 = 3;
+/// Cubes in a block.
+pub(super) const BLOCK_CUBES: usize = 1 << (3 * BLOCK_SHIFT);
 /// A remainder pattern no edge has.
 const NO_KIND: u8 = u8::MAX;
 
@@ -56,18 +59,6 @@ const KINDS: [[i32; 3]; 14] = [
     [3, 3, 3],
 ];
 
-/// Vertices by edge.
-#[derive(Clone, Debug)]
-pub(super) struct EdgeVertices {
-    /// Edge kinds per cube: 3 for cubes, 14 with centres.
-    kinds: usize,
-    bricks: FxHashMap<IVec3, Box<[u32]>>,
-    placed: Vec<EdgeVertex>,
-    /// Slots of vertices dropped, taken again before the array grows.
-    free: Vec<u32>,
-    held: usize,
-}
-
 /// The kind of an edge by its key's remainders, `x + 4y + 16z`.
 const KIND_OF_PATTERN: [u8; 64] = {
     let mut table = [NO_KIND; 64];
@@ -80,168 +71,222 @@ const KIND_OF_PATTERN: [u8; 64] = {
     table
 };
 
-/// The brick of edge `key` and its index there, with `kinds` edges per cube.
+/// An edge's number within its block.
+pub(super) type EdgeNumber = u16;
+
+/// The slot of cube `cube` in its block, x fastest.
 #[inline]
-fn locate(kinds: usize, key: EdgeKey) -> (IVec3, usize) {
+pub(super) fn cube_slot(cube: IVec3) -> usize {
+    let within = cube & IVec3::splat((1 << BLOCK_SHIFT) - 1);
+    (within.x | within.y << BLOCK_SHIFT | within.z << (2 * BLOCK_SHIFT)) as usize
+}
+
+/// The block of edge `key` and the edge's number there, with `kinds` edges per cube.
+#[inline]
+pub(super) fn locate(kinds: usize, key: EdgeKey) -> (IVec3, EdgeNumber) {
     let rest = key & IVec3::splat(3);
     let kind = KIND_OF_PATTERN[(rest.x + 4 * rest.y + 16 * rest.z) as usize];
     assert!(usize::from(kind) < kinds, "{key} is no edge key of this lattice");
     let cube: IVec3 = key >> 2;
-    let within = cube & IVec3::splat((1 << BRICK_SHIFT) - 1);
-    let index = (within.x | within.y << BRICK_SHIFT | within.z << (2 * BRICK_SHIFT)) as usize;
-    (cube >> BRICK_SHIFT, index * kinds + usize::from(kind))
+    (cube >> BLOCK_SHIFT, (cube_slot(cube) * kinds + usize::from(kind)) as EdgeNumber)
+}
+
+/// The key of edge `number` of block `block`, with `kinds` edges per cube.
+pub(super) fn key_at(kinds: usize, block: IVec3, number: EdgeNumber) -> EdgeKey {
+    let (cube, kind) = (i32::from(number) / kinds as i32, usize::from(number) % kinds);
+    let side = (1 << BLOCK_SHIFT) - 1;
+    let within = IVec3::new(cube & side, cube >> BLOCK_SHIFT & side, cube >> (2 * BLOCK_SHIFT));
+    (((block << BLOCK_SHIFT) + within) << 2) + IVec3::from_array(KINDS[kind])
+}
+
+/// The ends of the edge with key `key`, in [`ordered_edge`]'s order: both
+/// corners or both centres sit one step either side of the midpoint; a
+/// corner and a centre are the unique even point `(key − d) / 2`, `d ∈ {±1}³`,
+/// and the rest of the sum.
+#[must_use]
+pub fn ends_of(key: EdgeKey) -> [LatticePoint; 2] {
+    if key.x & 1 == 0 {
+        let half = key >> 1;
+        // Corners lie one whole step (2) apart along the axis whose
+        // remainder differs: the one where the midpoint's parity breaks.
+        let step = if key & IVec3::splat(3) == IVec3::from_array(KINDS[0])
+            || key & IVec3::splat(3) == IVec3::from_array(KINDS[3])
+        {
+            IVec3::X
+        } else if key & IVec3::splat(3) == IVec3::from_array(KINDS[1])
+            || key & IVec3::splat(3) == IVec3::from_array(KINDS[4])
+        {
+            IVec3::Y
+        } else {
+            IVec3::Z
+        };
+        return ordered_edge(half - step, half + step);
+    }
+    // (key − d) / 2 even for each axis: d ≡ key − 0 (mod 4) picks d = ±1.
+    let d = IVec3::select((key & IVec3::splat(3)).cmpeq(IVec3::ONE), IVec3::ONE, IVec3::NEG_ONE);
+    let corner = (key - d) >> 1;
+    ordered_edge(corner, key - corner)
+}
+
+/// One block's vertices.
+#[derive(Clone, Debug, Default)]
+pub(super) struct EdgeBlock {
+    /// The numbers of the edges holding vertices, ascending.
+    edges: Vec<EdgeNumber>,
+    /// Their vertices, in the same order.
+    vertices: Vec<EdgeVertex>,
+    /// `starts[c]`: how many of `edges` belong to cubes before cube `c`
+    /// (`BLOCK_CUBES + 1` entries; empty while the block is).
+    starts: Vec<u16>,
+}
+
+impl EdgeBlock {
+    /// The vertices, in the order of their edges.
+    pub fn vertices(&self) -> &[EdgeVertex] {
+        &self.vertices
+    }
+
+    /// Vertices held.
+    pub fn len(&self) -> usize {
+        self.edges.len()
+    }
+
+    /// The index in [`Self::vertices`] of edge `number`'s vertex, if it has one.
+    #[inline]
+    pub fn index_of(&self, kinds: usize, number: EdgeNumber) -> Option<u32> {
+        if self.starts.is_empty() {
+            return None;
+        }
+        let cube = usize::from(number) / kinds;
+        let (first, last) = (usize::from(self.starts[cube]), usize::from(self.starts[cube + 1]));
+        (first..last).find(|&i| self.edges[i] == number).map(|i| i as u32)
+    }
+
+    /// Adds the edges `wanted` (ascending, without repeats) that hold no
+    /// vertex yet, their vertices taken from `place`; the rest of `wanted`
+    /// keep theirs.
+    pub fn add(
+        &mut self,
+        kinds: usize,
+        wanted: impl IntoIterator<Item = EdgeNumber>,
+        mut place: impl FnMut(EdgeNumber) -> EdgeVertex,
+    ) {
+        let mut wanted = wanted.into_iter().peekable();
+        if self.edges.is_empty() {
+            for number in wanted {
+                self.edges.push(number);
+                self.vertices.push(place(number));
+            }
+        } else {
+            let (old_edges, old_vertices) = (std::mem::take(&mut self.edges), std::mem::take(&mut self.vertices));
+            let mut old = old_edges.into_iter().zip(old_vertices).peekable();
+            loop {
+                let take_old = match (old.peek(), wanted.peek()) {
+                    (None, None) => break,
+                    (Some(_), None) => true,
+                    (None, Some(_)) => false,
+                    (Some(&(o, _)), Some(&w)) => {
+                        if o == w {
+                            wanted.next();
+                        }
+                        o <= w
+                    }
+                };
+                let (number, vertex) = if take_old {
+                    old.next().expect("peeked")
+                } else {
+                    let number = wanted.next().expect("peeked");
+                    (number, place(number))
+                };
+                self.edges.push(number);
+                self.vertices.push(vertex);
+            }
+        }
+        self.index(kinds);
+    }
+
+    /// Keeps the vertices of the edges for which `keep` holds.
+    fn retain(&mut self, kinds: usize, mut keep: impl FnMut(EdgeNumber) -> bool) {
+        let mut kept = 0;
+        for i in 0..self.edges.len() {
+            if keep(self.edges[i]) {
+                self.edges[kept] = self.edges[i];
+                self.vertices[kept] = self.vertices[i];
+                kept += 1;
+            }
+        }
+        self.edges.truncate(kept);
+        self.vertices.truncate(kept);
+        self.index(kinds);
+    }
+
+    /// Rebuilds `starts` from `edges`.
+    fn index(&mut self, kinds: usize) {
+        self.starts.clear();
+        if self.edges.is_empty() {
+            return;
+        }
+        self.starts.reserve_exact(BLOCK_CUBES + 1);
+        let mut i = 0;
+        for cube in 0..=BLOCK_CUBES {
+            while i < self.edges.len() && usize::from(self.edges[i]) < cube * kinds {
+                i += 1;
+            }
+            self.starts.push(i as u16);
+        }
+    }
+}
+
+/// Vertices by edge, in blocks.
+#[derive(Clone, Debug)]
+pub(super) struct EdgeVertices {
+    /// Edge kinds per cube: 3 for cubes, 14 with centres.
+    kinds: usize,
+    blocks: FxHashMap<IVec3, EdgeBlock>,
 }
 
 impl EdgeVertices {
     /// An empty store for the edges of cubes, or with `centres` of a body-centred lattice too.
     pub fn new(centres: bool) -> Self {
-        Self {
-            kinds: if centres { 14 } else { 3 },
-            bricks: FxHashMap::default(),
-            placed: vec![],
-            free: vec![],
-            held: 0,
-        }
+        Self { kinds: if centres { 14 } else { 3 }, blocks: FxHashMap::default() }
     }
 
-    /// The brick of edge `key` and its index there.
-    #[inline]
-    fn locate(&self, key: EdgeKey) -> (IVec3, usize) {
-        locate(self.kinds, key)
+    /// Edge kinds per cube.
+    pub fn kinds(&self) -> usize {
+        self.kinds
     }
 
-    /// The key of the edge at `index` of brick `brick`, with `kinds` edges per cube.
-    fn key_at(kinds: usize, brick: IVec3, index: usize) -> EdgeKey {
-        let (cube, kind) = ((index / kinds) as i32, index % kinds);
-        let side = (1 << BRICK_SHIFT) - 1;
-        let within = IVec3::new(cube & side, cube >> BRICK_SHIFT & side, cube >> (2 * BRICK_SHIFT));
-        (((brick << BRICK_SHIFT) + within) << 2) + IVec3::from_array(KINDS[kind])
-    }
-
-    /// Vertices held.
-    pub fn len(&self) -> usize {
-        self.held
-    }
-
-    /// Slots in the array, held or free: every slot number lies below it.
-    pub fn slot_count(&self) -> usize {
-        self.placed.len()
-    }
-
-    /// Whether edge `key` has a vertex.
-    pub fn contains(&self, key: EdgeKey) -> bool {
-        self.slot(key).is_some()
-    }
-
-    /// The slot of edge `key`'s vertex, if it has one.
-    #[inline]
-    pub fn slot(&self, key: EdgeKey) -> Option<u32> {
-        let (brick, index) = self.locate(key);
-        self.bricks.get(&brick).map(|b| b[index]).filter(|&s| s != NONE)
-    }
-
-    /// The vertex in slot `slot`.
-    #[inline]
-    pub fn at(&self, slot: u32) -> EdgeVertex {
-        self.placed[slot as usize]
+    /// Every block holding vertices.
+    pub fn blocks(&self) -> impl Iterator<Item = (IVec3, &EdgeBlock)> {
+        self.blocks.iter().map(|(&b, block)| (b, block))
     }
 
     /// Edge `key`'s vertex, if it has one.
     pub fn get(&self, key: EdgeKey) -> Option<EdgeVertex> {
-        self.slot(key).map(|s| self.at(s))
+        let (block, number) = locate(self.kinds, key);
+        let b = self.blocks.get(&block)?;
+        b.index_of(self.kinds, number).map(|i| b.vertices[i as usize])
     }
 
-    /// Gives each edge of `keys`, none of which has a vertex yet, the vertex
-    /// at its index in `vertices`: the free slots first, then new ones (the
-    /// vertices are moved in whole when the store is empty).
-    pub fn insert_new(&mut self, keys: impl ExactSizeIterator<Item = EdgeKey>, mut vertices: Vec<EdgeVertex>) {
-        assert_eq!(keys.len(), vertices.len(), "one vertex per edge");
-        let reused = self.free.len().min(vertices.len());
-        let taken: Vec<u32> = self.free.drain(self.free.len() - reused..).rev().collect();
-        for (&slot, vertex) in taken.iter().zip(&vertices) {
-            self.placed[slot as usize] = *vertex;
+    /// Takes out block `block` (an empty one where none was) for one thread to fill.
+    pub fn take(&mut self, block: IVec3) -> EdgeBlock {
+        self.blocks.remove(&block).unwrap_or_default()
+    }
+
+    /// Puts a block taken out back (nothing, if it is empty).
+    pub fn put(&mut self, block: IVec3, vertices: EdgeBlock) {
+        if vertices.len() > 0 {
+            self.blocks.insert(block, vertices);
         }
-        let first_new = self.placed.len();
-        if self.placed.is_empty() {
-            self.placed = vertices;
-        } else {
-            self.placed.extend(vertices.drain(reused..));
-        }
-        self.held += keys.len();
-        let slot_of = |i: usize| taken.get(i).copied().unwrap_or_else(|| (first_new + i - reused) as u32);
-        for_each_slot(self.kinds, &mut self.bricks, keys.enumerate().map(|(i, key)| (key, i)), |i, slot| {
-            assert_eq!(*slot, NONE, "an edge given a new vertex had one");
-            *slot = slot_of(i);
-        });
     }
 
     /// Keeps only the vertices of the edges for which `keep` holds.
     pub fn retain(&mut self, mut keep: impl FnMut(EdgeKey) -> bool) {
-        let Self { kinds, bricks, free, held, .. } = self;
-        bricks.retain(|&brick, slots| {
-            let mut any = false;
-            for (index, slot) in slots.iter_mut().enumerate() {
-                if *slot == NONE {
-                    continue;
-                }
-                if keep(Self::key_at(*kinds, brick, index)) {
-                    any = true;
-                } else {
-                    free.push(*slot);
-                    *held -= 1;
-                    *slot = NONE;
-                }
-            }
-            any
+        let kinds = self.kinds;
+        self.blocks.retain(|&block, vertices| {
+            vertices.retain(kinds, |number| keep(key_at(kinds, block, number)));
+            vertices.len() > 0
         });
-    }
-}
-
-/// Calls `visit` with each item's payload and the slot of its edge (in a
-/// brick made for it if it had none). Edges listed cell by cell fall in the
-/// brick of the edge before them, which is then found again without a lookup.
-fn for_each_slot<T>(
-    kinds: usize,
-    bricks: &mut FxHashMap<IVec3, Box<[u32]>>,
-    items: impl IntoIterator<Item = (EdgeKey, T)>,
-    mut visit: impl FnMut(T, &mut u32),
-) {
-    let slots_per_brick = BRICK_CUBES * kinds;
-    let mut current: Option<(IVec3, &mut Box<[u32]>)> = None;
-    for (key, item) in items {
-        let (brick, index) = locate(kinds, key);
-        if current.as_ref().is_none_or(|(b, _)| *b != brick) {
-            let slots = bricks.entry(brick).or_insert_with(|| vec![NONE; slots_per_brick].into_boxed_slice());
-            current = Some((brick, slots));
-        }
-        let Some((_, slots)) = current.as_mut() else { unreachable!("the brick was found above") };
-        visit(item, &mut slots[index]);
-    }
-}
-
-/// Looks slots up through the bricks used last, one per parity of the
-/// brick's coordinates: the edges of one cell lie in at most eight bricks
-/// of distinct parities, and cells taken in order meet them again.
-pub(super) struct SlotCursor<'a> {
-    store: &'a EdgeVertices,
-    recent: [(IVec3, Option<&'a [u32]>); 8],
-}
-
-impl<'a> SlotCursor<'a> {
-    /// A cursor over `store`.
-    pub fn new(store: &'a EdgeVertices) -> Self {
-        Self { store, recent: [(IVec3::splat(i32::MIN), None); 8] }
-    }
-
-    /// The slot of edge `key`'s vertex, if it has one.
-    #[inline]
-    pub fn slot(&mut self, key: EdgeKey) -> Option<u32> {
-        let (brick, index) = self.store.locate(key);
-        let way = (brick.x & 1 | (brick.y & 1) << 1 | (brick.z & 1) << 2) as usize;
-        if self.recent[way].0 != brick {
-            self.recent[way] = (brick, self.store.bricks.get(&brick).map(|b| &**b));
-        }
-        self.recent[way].1.map(|b| b[index]).filter(|&s| s != NONE)
     }
 }
 
@@ -250,9 +295,28 @@ mod tests {
     use glam::IVec3;
 
     use super::*;
+    use crate::mesh::lattice::edge_key;
 
     fn vertex(x: f32) -> EdgeVertex {
         EdgeVertex { position: Vec3::splat(x), normal: Vec3::Z, color: Vec3::ONE }
+    }
+
+    /// Puts the vertices `(key, vertex)` into `v`, block by block.
+    fn add(v: &mut EdgeVertices, items: &[(EdgeKey, EdgeVertex)]) {
+        let kinds = v.kinds();
+        let mut by_block: Vec<(IVec3, EdgeNumber, EdgeVertex)> =
+            items.iter().map(|&(k, x)| (locate(kinds, k).0, locate(kinds, k).1, x)).collect();
+        by_block.sort_by_key(|&(b, n, _)| (b.to_array(), n));
+        for run in by_block.chunk_by(|a, b| a.0 == b.0) {
+            let mut block = v.take(run[0].0);
+            let vertex_of = |n: EdgeNumber| run.iter().find(|r| r.1 == n).expect("wanted").2;
+            block.add(kinds, run.iter().map(|r| r.1), vertex_of);
+            v.put(run[0].0, block);
+        }
+    }
+
+    fn held(v: &EdgeVertices) -> usize {
+        v.blocks().map(|(_, b)| b.len()).sum()
     }
 
     /// The key of the x edge of cube `(k, 0, 0)`.
@@ -261,41 +325,50 @@ mod tests {
     }
 
     #[test]
-    fn vertices_are_found_by_edge_and_dropped_slots_are_taken_again() {
+    fn vertices_are_found_by_edge_kept_as_placed_and_dropped() {
         let mut v = EdgeVertices::new(false);
-        // Ten edges over three bricks, in one call.
-        v.insert_new((0..10).map(key), (0..10).map(|k| vertex(k as f32)).collect());
-        assert_eq!((v.len(), v.slot_count()), (10, 10));
+        // Ten edges over two blocks.
+        add(&mut v, &(0..10).map(|k| (key(k), vertex(k as f32))).collect::<Vec<_>>());
+        assert_eq!(held(&v), 10);
         assert_eq!(v.get(key(3)), Some(vertex(3.0)));
         v.retain(|key| (key.x - 2) / 4 % 2 == 0);
-        assert_eq!(v.len(), 5);
-        assert!(!v.contains(key(3)) && v.contains(key(4)));
-        v.insert_new((10..15).map(key), (10..15).map(|k| vertex(k as f32)).collect());
-        assert_eq!((v.len(), v.slot_count()), (10, 10), "the five dropped slots were taken again");
-        for k in (0..10).step_by(2).chain(10..15) {
-            assert_eq!(v.get(key(k)), Some(vertex(k as f32)), "edge {k}");
+        assert_eq!(held(&v), 5);
+        assert!(v.get(key(3)).is_none() && v.get(key(4)).is_some());
+        // Edges already holding a vertex keep it; the others get theirs.
+        add(&mut v, &(0..15).map(|k| (key(k), vertex(100.0 + k as f32))).collect::<Vec<_>>());
+        assert_eq!(held(&v), 15);
+        for k in 0..15 {
+            let kept = k < 10 && k % 2 == 0;
+            assert_eq!(v.get(key(k)), Some(vertex(if kept { k as f32 } else { 100.0 + k as f32 })), "edge {k}");
         }
+        // A block's vertices run in the order of their edges.
+        let (_, first) = v.blocks().find(|(b, _)| *b == IVec3::ZERO).expect("block 0");
+        let xs: Vec<f32> = first.vertices().iter().map(|x| x.position.x).collect();
+        assert_eq!(xs, [0.0, 101.0, 2.0, 103.0, 4.0, 105.0, 6.0, 107.0]);
     }
 
     #[test]
-    fn every_edge_of_a_body_centred_lattice_has_its_own_slot_and_key() {
+    fn every_edge_of_a_body_centred_lattice_has_its_own_number_key_and_ends() {
         let mut v = EdgeVertices::new(true);
-        let mut keys = vec![];
-        for cube in [IVec3::new(-5, 3, 0), IVec3::new(7, -1, -9), IVec3::ZERO] {
+        let mut edges = vec![];
+        for cube in [IVec3::new(-5, 3, 0), IVec3::new(7, -1, -9), IVec3::ZERO, IVec3::new(-8, -1, 15)] {
             let (corner, centre) = (cube * 2, cube * 2 + IVec3::ONE);
             for axis in 0..3 {
                 let mut step = IVec3::ZERO;
                 step[axis] = 2;
-                keys.extend([corner + corner + step, centre + centre + step]);
+                edges.extend([[corner, corner + step], [centre, centre + step]]);
             }
             for i in 0..8 {
                 let offset = IVec3::new(i & 1, i >> 1 & 1, i >> 2 & 1) * 2;
-                keys.push(corner + offset + centre);
+                edges.push([corner + offset, centre]);
             }
         }
-        // Edges of three cubes in three bricks, the bricks taken in turn.
-        v.insert_new(keys.iter().copied(), (0..keys.len()).map(|i| vertex(i as f32)).collect());
-        assert_eq!(v.len(), keys.len());
+        for &[a, b] in &edges {
+            assert_eq!(ends_of(edge_key(a, b)), ordered_edge(a, b), "{a} {b}");
+        }
+        let keys: Vec<EdgeKey> = edges.iter().map(|&[a, b]| edge_key(a, b)).collect();
+        add(&mut v, &keys.iter().enumerate().map(|(i, &k)| (k, vertex(i as f32))).collect::<Vec<_>>());
+        assert_eq!(held(&v), keys.len());
         for (i, &k) in keys.iter().enumerate() {
             assert_eq!(v.get(k), Some(vertex(i as f32)), "{k}");
         }

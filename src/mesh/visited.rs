@@ -48,6 +48,20 @@ impl Brick {
         slot_bits::release(&mut self.visited, slot);
     }
 
+    /// The visited slots with their masks, in slot order.
+    pub fn visited(&self) -> impl Iterator<Item = (usize, u8)> + '_ {
+        self.visited.iter().enumerate().flat_map(move |(w, &word)| {
+            let mut bits = word;
+            std::iter::from_fn(move || {
+                (bits != 0).then(|| {
+                    let slot = w * 64 + bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    (slot, self.masks[slot])
+                })
+            })
+        })
+    }
+
     fn is_empty(&self) -> bool {
         slot_bits::none_held(&self.visited)
     }
@@ -59,15 +73,12 @@ impl Brick {
 pub(super) struct VisitedCells {
     cells_per_cube: usize,
     bricks: FxHashMap<IVec3, Brick>,
-    /// Counts the calls that may have changed the cells, so that what was
-    /// read from them can be known to hold still.
-    changes: u64,
 }
 
 impl VisitedCells {
     /// No cell visited, for cubes holding `cells_per_cube` cells each.
     pub fn new(cells_per_cube: usize) -> Self {
-        Self { cells_per_cube, bricks: FxHashMap::default(), changes: 0 }
+        Self { cells_per_cube, bricks: FxHashMap::default() }
     }
 
     /// Where cell `c` lives: its brick and its slot there.
@@ -96,7 +107,6 @@ impl VisitedCells {
     /// Marks `c` visited with `mask` if it was not; true if it was not.
     #[inline]
     pub fn insert_new(&mut self, c: Cell, mask: u8) -> bool {
-        self.changes += 1;
         let (b, slot) = self.brick_for(c);
         let new = b.get(slot).is_none();
         if new {
@@ -113,37 +123,38 @@ impl VisitedCells {
 
     /// Takes out the brick `b` (an empty one where none was) for one thread to own.
     pub fn take(&mut self, b: IVec3) -> Brick {
-        self.changes += 1;
         self.bricks.remove(&b).unwrap_or_else(|| Brick::new(BRICK_CUBES * self.cells_per_cube))
     }
 
     /// Puts a brick taken out back (nothing, if it is empty).
     pub fn put(&mut self, b: IVec3, brick: Brick) {
-        self.changes += 1;
         if !brick.is_empty() {
             self.bricks.insert(b, brick);
         }
     }
 
-    /// A count that grows whenever the cells may have changed.
-    pub fn changes(&self) -> u64 {
-        self.changes
+    /// Cells per cube.
+    pub fn cells_per_cube(&self) -> usize {
+        self.cells_per_cube
+    }
+
+    /// The bricks, in the canonical order of [`Self::in_order`].
+    pub fn bricks_in_order(&self) -> Vec<(IVec3, &Brick)> {
+        let mut bricks: Vec<(IVec3, &Brick)> = self.bricks.iter().map(|(&b, brick)| (b, brick)).collect();
+        bricks.sort_unstable_by_key(|(b, _)| Cell { cube: *b, sub: 0 }.order_key());
+        bricks
     }
 
     /// The visited cells whose masks pass `keep`, with their masks, in a
     /// canonical order: bricks by z, y, x, and cells in a brick by z, y, x
     /// and sub-cell. Gathered in parallel, brick by brick.
     pub fn in_order(&self, keep: impl Fn(u8) -> bool + Sync + Send) -> Vec<(Cell, u8)> {
-        let mut bricks: Vec<(&IVec3, &Brick)> = self.bricks.iter().collect();
-        bricks.sort_unstable_by_key(|(b, _)| Cell { cube: **b, sub: 0 }.order_key());
         let per_cube = self.cells_per_cube;
-        bricks
+        self.bricks_in_order()
             .par_iter()
-            .flat_map_iter(|&(&brick, b)| {
+            .flat_map_iter(|&(brick, b)| {
                 let keep = &keep;
-                (0..b.masks.len()).filter_map(move |slot| {
-                    b.get(slot).filter(|&m| keep(m)).map(|m| (cell_of(per_cube, brick, slot), m))
-                })
+                b.visited().filter(move |&(_, m)| keep(m)).map(move |(slot, m)| (cell_of(per_cube, brick, slot), m))
             })
             .collect()
     }
@@ -160,7 +171,6 @@ impl VisitedCells {
     /// meeting the cubes `lo..=hi` (it sees each of them once); every other
     /// cell is kept unread, as a local update's hole leaves most of them.
     pub fn retain_near(&mut self, (lo, hi): (IVec3, IVec3), mut keep: impl FnMut(Cell, u8) -> bool) {
-        self.changes += 1;
         let per_cube = self.cells_per_cube;
         let (first, last) = (lo >> BRICK_SHIFT, hi >> BRICK_SHIFT);
         self.bricks.retain(|&brick, b| {
@@ -180,7 +190,7 @@ impl VisitedCells {
 }
 
 /// The cell in slot `slot` of brick `brick`, its cubes holding `per_cube` cells each.
-fn cell_of(per_cube: usize, brick: IVec3, slot: usize) -> Cell {
+pub(super) fn cell_of(per_cube: usize, brick: IVec3, slot: usize) -> Cell {
     let (cube, sub) = ((slot / per_cube) as i32, (slot % per_cube) as u8);
     let side = (1 << BRICK_SHIFT) - 1;
     let within = IVec3::new(cube & side, (cube >> BRICK_SHIFT) & side, cube >> (2 * BRICK_SHIFT));

@@ -1,21 +1,36 @@
-//! The mesh of the crossed cells, and the triangles of one of them, cut from
-//! the cells' polygons and the vertices on their edges in a canonical order.
+//! The mesh of the crossed cells, assembled block by block in parallel.
+//!
+//! Vertices are numbered block after block (blocks by z, y, x), each block's
+//! in the order of its edges: a block's first number is the count of the
+//! vertices before it, so numbering is a prefix sum, and the vertex arrays
+//! are copied block by block. Triangles come brick by brick of visited
+//! cells, each brick's cells in lattice order: every brick counts its
+//! triangles first, then writes them into its own run of one array.
 
-use glam::Vec3;
+use glam::{IVec3, Vec3};
 use rayon::prelude::*;
+use rustc_hash::FxHashMap;
 
 use super::{CellShape, Polygonizer, crossed};
 use crate::mesh::Mesh;
 use crate::mesh::cubes;
-use crate::mesh::edge_vertices::{EdgeVertex, SlotCursor};
+use crate::mesh::edge_vertices::{EdgeBlock, EdgeVertex, locate};
 use crate::mesh::lattice::{Cell, EdgeKey, edge_key};
 use crate::mesh::vertex::VertexPlacement;
+use crate::mesh::visited::cell_of;
+
+/// A block of vertices with the number of its first.
+#[derive(Clone, Copy)]
+struct Numbered<'a> {
+    first: u32,
+    block: &'a EdgeBlock,
+}
 
 impl Polygonizer {
     /// The crossed cells, sorted by lattice position.
     #[must_use]
     pub fn crossed_cell_list(&self) -> Vec<Cell> {
-        let mut cells: Vec<Cell> = self.crossed_now().iter().map(|&(c, _)| c).collect();
+        let mut cells: Vec<Cell> = self.crossed_with_masks().iter().map(|&(c, _)| c).collect();
         cells.sort_unstable_by_key(Cell::order_key);
         cells
     }
@@ -39,61 +54,42 @@ impl Polygonizer {
         out
     }
 
-    /// The mesh of the crossed cells, in a canonical order (cells brick by
-    /// brick, each in lattice order; vertices by first use), so equal
-    /// polygonizations give equal meshes.
+    /// The mesh of the crossed cells, in a canonical order (triangles brick
+    /// by brick, each brick's cells in lattice order; vertices block by
+    /// block, each block's by edge), so equal polygonizations give equal meshes.
     #[must_use]
     pub fn mesh(&self) -> Mesh {
-        let crossed_cells = self.crossed_now();
-        let parts = self.polygon_loops(&crossed_cells);
-        // Numbering by first use is the one serial pass, over dense slot numbers.
-        const UNNUMBERED: u32 = u32::MAX;
-        let mut number = vec![UNNUMBERED; self.vertices.slot_count()];
-        let mut used = Vec::with_capacity(self.vertices.len());
-        let mut id = |slot: u32| {
-            let n = &mut number[slot as usize];
-            if *n == UNNUMBERED {
-                *n = used.len() as u32;
-                used.push(slot);
-            }
-            *n
-        };
-        // Cubes make triangles alone: their loops are the triangles, numbered as they come.
-        let only_triangles = parts.iter().all(|part| part.lengths.iter().all(|&len| len == 3));
-        let (triangles, ids) = if only_triangles {
-            let mut triangles = Vec::with_capacity(parts.iter().map(|part| part.lengths.len()).sum());
-            for part in &parts {
-                triangles.extend(part.slots.chunks_exact(3).map(|t| [id(t[0]), id(t[1]), id(t[2])]));
-            }
-            (triangles, vec![])
-        } else {
-            let mut ids = Vec::with_capacity(parts.iter().map(|part| part.slots.len()).sum());
-            for part in &parts {
-                ids.extend(part.slots.iter().map(|&slot| id(slot)));
-            }
-            (vec![], ids)
-        };
+        let mut blocks: Vec<(IVec3, &EdgeBlock)> = self.vertices.blocks().collect();
+        blocks.par_sort_unstable_by_key(|(b, _)| Cell { cube: *b, sub: 0 }.order_key());
+        let mut vertex_count = 0u32;
+        let numbered: FxHashMap<IVec3, Numbered> = blocks
+            .iter()
+            .map(|&(b, block)| {
+                let first = vertex_count;
+                vertex_count += block.len() as u32;
+                (b, Numbered { first, block })
+            })
+            .collect();
+        let triangles = self.triangles(&numbered);
+        let lengths: Vec<usize> = blocks.iter().map(|(_, block)| block.len()).collect();
         let channel = |of: fn(&EdgeVertex) -> Vec3| -> Vec<Vec3> {
-            used.par_iter().map(|&slot| of(&self.vertices.at(slot))).collect()
+            let mut out = vec![Vec3::ZERO; vertex_count as usize];
+            split_by(&mut out, &lengths).into_par_iter().zip(&blocks).for_each(|(run, (_, block))| {
+                for (o, v) in run.iter_mut().zip(block.vertices()) {
+                    *o = of(v);
+                }
+            });
+            out
         };
         // Linear placement takes its normals from the faces: the vertices' are not read.
         let linear = self.options.vertex == VertexPlacement::Linear;
         let mut mesh = Mesh {
             positions: channel(|v| v.position),
             normals: if linear { vec![] } else { channel(|v| v.normal) },
-            colors: (self.with_colors && !used.is_empty()).then(|| channel(|v| v.color)),
+            colors: (self.with_colors && vertex_count > 0).then(|| channel(|v| v.color)),
             triangles,
             ..Mesh::default()
         };
-        if !only_triangles {
-            let lengths = parts.iter().flat_map(|part| part.lengths.iter().map(|&len| usize::from(len)));
-            mesh.triangles.reserve_exact(lengths.clone().map(|len| len.saturating_sub(2)).sum());
-            let mut first = 0;
-            for len in lengths {
-                mesh.push_polygon(&ids[first..first + len]);
-                first += len;
-            }
-        }
         if linear {
             mesh.set_normals_from_faces();
         }
@@ -105,56 +101,141 @@ impl Polygonizer {
         self.vertices.get(key).unwrap_or_else(|| panic!("no vertex on the edge with key {key}"))
     }
 
-    /// The polygons of `cells` as loops of their vertices' slots, in parallel:
-    /// in order, part after part.
-    fn polygon_loops(&self, cells: &[(Cell, u8)]) -> Vec<PolygonLoops> {
-        const CELLS_PER_TASK: usize = 4096;
+    /// Every crossed cell's triangles, brick by brick in order, with the
+    /// vertices numbered as in `numbered`.
+    fn triangles(&self, numbered: &FxHashMap<IVec3, Numbered>) -> Vec<[u32; 3]> {
         let shape = self.options.cells;
-        cells
-            .par_chunks(CELLS_PER_TASK)
-            .map(|chunk| {
-                let mut part = PolygonLoops::default();
-                let mut cursor = SlotCursor::new(&self.vertices);
-                let mut slot =
-                    |key: EdgeKey| cursor.slot(key).unwrap_or_else(|| panic!("no vertex on the edge with key {key}"));
-                for &(cell, mask) in chunk {
-                    if shape == CellShape::Cubes {
-                        part.push_cube_triangles(cell, mask, &mut slot);
-                        continue;
+        let per_cube = self.cells.cells_per_cube();
+        let bricks = self.cells.bricks_in_order();
+        let counts: Vec<usize> = bricks
+            .par_iter()
+            .map(|(_, brick)| brick.visited().map(|(_, mask)| triangle_count(shape, mask)).sum())
+            .collect();
+        let mut triangles = vec![[0u32; 3]; counts.iter().sum()];
+        let kinds = self.vertices.kinds();
+        split_by(&mut triangles, &counts).into_par_iter().zip(&bricks).for_each(|(run, &(b, brick))| {
+            let mut ids = Ids { numbered, kinds, recent: [(IVec3::splat(i32::MIN), None); 8] };
+            let mut out = Out { run, next: 0 };
+            for (slot, mask) in brick.visited() {
+                if crossed(mask, shape) {
+                    let cell = cell_of(per_cube, b, slot);
+                    match shape {
+                        CellShape::Cubes => out.cube(cell, mask, &mut ids),
+                        CellShape::Bcc => out.polygons(shape, cell, mask, &mut ids),
                     }
-                    shape.polygons(cell, mask, &mut |polygon| {
-                        part.slots.extend(polygon.iter().map(|&[a, b]| slot(edge_key(a, b))));
-                        part.lengths.push(polygon.len() as u8);
-                    });
                 }
-                part
-            })
-            .collect()
+            }
+            debug_assert_eq!(out.next, out.run.len(), "the brick's triangles were counted");
+        });
+        triangles
     }
 }
 
-/// Polygons as consecutive loops of their vertices' slots.
-#[derive(Default)]
-struct PolygonLoops {
-    slots: Vec<u32>,
-    lengths: Vec<u8>,
+/// How many triangles a cell of sign case `mask` gives.
+fn triangle_count(shape: CellShape, mask: u8) -> usize {
+    if !crossed(mask, shape) {
+        return 0;
+    }
+    match shape {
+        CellShape::Cubes => cubes::case_triangles(mask).len(),
+        CellShape::Bcc => {
+            let mut count = 0;
+            // Any cell of the shape has the same polygons' sizes for one mask.
+            shape.polygons(Cell { cube: IVec3::ZERO, sub: 0 }, mask, &mut |p| count += p.len() - 2);
+            count
+        }
+    }
 }
 
-impl PolygonLoops {
-    /// Adds the triangles of a cube, looking each crossed edge's slot up once
-    /// (its triangles share most of them).
-    fn push_cube_triangles(&mut self, cell: Cell, mask: u8, slot: &mut impl FnMut(EdgeKey) -> u32) {
+/// Cuts `all` into consecutive runs of `lengths`.
+fn split_by<'a, T>(mut all: &'a mut [T], lengths: &[usize]) -> Vec<&'a mut [T]> {
+    lengths
+        .iter()
+        .map(|&n| {
+            let (run, rest) = std::mem::take(&mut all).split_at_mut(n);
+            all = rest;
+            run
+        })
+        .collect()
+}
+
+/// Finds vertex numbers by edge through the blocks used last, one per
+/// parity of the block's coordinates: a cell's edges lie in at most eight
+/// blocks of distinct parities, and the cells of a brick meet them again.
+struct Ids<'a> {
+    numbered: &'a FxHashMap<IVec3, Numbered<'a>>,
+    kinds: usize,
+    recent: [(IVec3, Option<Numbered<'a>>); 8],
+}
+
+impl<'a> Ids<'a> {
+    /// The block holding edge `key`'s vertex and its index there.
+    #[inline]
+    fn find(&mut self, key: EdgeKey) -> (Numbered<'a>, u32) {
+        let (block, number) = locate(self.kinds, key);
+        let way = (block.x & 1 | (block.y & 1) << 1 | (block.z & 1) << 2) as usize;
+        if self.recent[way].0 != block {
+            self.recent[way] = (block, self.numbered.get(&block).copied());
+        }
+        self.recent[way]
+            .1
+            .and_then(|n| n.block.index_of(self.kinds, number).map(|i| (n, i)))
+            .unwrap_or_else(|| panic!("no vertex on the edge with key {key}"))
+    }
+
+    /// The number of edge `key`'s vertex.
+    #[inline]
+    fn id(&mut self, key: EdgeKey) -> u32 {
+        let (n, i) = self.find(key);
+        n.first + i
+    }
+}
+
+/// A brick's run of triangles, written in order.
+struct Out<'r> {
+    run: &'r mut [[u32; 3]],
+    next: usize,
+}
+
+impl Out<'_> {
+    fn push(&mut self, t: [u32; 3]) {
+        self.run[self.next] = t;
+        self.next += 1;
+    }
+
+    /// A cube's triangles, each crossed edge's number found once (its
+    /// triangles share most of them).
+    fn cube(&mut self, cell: Cell, mask: u8, ids: &mut Ids) {
         const UNKNOWN: u32 = u32::MAX;
         let mut of_edge = [UNKNOWN; 12];
         for triangle in cubes::case_triangles(mask) {
-            for &e in triangle {
+            self.push(triangle.map(|e| {
                 let known = &mut of_edge[usize::from(e)];
                 if *known == UNKNOWN {
-                    *known = slot(cubes::edge_key_of(cell, e));
+                    *known = ids.id(cubes::edge_key_of(cell, e));
                 }
-                self.slots.push(*known);
-            }
-            self.lengths.push(3);
+                *known
+            }));
         }
+    }
+
+    /// A cell's polygons, each cut by [`crate::mesh::triangulate`].
+    fn polygons(&mut self, shape: CellShape, cell: Cell, mask: u8, ids: &mut Ids) {
+        let mut local = Vec::with_capacity(4);
+        shape.polygons(cell, mask, &mut |polygon| {
+            let corners: Vec<(u32, Vec3)> = polygon
+                .iter()
+                .map(|&[a, b]| {
+                    let (n, i) = ids.find(edge_key(a, b));
+                    (n.first + i, n.block.vertices()[i as usize].position)
+                })
+                .collect();
+            let order: Vec<u32> = (0..corners.len() as u32).collect();
+            local.clear();
+            crate::mesh::triangulate(&order, |i| corners[i as usize].1, &mut local);
+            for t in &local {
+                self.push(t.map(|i| corners[i as usize].0));
+            }
+        });
     }
 }

@@ -57,11 +57,6 @@ impl CellShape {
         }
     }
 
-    /// True when [`Self::crossed_edges`] over all crossed cells lists each edge once.
-    pub(super) fn lists_each_edge_once(self) -> bool {
-        self == CellShape::Cubes
-    }
-
     pub(super) fn neighbours(self, cell: Cell, mask: u8, out: &mut Vec<Cell>) {
         match self {
             CellShape::Cubes => cubes::neighbours(cell, mask, out),

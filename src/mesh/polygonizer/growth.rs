@@ -12,8 +12,6 @@
 //! thread owning it: the result and the evaluation count are the same for
 //! any number of threads.
 
-use std::borrow::Cow;
-
 use glam::IVec3;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
@@ -101,15 +99,6 @@ impl Polygonizer {
     pub(super) fn crossed_with_masks(&self) -> Vec<(Cell, u8)> {
         let shape = self.options.cells;
         self.cells.in_order(|m| crossed(m, shape))
-    }
-
-    /// [`Self::crossed_with_masks`], as kept from the last placement of
-    /// vertices when the cells have not changed since.
-    pub(super) fn crossed_now(&self) -> Cow<'_, [(Cell, u8)]> {
-        match &self.crossed {
-            Some((changes, crossed)) if *changes == self.cells.changes() => Cow::Borrowed(crossed),
-            _ => Cow::Owned(self.crossed_with_masks()),
-        }
     }
 }
 

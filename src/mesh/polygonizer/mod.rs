@@ -35,7 +35,7 @@ use rustc_hash::FxHashMap;
 
 use super::corners::CornerValues;
 use super::edge_vertices::EdgeVertices;
-use super::lattice::{Cell, Lattice, LatticePoint, sort_key};
+use super::lattice::{Lattice, LatticePoint, sort_key};
 use super::seeds::{Evaluated, Seed, SeedStarts};
 use super::vertex::VertexPlacement;
 use super::visited::VisitedCells;
@@ -46,10 +46,6 @@ pub use cell_shape::CellShape;
 use cell_shape::crossed;
 pub use hole::Repolygonized;
 pub use stats::PolygonizeStats;
-
-/// The fewest edges a parallel task takes on: a local update places few
-/// vertices, which splitting among the threads would slow down.
-const MIN_PARALLEL_ITEMS: usize = 64;
 
 /// The polygonizer's knobs.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -73,10 +69,6 @@ pub struct Polygonizer {
     corners: CornerValues,
     /// Visited cells and their inside masks.
     cells: VisitedCells,
-    /// The crossed cells with their masks, as the vertices were placed on
-    /// them, and the visited cells' change count then: while it holds, the
-    /// mesh is assembled from them without gathering them again.
-    crossed: Option<(u64, Vec<(Cell, u8)>)>,
     vertices: EdgeVertices,
     /// For each lattice row seeds marched along (by `y` and `z`), the spans
     /// of `x` whose values decided what its marches found (see [`SeedMarch::row`]).
@@ -97,7 +89,6 @@ impl Polygonizer {
             options,
             corners: CornerValues::default(),
             cells: VisitedCells::new(options.cells.cells_per_cube()),
-            crossed: None,
             vertices: EdgeVertices::new(options.cells == CellShape::Bcc),
             row_spans: FxHashMap::default(),
             starts: SeedStarts::default(),
@@ -138,9 +129,7 @@ impl Polygonizer {
         self.threshold = field.threshold();
         let frontier = stage(progress, "seeding the mesh", || self.seed(field, seeds, None));
         stage(progress, "growing the mesh", || self.grow(field, frontier));
-        let crossed = self.crossed_with_masks();
-        stage(progress, "placing vertices", || self.place_vertices(field, &crossed));
-        self.crossed = Some((self.cells.changes(), crossed));
+        stage(progress, "placing vertices", || self.place_all_vertices(field));
     }
 
     /// Polygonizes on this polygonizer's lattice, which must be `coarse`'s refined
@@ -171,9 +160,7 @@ impl Polygonizer {
         }
         let frontier = self.claim(around);
         self.grow(field, frontier);
-        let crossed = self.crossed_with_masks();
-        self.place_vertices(field, &crossed);
-        self.crossed = Some((self.cells.changes(), crossed));
+        self.place_all_vertices(field);
     }
 
     /// For each coarse edge (in fine coordinates, `scale` fine steps long), the
