@@ -133,6 +133,12 @@ impl VisitedCells {
         }
     }
 
+    /// Brick `b`, if it holds visited cells.
+    #[inline]
+    pub fn brick(&self, b: IVec3) -> Option<&Brick> {
+        self.bricks.get(&b)
+    }
+
     /// Cells per cube.
     pub fn cells_per_cube(&self) -> usize {
         self.cells_per_cube

@@ -35,14 +35,14 @@ impl Polygonizer {
     /// and every cell reachable from it across crossed faces. Returns the
     /// crossed cells found (in an order fixed by the frontier).
     pub(super) fn grow<F: Field + ?Sized>(&mut self, field: &F, frontier: Vec<Cell>) -> Vec<Cell> {
-        let mut pending: FxHashMap<IVec3, Vec<Cell>> = FxHashMap::default();
+        let mut pending: FxHashMap<IVec3, Seeds> = FxHashMap::default();
         for cell in frontier {
-            pending.entry(block_of(cell)).or_default().push(cell);
+            pending.entry(block_of(cell)).or_default().claimed.push(cell);
         }
         let mut found = vec![];
         let mut class = 0;
         while !pending.is_empty() {
-            let mut batch: Vec<(IVec3, Vec<Cell>)> = vec![];
+            let mut batch: Vec<(IVec3, Seeds)> = vec![];
             pending.retain(|&block, cells| {
                 let taken = parity_class(block) == class;
                 if taken {
@@ -65,9 +65,9 @@ impl Polygonizer {
     fn grow_blocks<F: Field + ?Sized>(
         &mut self,
         field: &F,
-        batch: Vec<(IVec3, Vec<Cell>)>,
+        batch: Vec<(IVec3, Seeds)>,
         found: &mut Vec<Cell>,
-        pending: &mut FxHashMap<IVec3, Vec<Cell>>,
+        pending: &mut FxHashMap<IVec3, Seeds>,
     ) {
         let blocks: Vec<Block> = batch
             .into_iter()
@@ -86,9 +86,14 @@ impl Polygonizer {
             self.stats.corner_evals += g.evaluated;
             self.stats.cells_visited += g.examined;
             found.extend(g.crossed);
-            for cell in g.leaving {
-                if self.cells.insert_new(cell, PENDING) {
-                    pending.entry(block_of(cell)).or_default().push(cell);
+            // One look at each block reached: cells it has visited already are passed over.
+            for run in g.leaving.chunk_by(|a, b| block_of(*a) == block_of(*b)) {
+                let block = block_of(run[0]);
+                let brick = self.cells.brick(block);
+                let new = |&&c: &&Cell| brick.is_none_or(|b| b.get(self.cells.brick_and_slot(c).1).is_none());
+                let mut new = run.iter().filter(new).peekable();
+                if new.peek().is_some() {
+                    pending.entry(block).or_default().arrived.extend(new);
                 }
             }
         }
@@ -119,13 +124,22 @@ struct BlockContext {
     threshold: f32,
 }
 
+/// The cells of a block waiting to be examined.
+#[derive(Default)]
+struct Seeds {
+    /// Cells already marked visited (claimed).
+    claimed: Vec<Cell>,
+    /// Cells reached from other blocks, to be examined unless the block
+    /// has visited them by the time it grows (some may repeat).
+    arrived: Vec<Cell>,
+}
+
 /// A block to grow, with the stores it owns while it grows.
 struct Block {
     base: IVec3,
     corners: CornerPatch,
     cells: visited::Brick,
-    /// Cells of the block claimed and waiting to be examined.
-    seeds: Vec<Cell>,
+    seeds: Seeds,
 }
 
 /// A grown block: its stores to put back and what it found.
@@ -135,7 +149,7 @@ struct Grown {
     cells: visited::Brick,
     /// Crossed cells examined.
     crossed: Vec<Cell>,
-    /// Neighbours across crossed faces in other blocks.
+    /// Neighbours across crossed faces in other blocks, block by block.
     leaving: Vec<Cell>,
     evaluated: u64,
     examined: u64,
@@ -154,7 +168,14 @@ impl Block {
             evaluated: 0,
             examined: 0,
         };
-        let mut stack = std::mem::take(&mut self.seeds);
+        let mut stack = std::mem::take(&mut self.seeds.claimed);
+        for cell in std::mem::take(&mut self.seeds.arrived) {
+            let slot = all.brick_and_slot(cell).1;
+            if grown.cells.get(slot).is_none() {
+                grown.cells.set(slot, PENDING);
+                stack.push(cell);
+            }
+        }
         let mut neighbours = Vec::with_capacity(6);
         while let Some(cell) = stack.pop() {
             let mask = grown.mask(field, c, cell);
@@ -176,6 +197,7 @@ impl Block {
                 }
             }
         }
+        grown.leaving.sort_unstable_by_key(|&c| Cell { cube: block_of(c), sub: 0 }.order_key());
         grown
     }
 }
