@@ -173,6 +173,9 @@ impl EdgeBlock {
     ) {
         let mut wanted = wanted.into_iter().peekable();
         if self.edges.is_empty() {
+            let (least, _) = wanted.size_hint();
+            self.edges.reserve_exact(least);
+            self.vertices.reserve_exact(least);
             for number in wanted {
                 self.edges.push(number);
                 self.vertices.push(place(number));

@@ -70,7 +70,9 @@ impl Polygonizer {
                 (b, Numbered { first, block })
             })
             .collect();
+        let t0 = std::time::Instant::now();
         let triangles = self.triangles(&numbered);
+        eprintln!("triangles {:?}", t0.elapsed());
         let lengths: Vec<usize> = blocks.iter().map(|(_, block)| block.len()).collect();
         let channel = |of: fn(&EdgeVertex) -> Vec3| -> Vec<Vec3> {
             let mut out = vec![Vec3::ZERO; vertex_count as usize];
@@ -90,9 +92,11 @@ impl Polygonizer {
             triangles,
             ..Mesh::default()
         };
+        eprintln!("channels {:?}", t0.elapsed());
         if linear {
             mesh.set_normals_from_faces();
         }
+        eprintln!("normals {:?}", t0.elapsed());
         mesh
     }
 

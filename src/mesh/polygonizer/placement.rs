@@ -57,6 +57,7 @@ impl Polygonizer {
             self.place_vertices(field, &crossed);
             return;
         }
+        let t0 = std::time::Instant::now();
         let bricks = self.cells.bricks_in_order();
         let wanted: Vec<Vec<EdgeNumber>> = bricks
             .par_iter()
@@ -76,6 +77,7 @@ impl Polygonizer {
             .zip(wanted)
             .map(|(block, wanted)| Work { block, vertices: self.vertices.take(block), wanted })
             .collect();
+        eprintln!("wanted {:?}", t0.elapsed());
         self.fill(field, work);
     }
 
