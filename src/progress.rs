@@ -27,9 +27,7 @@ impl Progress for Silent {
 /// Runs `work` as the stage `stage` of unknown length, reported as started and finished.
 pub fn stage<T>(progress: &dyn Progress, stage: &str, work: impl FnOnce() -> T) -> T {
     progress.update(stage, 0, 0);
-    let t0 = std::time::Instant::now();
     let out = work();
-    if std::env::var_os("BT_STAGES").is_some() { eprintln!("STAGE {stage}: {:.1} ms", t0.elapsed().as_secs_f64() * 1e3); }
     progress.update(stage, 1, 1);
     out
 }

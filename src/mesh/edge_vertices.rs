@@ -20,6 +20,7 @@ use glam::{IVec3, Vec3};
 use rustc_hash::FxHashMap;
 
 use super::lattice::{EdgeKey, LatticePoint, ordered_edge};
+use crate::field::DEFAULT_COLOR;
 
 /// A vertex on a crossed edge: position, unit outward normal, colour.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -128,13 +129,87 @@ pub fn ends_of(key: EdgeKey) -> [LatticePoint; 2] {
     ordered_edge(corner, key - corner)
 }
 
+/// Which channels the vertices keep beside their positions: normals unless
+/// the mesh takes its normals from its faces, colours where the model has
+/// more than one. A vertex costs only what its channels need.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct Channels {
+    pub normals: bool,
+    pub colors: bool,
+}
+
+/// Vertices as one array per channel; a channel not kept reads as a zero
+/// normal or the default colour.
+#[derive(Clone, Debug, Default)]
+pub(super) struct VertexArrays {
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    colors: Vec<Vec3>,
+}
+
+impl VertexArrays {
+    fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    fn reserve(&mut self, channels: Channels, n: usize) {
+        self.positions.reserve_exact(n);
+        if channels.normals {
+            self.normals.reserve_exact(n);
+        }
+        if channels.colors {
+            self.colors.reserve_exact(n);
+        }
+    }
+
+    /// Adds `v`, keeping the channels asked for (a channel kept from now
+    /// on, where earlier vertices lacked it, is filled in for them first).
+    fn push(&mut self, channels: Channels, v: EdgeVertex) {
+        let n = self.positions.len();
+        if channels.normals {
+            self.normals.resize(n, Vec3::ZERO);
+            self.normals.push(v.normal);
+        }
+        if channels.colors {
+            self.colors.resize(n, DEFAULT_COLOR);
+            self.colors.push(v.color);
+        }
+        self.positions.push(v.position);
+    }
+
+    /// Vertex `i`.
+    #[inline]
+    fn get(&self, i: usize) -> EdgeVertex {
+        EdgeVertex {
+            position: self.positions[i],
+            normal: self.normals.get(i).copied().unwrap_or(Vec3::ZERO),
+            color: self.colors.get(i).copied().unwrap_or(DEFAULT_COLOR),
+        }
+    }
+
+    /// The positions, in order.
+    pub fn positions(&self) -> &[Vec3] {
+        &self.positions
+    }
+
+    /// The normals, in order.
+    pub fn normals(&self) -> impl Iterator<Item = Vec3> + '_ {
+        self.normals.iter().copied().chain(std::iter::repeat(Vec3::ZERO)).take(self.len())
+    }
+
+    /// The colours, in order.
+    pub fn colors(&self) -> impl Iterator<Item = Vec3> + '_ {
+        self.colors.iter().copied().chain(std::iter::repeat(DEFAULT_COLOR)).take(self.len())
+    }
+}
+
 /// One block's vertices.
 #[derive(Clone, Debug, Default)]
 pub(super) struct EdgeBlock {
     /// The numbers of the edges holding vertices, ascending.
     edges: Vec<EdgeNumber>,
     /// Their vertices, in the same order.
-    vertices: Vec<EdgeVertex>,
+    vertices: VertexArrays,
     /// `starts[c]`: how many of `edges` belong to cubes before cube `c`
     /// (`BLOCK_CUBES + 1` entries; empty while the block is).
     starts: Vec<u16>,
@@ -142,8 +217,14 @@ pub(super) struct EdgeBlock {
 
 impl EdgeBlock {
     /// The vertices, in the order of their edges.
-    pub fn vertices(&self) -> &[EdgeVertex] {
+    pub fn vertices(&self) -> &VertexArrays {
         &self.vertices
+    }
+
+    /// Vertex `i`, in the order of the edges.
+    #[inline]
+    pub fn vertex(&self, i: usize) -> EdgeVertex {
+        self.vertices.get(i)
     }
 
     /// Vertices held.
@@ -163,11 +244,12 @@ impl EdgeBlock {
     }
 
     /// Adds the edges `wanted` (ascending, without repeats) that hold no
-    /// vertex yet, their vertices taken from `place`; the rest of `wanted`
-    /// keep theirs.
+    /// vertex yet, their vertices taken from `place` and kept in `channels`;
+    /// the rest of `wanted` keep theirs.
     pub fn add(
         &mut self,
         kinds: usize,
+        channels: Channels,
         wanted: impl IntoIterator<Item = EdgeNumber>,
         mut place: impl FnMut(EdgeNumber) -> EdgeVertex,
     ) {
@@ -175,20 +257,20 @@ impl EdgeBlock {
         if self.edges.is_empty() {
             let (least, _) = wanted.size_hint();
             self.edges.reserve_exact(least);
-            self.vertices.reserve_exact(least);
+            self.vertices.reserve(channels, least);
             for number in wanted {
                 self.edges.push(number);
-                self.vertices.push(place(number));
+                self.vertices.push(channels, place(number));
             }
         } else {
-            let (old_edges, old_vertices) = (std::mem::take(&mut self.edges), std::mem::take(&mut self.vertices));
-            let mut old = old_edges.into_iter().zip(old_vertices).peekable();
+            let (old_edges, old) = (std::mem::take(&mut self.edges), std::mem::take(&mut self.vertices));
+            let mut old_edges = old_edges.into_iter().enumerate().peekable();
             loop {
-                let take_old = match (old.peek(), wanted.peek()) {
+                let take_old = match (old_edges.peek(), wanted.peek()) {
                     (None, None) => break,
                     (Some(_), None) => true,
                     (None, Some(_)) => false,
-                    (Some(&(o, _)), Some(&w)) => {
+                    (Some(&(_, o)), Some(&w)) => {
                         if o == w {
                             wanted.next();
                         }
@@ -196,13 +278,14 @@ impl EdgeBlock {
                     }
                 };
                 let (number, vertex) = if take_old {
-                    old.next().expect("peeked")
+                    let (i, number) = old_edges.next().expect("peeked");
+                    (number, old.get(i))
                 } else {
                     let number = wanted.next().expect("peeked");
                     (number, place(number))
                 };
                 self.edges.push(number);
-                self.vertices.push(vertex);
+                self.vertices.push(channels, vertex);
             }
         }
         self.index(kinds);
@@ -211,15 +294,24 @@ impl EdgeBlock {
     /// Keeps the vertices of the edges for which `keep` holds.
     fn retain(&mut self, kinds: usize, mut keep: impl FnMut(EdgeNumber) -> bool) {
         let mut kept = 0;
+        let arrays = &mut self.vertices;
         for i in 0..self.edges.len() {
             if keep(self.edges[i]) {
                 self.edges[kept] = self.edges[i];
-                self.vertices[kept] = self.vertices[i];
+                arrays.positions[kept] = arrays.positions[i];
+                if i < arrays.normals.len() {
+                    arrays.normals[kept] = arrays.normals[i];
+                }
+                if i < arrays.colors.len() {
+                    arrays.colors[kept] = arrays.colors[i];
+                }
                 kept += 1;
             }
         }
         self.edges.truncate(kept);
-        self.vertices.truncate(kept);
+        arrays.positions.truncate(kept);
+        arrays.normals.truncate(kept);
+        arrays.colors.truncate(kept);
         self.index(kinds);
     }
 
@@ -268,7 +360,7 @@ impl EdgeVertices {
     pub fn get(&self, key: EdgeKey) -> Option<EdgeVertex> {
         let (block, number) = locate(self.kinds, key);
         let b = self.blocks.get(&block)?;
-        b.index_of(self.kinds, number).map(|i| b.vertices[i as usize])
+        b.index_of(self.kinds, number).map(|i| b.vertex(i as usize))
     }
 
     /// Takes out block `block` (an empty one where none was) for one thread to fill.
@@ -313,7 +405,7 @@ mod tests {
         for run in by_block.chunk_by(|a, b| a.0 == b.0) {
             let mut block = v.take(run[0].0);
             let vertex_of = |n: EdgeNumber| run.iter().find(|r| r.1 == n).expect("wanted").2;
-            block.add(kinds, run.iter().map(|r| r.1), vertex_of);
+            block.add(kinds, Channels { normals: true, colors: true }, run.iter().map(|r| r.1), vertex_of);
             v.put(run[0].0, block);
         }
     }
@@ -346,8 +438,33 @@ mod tests {
         }
         // A block's vertices run in the order of their edges.
         let (_, first) = v.blocks().find(|(b, _)| *b == IVec3::ZERO).expect("block 0");
-        let xs: Vec<f32> = first.vertices().iter().map(|x| x.position.x).collect();
+        let xs: Vec<f32> = first.vertices().positions().iter().map(|p| p.x).collect();
         assert_eq!(xs, [0.0, 101.0, 2.0, 103.0, 4.0, 105.0, 6.0, 107.0]);
+    }
+
+    #[test]
+    fn a_block_keeps_only_the_channels_asked_for_and_fills_in_one_taken_on_later() {
+        let mut block = EdgeBlock::default();
+        let v = |x: f32| EdgeVertex { position: Vec3::splat(x), normal: Vec3::X, color: Vec3::ONE };
+        let bare = Channels::default();
+        block.add(3, bare, [0, 4], |n| v(f32::from(n)));
+        assert_eq!(
+            block.vertex(1),
+            EdgeVertex { position: Vec3::splat(4.0), normal: Vec3::ZERO, color: DEFAULT_COLOR }
+        );
+        assert!(
+            block.vertices().normals.is_empty() && block.vertices().colors.is_empty(),
+            "nothing kept but positions"
+        );
+        // Colours from now on: the vertices before read the default colour.
+        block.add(3, Channels { normals: false, colors: true }, [2], |n| v(f32::from(n)));
+        let colors: Vec<Vec3> = block.vertices().colors().collect();
+        assert_eq!(colors, [DEFAULT_COLOR, Vec3::ONE, DEFAULT_COLOR]);
+        assert_eq!(block.vertices().positions(), [Vec3::ZERO, Vec3::splat(2.0), Vec3::splat(4.0)]);
+        block.retain(3, |n| n != 0);
+        assert_eq!(block.vertices().colors().collect::<Vec<_>>(), [Vec3::ONE, DEFAULT_COLOR]);
+        assert_eq!(block.index_of(3, 4), Some(1));
+        assert_eq!(block.index_of(3, 0), None);
     }
 
     #[test]

@@ -14,7 +14,7 @@ use rustc_hash::FxHashMap;
 use super::{CellShape, Polygonizer, crossed};
 use crate::mesh::Mesh;
 use crate::mesh::cubes;
-use crate::mesh::edge_vertices::{EdgeBlock, EdgeVertex, locate};
+use crate::mesh::edge_vertices::{EdgeBlock, EdgeVertex, VertexArrays, locate};
 use crate::mesh::lattice::{Cell, EdgeKey, edge_key};
 use crate::mesh::vertex::VertexPlacement;
 use crate::mesh::visited::cell_of;
@@ -70,33 +70,27 @@ impl Polygonizer {
                 (b, Numbered { first, block })
             })
             .collect();
-        let t0 = std::time::Instant::now();
         let triangles = self.triangles(&numbered);
-        eprintln!("triangles {:?}", t0.elapsed());
         let lengths: Vec<usize> = blocks.iter().map(|(_, block)| block.len()).collect();
-        let channel = |of: fn(&EdgeVertex) -> Vec3| -> Vec<Vec3> {
+        let channel = |of: for<'b> fn(&'b VertexArrays, &mut [Vec3])| -> Vec<Vec3> {
             let mut out = vec![Vec3::ZERO; vertex_count as usize];
             split_by(&mut out, &lengths).into_par_iter().zip(&blocks).for_each(|(run, (_, block))| {
-                for (o, v) in run.iter_mut().zip(block.vertices()) {
-                    *o = of(v);
-                }
+                of(block.vertices(), run);
             });
             out
         };
-        // Linear placement takes its normals from the faces: the vertices' are not read.
+        // Linear placement takes its normals from the faces: the vertices keep none.
         let linear = self.options.vertex == VertexPlacement::Linear;
         let mut mesh = Mesh {
-            positions: channel(|v| v.position),
-            normals: if linear { vec![] } else { channel(|v| v.normal) },
-            colors: (self.with_colors && vertex_count > 0).then(|| channel(|v| v.color)),
+            positions: channel(|v, out| out.copy_from_slice(v.positions())),
+            normals: if linear { vec![] } else { channel(|v, out| fill(out, v.normals())) },
+            colors: (self.with_colors && vertex_count > 0).then(|| channel(|v, out| fill(out, v.colors()))),
             triangles,
             ..Mesh::default()
         };
-        eprintln!("channels {:?}", t0.elapsed());
         if linear {
             mesh.set_normals_from_faces();
         }
-        eprintln!("normals {:?}", t0.elapsed());
         mesh
     }
 
@@ -148,6 +142,13 @@ fn triangle_count(shape: CellShape, mask: u8) -> usize {
             shape.polygons(Cell { cube: IVec3::ZERO, sub: 0 }, mask, &mut |p| count += p.len() - 2);
             count
         }
+    }
+}
+
+/// Writes `values` over `out`, in order.
+fn fill(out: &mut [Vec3], values: impl Iterator<Item = Vec3>) {
+    for (o, v) in out.iter_mut().zip(values) {
+        *o = v;
     }
 }
 
@@ -231,7 +232,7 @@ impl Out<'_> {
                 .iter()
                 .map(|&[a, b]| {
                     let (n, i) = ids.find(edge_key(a, b));
-                    (n.first + i, n.block.vertices()[i as usize].position)
+                    (n.first + i, n.block.vertex(i as usize).position)
                 })
                 .collect();
             let order: Vec<u32> = (0..corners.len() as u32).collect();

@@ -197,7 +197,7 @@ impl Block {
                 }
             }
         }
-        grown.leaving.sort_unstable_by_key(|&c| Cell { cube: block_of(c), sub: 0 }.order_key());
+        grown.leaving.sort_unstable_by_key(|&c| block_of(c).to_array());
         grown
     }
 }

@@ -9,7 +9,7 @@ use super::{CellShape, Polygonizer, crossed};
 use crate::field::{DEFAULT_COLOR, Field};
 use crate::mesh::corners::CornerCursor;
 use crate::mesh::cubes;
-use crate::mesh::edge_vertices::{EdgeBlock, EdgeNumber, EdgeVertex, ends_of, key_at, locate};
+use crate::mesh::edge_vertices::{Channels, EdgeBlock, EdgeNumber, EdgeVertex, ends_of, key_at, locate};
 use crate::mesh::lattice::{Cell, Lattice, LatticePoint, edge_key};
 use crate::mesh::vertex::{VertexPlacement, place_on_edge};
 
@@ -57,7 +57,6 @@ impl Polygonizer {
             self.place_vertices(field, &crossed);
             return;
         }
-        let t0 = std::time::Instant::now();
         let bricks = self.cells.bricks_in_order();
         let wanted: Vec<Vec<EdgeNumber>> = bricks
             .par_iter()
@@ -77,7 +76,6 @@ impl Polygonizer {
             .zip(wanted)
             .map(|(block, wanted)| Work { block, vertices: self.vertices.take(block), wanted })
             .collect();
-        eprintln!("wanted {:?}", t0.elapsed());
         self.fill(field, work);
     }
 
@@ -111,19 +109,25 @@ impl Polygonizer {
         self.fill(field, work);
     }
 
+    /// The channels vertices keep: normals where they come from the field,
+    /// colours where the model has more than one.
+    fn channels(&self) -> Channels {
+        Channels { normals: self.options.vertex != VertexPlacement::Linear, colors: self.with_colors }
+    }
+
     /// Fills each block of `work` with the vertices it is asked for, in
     /// parallel, and puts the blocks back.
     fn fill<F: Field + ?Sized>(&mut self, field: &F, work: Vec<Work>) {
         let placer =
             Placer { field, lattice: self.lattice, placement: self.options.vertex, with_colors: self.with_colors };
-        let (corners, kinds) = (&self.corners, self.vertices.kinds());
+        let (corners, kinds, channels) = (&self.corners, self.vertices.kinds(), self.channels());
         let filled: Vec<(IVec3, EdgeBlock, u64, u64)> = work
             .into_par_iter()
             .map_init(
                 || corners.cursor(),
                 |cursor, Work { block, mut vertices, wanted }| {
                     let (mut evals, mut placed) = (0u64, 0u64);
-                    vertices.add(kinds, wanted, |number| {
+                    vertices.add(kinds, channels, wanted, |number| {
                         let (vertex, e) = placer.place(cursor, ends_of(key_at(kinds, block, number)));
                         evals += u64::from(e);
                         placed += 1;
