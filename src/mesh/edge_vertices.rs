@@ -221,6 +221,11 @@ impl EdgeBlock {
         &self.vertices
     }
 
+    /// The numbers of the edges holding vertices, ascending.
+    pub fn edges(&self) -> &[EdgeNumber] {
+        &self.edges
+    }
+
     /// Vertex `i`, in the order of the edges.
     #[inline]
     pub fn vertex(&self, i: usize) -> EdgeVertex {

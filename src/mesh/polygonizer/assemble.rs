@@ -14,7 +14,7 @@ use rustc_hash::FxHashMap;
 use super::{CellShape, Polygonizer, crossed};
 use crate::mesh::Mesh;
 use crate::mesh::cubes;
-use crate::mesh::edge_vertices::{EdgeBlock, EdgeVertex, VertexArrays, locate};
+use crate::mesh::edge_vertices::{BLOCK_CUBES, EdgeBlock, EdgeVertex, VertexArrays, locate};
 use crate::mesh::lattice::{Cell, EdgeKey, edge_key};
 use crate::mesh::vertex::VertexPlacement;
 use crate::mesh::visited::cell_of;
@@ -111,8 +111,10 @@ impl Polygonizer {
             .collect();
         let mut triangles = vec![[0u32; 3]; counts.iter().sum()];
         let kinds = self.vertices.kinds();
-        split_by(&mut triangles, &counts).into_par_iter().zip(&bricks).for_each(|(run, &(b, brick))| {
-            let mut ids = Ids { numbered, kinds, recent: [(IVec3::splat(i32::MIN), None); 8] };
+        let runs = split_by(&mut triangles, &counts);
+        let own_table = || vec![UNKNOWN; BLOCK_CUBES * kinds];
+        runs.into_par_iter().zip(&bricks).for_each_init(own_table, |own, (run, &(b, brick))| {
+            let mut ids = Ids::new(numbered, kinds, b, own);
             let mut out = Out { run, next: 0 };
             for (slot, mask) in brick.visited() {
                 if crossed(mask, shape) {
@@ -124,6 +126,7 @@ impl Polygonizer {
                 }
             }
             debug_assert_eq!(out.next, out.run.len(), "the brick's triangles were counted");
+            ids.clear_own();
         });
         triangles
     }
@@ -164,16 +167,44 @@ fn split_by<'a, T>(mut all: &'a mut [T], lengths: &[usize]) -> Vec<&'a mut [T]> 
         .collect()
 }
 
-/// Finds vertex numbers by edge through the blocks used last, one per
-/// parity of the block's coordinates: a cell's edges lie in at most eight
-/// blocks of distinct parities, and the cells of a brick meet them again.
-struct Ids<'a> {
+/// A vertex number not known.
+const UNKNOWN: u32 = u32::MAX;
+
+/// Finds vertex numbers by edge: those of the brick's own block in a table
+/// by edge number (most of its cells' edges), the others through the blocks
+/// used last, one per parity of the block's coordinates (a cell's edges lie
+/// in at most eight blocks of distinct parities, and the cells of a brick
+/// meet them again).
+struct Ids<'a, 't> {
     numbered: &'a FxHashMap<IVec3, Numbered<'a>>,
     kinds: usize,
+    own: (IVec3, Option<Numbered<'a>>),
+    /// Vertex numbers of the own block's edges, by edge number ([`UNKNOWN`] elsewhere).
+    own_ids: &'t mut [u32],
     recent: [(IVec3, Option<Numbered<'a>>); 8],
 }
 
-impl<'a> Ids<'a> {
+impl<'a, 't> Ids<'a, 't> {
+    /// Finder for the cells of the brick `block`, with `own_ids` all [`UNKNOWN`].
+    fn new(numbered: &'a FxHashMap<IVec3, Numbered<'a>>, kinds: usize, block: IVec3, own_ids: &'t mut [u32]) -> Self {
+        let own = numbered.get(&block).copied();
+        if let Some(n) = own {
+            for (i, &number) in n.block.edges().iter().enumerate() {
+                own_ids[usize::from(number)] = n.first + i as u32;
+            }
+        }
+        Self { numbered, kinds, own: (block, own), own_ids, recent: [(IVec3::splat(i32::MIN), None); 8] }
+    }
+
+    /// Leaves the own block's table all [`UNKNOWN`] again.
+    fn clear_own(&mut self) {
+        if let Some(n) = self.own.1 {
+            for &number in n.block.edges() {
+                self.own_ids[usize::from(number)] = UNKNOWN;
+            }
+        }
+    }
+
     /// The block holding edge `key`'s vertex and its index there.
     #[inline]
     fn find(&mut self, key: EdgeKey) -> (Numbered<'a>, u32) {
@@ -191,6 +222,12 @@ impl<'a> Ids<'a> {
     /// The number of edge `key`'s vertex.
     #[inline]
     fn id(&mut self, key: EdgeKey) -> u32 {
+        let (block, number) = locate(self.kinds, key);
+        if block == self.own.0 {
+            let id = self.own_ids[usize::from(number)];
+            assert_ne!(id, UNKNOWN, "no vertex on the edge with key {key}");
+            return id;
+        }
         let (n, i) = self.find(key);
         n.first + i
     }
@@ -211,7 +248,6 @@ impl Out<'_> {
     /// A cube's triangles, each crossed edge's number found once (its
     /// triangles share most of them).
     fn cube(&mut self, cell: Cell, mask: u8, ids: &mut Ids) {
-        const UNKNOWN: u32 = u32::MAX;
         let mut of_edge = [UNKNOWN; 12];
         for triangle in cubes::case_triangles(mask) {
             self.push(triangle.map(|e| {

@@ -33,8 +33,9 @@ impl Polygonizer {
 
     /// Continuation: examines the frontier (cells claimed, not examined yet)
     /// and every cell reachable from it across crossed faces. Returns the
-    /// crossed cells found (in an order fixed by the frontier).
-    pub(super) fn grow<F: Field + ?Sized>(&mut self, field: &F, frontier: Vec<Cell>) -> Vec<Cell> {
+    /// crossed cells found (in an order fixed by the frontier) if `listed`
+    /// (a local update's new cells), none otherwise.
+    pub(super) fn grow<F: Field + ?Sized>(&mut self, field: &F, frontier: Vec<Cell>, listed: bool) -> Vec<Cell> {
         let mut pending: FxHashMap<IVec3, Seeds> = FxHashMap::default();
         for cell in frontier {
             pending.entry(block_of(cell)).or_default().claimed.push(cell);
@@ -54,7 +55,7 @@ impl Polygonizer {
             // In a fixed order, so that the stores are filled the same way every run.
             batch.sort_unstable_by_key(|(block, _)| Cell { cube: *block, sub: 0 }.order_key());
             if !batch.is_empty() {
-                self.grow_blocks(field, batch, &mut found, &mut pending);
+                self.grow_blocks(field, batch, listed.then_some(&mut found), &mut pending);
             }
         }
         found
@@ -66,7 +67,7 @@ impl Polygonizer {
         &mut self,
         field: &F,
         batch: Vec<(IVec3, Seeds)>,
-        found: &mut Vec<Cell>,
+        mut found: Option<&mut Vec<Cell>>,
         pending: &mut FxHashMap<IVec3, Seeds>,
     ) {
         let blocks: Vec<Block> = batch
@@ -78,14 +79,21 @@ impl Polygonizer {
                 seeds,
             })
             .collect();
-        let context = BlockContext { lattice: self.lattice, shape: self.options.cells, threshold: self.threshold };
+        let context = BlockContext {
+            lattice: self.lattice,
+            shape: self.options.cells,
+            threshold: self.threshold,
+            listed: found.is_some(),
+        };
         let grown: Vec<Grown> = blocks.into_par_iter().map(|block| block.grow(field, &context, &self.cells)).collect();
         for g in grown {
             self.corners.put_patch(g.corners);
             self.cells.put(g.base, g.cells);
             self.stats.corner_evals += g.evaluated;
             self.stats.cells_visited += g.examined;
-            found.extend(g.crossed);
+            if let Some(found) = found.as_deref_mut() {
+                found.extend(g.crossed);
+            }
             // One look at each block reached: cells it has visited already are passed over.
             for run in g.leaving.chunk_by(|a, b| block_of(*a) == block_of(*b)) {
                 let block = block_of(run[0]);
@@ -122,6 +130,8 @@ struct BlockContext {
     lattice: Lattice,
     shape: CellShape,
     threshold: f32,
+    /// Whether the crossed cells examined are listed.
+    listed: bool,
 }
 
 /// The cells of a block waiting to be examined.
@@ -147,7 +157,7 @@ struct Grown {
     base: IVec3,
     corners: CornerPatch,
     cells: visited::Brick,
-    /// Crossed cells examined.
+    /// Crossed cells examined (if the context lists them).
     crossed: Vec<Cell>,
     /// Neighbours across crossed faces in other blocks, block by block.
     leaving: Vec<Cell>,
@@ -184,7 +194,9 @@ impl Block {
             if !crossed(mask, c.shape) {
                 continue;
             }
-            grown.crossed.push(cell);
+            if c.listed {
+                grown.crossed.push(cell);
+            }
             neighbours.clear();
             c.shape.neighbours(cell, mask, &mut neighbours);
             for &n in &neighbours {

@@ -68,7 +68,7 @@ impl Polygonizer {
         let mut frontier = self.claim(around);
         // `dropped` holds every corner dropped (those in `near`).
         frontier.extend(self.seed(field, seeds, Some(&dropped)));
-        let added = self.grow(field, frontier);
+        let added = self.grow(field, frontier, true);
         // Every other crossed cell kept all its vertices.
         border.extend(added.iter().map(|&c| (c, self.cells.get(c).expect("a grown cell is visited"))));
         self.place_vertices(field, &border);

@@ -128,7 +128,7 @@ impl Polygonizer {
         self.with_colors = field.varies_in_color();
         self.threshold = field.threshold();
         let frontier = stage(progress, "seeding the mesh", || self.seed(field, seeds, None));
-        stage(progress, "growing the mesh", || self.grow(field, frontier));
+        stage(progress, "growing the mesh", || self.grow(field, frontier, false));
         stage(progress, "placing vertices", || self.place_all_vertices(field));
     }
 
@@ -159,7 +159,7 @@ impl Polygonizer {
             shape.cells_around_edge(a, b, &mut around);
         }
         let frontier = self.claim(around);
-        self.grow(field, frontier);
+        self.grow(field, frontier, false);
         self.place_all_vertices(field);
     }
 
