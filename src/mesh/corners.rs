@@ -90,6 +90,7 @@ impl CornerValues {
     }
 
     /// Keeps `value` at `q`.
+    #[cfg(test)]
     pub fn insert(&mut self, q: LatticePoint, value: f32) {
         let (key, slot) = locate(q);
         self.bricks.entry(key).or_insert_with(|| Box::new(Brick::EMPTY)).set(slot, value);
@@ -273,9 +274,17 @@ impl CornerPatch {
 }
 
 impl Extend<(LatticePoint, f32)> for CornerValues {
+    /// Keeps every value; points that follow one another in a brick (a
+    /// march's, along a row) find it once.
     fn extend<I: IntoIterator<Item = (LatticePoint, f32)>>(&mut self, points: I) {
+        let mut current: Option<(BrickKey, &mut Box<Brick>)> = None;
         for (q, v) in points {
-            self.insert(q, v);
+            let (key, slot) = locate(q);
+            if current.as_ref().is_none_or(|(k, _)| *k != key) {
+                current = Some((key, self.bricks.entry(key).or_insert_with(|| Box::new(Brick::EMPTY))));
+            }
+            let Some((_, brick)) = current.as_mut() else { unreachable!("the brick was found above") };
+            brick.set(slot, v);
         }
     }
 }
