@@ -299,6 +299,7 @@ impl EdgeBlock {
     /// Keeps the vertices of the edges for which `keep` holds.
     fn retain(&mut self, kinds: usize, mut keep: impl FnMut(EdgeNumber) -> bool) {
         let mut kept = 0;
+        let before = self.edges.len();
         let arrays = &mut self.vertices;
         for i in 0..self.edges.len() {
             if keep(self.edges[i]) {
@@ -317,7 +318,9 @@ impl EdgeBlock {
         arrays.positions.truncate(kept);
         arrays.normals.truncate(kept);
         arrays.colors.truncate(kept);
-        self.index(kinds);
+        if kept < before {
+            self.index(kinds);
+        }
     }
 
     /// Rebuilds `starts` from `edges`.
@@ -359,6 +362,17 @@ impl EdgeVertices {
     /// Every block holding vertices.
     pub fn blocks(&self) -> impl Iterator<Item = (IVec3, &EdgeBlock)> {
         self.blocks.iter().map(|(&b, block)| (b, block))
+    }
+
+    /// Whether no edge holds a vertex.
+    pub fn is_empty(&self) -> bool {
+        self.blocks.is_empty()
+    }
+
+    /// Whether edge `key` holds a vertex.
+    pub fn contains(&self, key: EdgeKey) -> bool {
+        let (block, number) = locate(self.kinds, key);
+        self.blocks.get(&block).is_some_and(|b| b.index_of(self.kinds, number).is_some())
     }
 
     /// Edge `key`'s vertex, if it has one.

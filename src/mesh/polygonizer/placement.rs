@@ -81,7 +81,10 @@ impl Polygonizer {
 
     /// Places a vertex on every crossed edge of `cells` that has none yet.
     pub(super) fn place_vertices<F: Field + ?Sized>(&mut self, field: &F, cells: &[(Cell, u8)]) {
-        let (shape, kinds) = (self.options.cells, self.vertices.kinds());
+        let (shape, kinds, known) = (self.options.cells, self.vertices.kinds(), &self.vertices);
+        // A local update's cells keep most of their vertices; a first
+        // polygonization has none to look up.
+        let none_known = known.is_empty();
         const CELLS_PER_TASK: usize = 1024;
         let mut wanted: Vec<(u128, IVec3, EdgeNumber)> = cells
             .par_chunks(CELLS_PER_TASK)
@@ -90,10 +93,14 @@ impl Polygonizer {
                 for &(cell, mask) in chunk {
                     shape.crossed_edges(cell, mask, &mut edges);
                 }
-                edges.into_iter().map(move |[a, b]| {
-                    let (block, number) = locate(kinds, edge_key(a, b));
-                    (Cell { cube: block, sub: 0 }.order_key(), block, number)
-                })
+                edges
+                    .into_iter()
+                    .map(|[a, b]| edge_key(a, b))
+                    .filter(move |&key| none_known || !known.contains(key))
+                    .map(move |key| {
+                        let (block, number) = locate(kinds, key);
+                        (Cell { cube: block, sub: 0 }.order_key(), block, number)
+                    })
             })
             .collect();
         wanted.par_sort_unstable_by_key(|&(order, _, number)| (order, number));
