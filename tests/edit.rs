@@ -11,7 +11,7 @@ use blobtrace::mesh::{PolygonizeOptions, Polygonizer, skeleton_seeds};
 use blobtrace::pipeline::{EditSession, PolygonizeSettings};
 use blobtrace::scene::{Scene, Size};
 use blobtrace::trace::{PixelRect, changed_space, render, render_model, rerender};
-use common::{EVERY_NODE, Rng, bundled, polygonize, random_edit};
+use common::{EVERY_NODE, Rng, assert_same_mesh, bundled, polygonize, random_edit};
 use glam::Vec3;
 
 fn changed_pixels(a: &Frame, b: &Frame) -> Vec<(u32, u32)> {
@@ -81,7 +81,7 @@ fn moving_a_cached_component_costs_no_samples_and_repolygonizes_locally() {
     local.repolygonize(&field, &scene.model.change_region(&change, true), &seeds);
     let mut full = Polygonizer::new(local.lattice(), PolygonizeOptions::default());
     full.polygonize(&field, &seeds);
-    assert_eq!(local.mesh().triangle_set(), full.mesh().triangle_set());
+    assert_same_mesh(&local.mesh(), &full.mesh(), "the hair probe's update");
 }
 
 #[test]

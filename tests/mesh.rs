@@ -7,7 +7,7 @@ use blobtrace::field::{Edit, EvalMode, Field, ModelField, NodeKind, Placement};
 use blobtrace::geom::{Aabb, Support};
 use blobtrace::mesh::{Cell, CellShape, Lattice, PolygonizeOptions, Polygonizer, VertexPlacement, skeleton_seeds};
 use blobtrace::scene::{Scene, load_script};
-use common::{EVERY_NODE, bundled, polygonize};
+use common::{EVERY_NODE, assert_same_mesh, bundled, polygonize};
 use glam::{IVec3, Vec3};
 
 const SHAPES: [CellShape; 2] = [CellShape::Cubes, CellShape::Bcc];
@@ -183,7 +183,7 @@ fn a_lens_made_and_unmade_by_a_move_is_re_polygonized_as_from_scratch() {
             local.repolygonize(&field, &change.old.union(&change.new), &seeds);
             let (_, fresh) = polygonize(&scene.model, EvalMode::Indexed, 30, options);
             assert_eq!(fresh.triangles.is_empty(), !has_surface, "{cells:?} {offset}");
-            assert_eq!(local.mesh().triangle_set(), fresh.triangle_set(), "{cells:?} {offset}");
+            assert_same_mesh(&local.mesh(), &fresh, &format!("{cells:?} {offset}"));
         }
     }
 }
@@ -250,7 +250,7 @@ fn local_repolygonization_after_a_move_equals_a_full_polygonization() {
         let after = local.mesh();
         let (full, fresh) = polygonize(model, EvalMode::Indexed, 40, options);
         assert_ne!(before.triangle_set(), fresh.triangle_set(), "{cells:?}: the edit changes the surface");
-        assert_eq!(after.triangle_set(), fresh.triangle_set(), "{cells:?}");
+        assert_same_mesh(&after, &fresh, &format!("{cells:?}"));
         assert!(after.topology().is_closed_manifold());
         let spent = local.stats().field_evals() - evals_before;
         assert!(
@@ -296,12 +296,9 @@ fn moving_a_part_without_support_leaves_the_mesh_a_full_polygonization_finds() {
         let mut fresh = Polygonizer::new(local.lattice(), PolygonizeOptions::default());
         fresh.polygonize(&field, &seeds);
         assert!(!fresh.mesh().triangles.is_empty(), "frame {i}");
-        assert_eq!(local.mesh().triangle_set(), fresh.mesh().triangle_set(), "frame {i}");
-        assert_eq!(
-            within_supports.mesh().triangle_set(),
-            fresh.mesh().triangle_set(),
-            "frame {i}, within the supports"
-        );
+        let fresh = fresh.mesh();
+        assert_same_mesh(&local.mesh(), &fresh, &format!("frame {i}"));
+        assert_same_mesh(&within_supports.mesh(), &fresh, &format!("frame {i}, within the supports"));
     }
 }
 
@@ -340,8 +337,8 @@ fn re_polygonizing_within_the_moved_probes_balls_equals_fresh_polygonizations() 
                 boxed.removed.len()
             );
             let (_, fresh) = polygonize(&scene.model, mode, 48, options);
-            assert_eq!(within_balls.mesh().triangle_set(), fresh.triangle_set(), "{label}");
-            assert_eq!(within_box.mesh().triangle_set(), fresh.triangle_set(), "{label}, within the box");
+            assert_same_mesh(&within_balls.mesh(), &fresh, &label);
+            assert_same_mesh(&within_box.mesh(), &fresh, &format!("{label}, within the box"));
         }
     }
 }
@@ -367,7 +364,7 @@ fn re_polygonizing_the_head_translation_equals_fresh_polygonizations() {
         let field = ModelField::new(&scene.model, EvalMode::Indexed);
         local.repolygonize(&field, &region, &skeleton_seeds(&scene.model, scene.model.root()));
         let (_, fresh) = polygonize(&scene.model, EvalMode::Indexed, 48, options);
-        assert_eq!(local.mesh().triangle_set(), fresh.triangle_set(), "frame {frame}");
+        assert_same_mesh(&local.mesh(), &fresh, &format!("frame {frame}"));
     }
 }
 

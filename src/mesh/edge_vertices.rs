@@ -33,8 +33,8 @@ pub struct EdgeVertex {
     pub color: Vec3,
 }
 
-/// Cubes along each side of a block, as a power of two (the visited cells' bricks).
-pub(super) const BLOCK_SHIFT: i32 = 3;
+/// Cubes along each side of a block, as a power of two: the visited cells' bricks.
+pub(super) const BLOCK_SHIFT: i32 = super::visited::BRICK_SHIFT;
 /// Cubes in a block.
 pub(super) const BLOCK_CUBES: usize = 1 << (3 * BLOCK_SHIFT);
 /// A remainder pattern no edge has.
@@ -74,6 +74,9 @@ const KIND_OF_PATTERN: [u8; 64] = {
 
 /// An edge's number within its block.
 pub(super) type EdgeNumber = u16;
+
+// Every edge of a block, with the most kinds, has a number (and `starts` a count).
+const _: () = assert!(BLOCK_CUBES * KINDS.len() <= 1 << 16);
 
 /// The slot of cube `cube` in its block, x fastest.
 #[inline]
@@ -123,7 +126,7 @@ pub fn ends_of(key: EdgeKey) -> [LatticePoint; 2] {
         };
         return ordered_edge(half - step, half + step);
     }
-    // (key − d) / 2 even for each axis: d ≡ key − 0 (mod 4) picks d = ±1.
+    // (key − d) / 2 even for each axis: d ≡ key (mod 4) picks d = ±1.
     let d = IVec3::select((key & IVec3::splat(3)).cmpeq(IVec3::ONE), IVec3::ONE, IVec3::NEG_ONE);
     let corner = (key - d) >> 1;
     ordered_edge(corner, key - corner)
@@ -162,16 +165,14 @@ impl VertexArrays {
         }
     }
 
-    /// Adds `v`, keeping the channels asked for (a channel kept from now
-    /// on, where earlier vertices lacked it, is filled in for them first).
+    /// Adds `v`, keeping the channels asked for. A block is filled whole with
+    /// one set of channels (see [`EdgeBlock::add`]), so each channel holds
+    /// every vertex or none.
     fn push(&mut self, channels: Channels, v: EdgeVertex) {
-        let n = self.positions.len();
         if channels.normals {
-            self.normals.resize(n, Vec3::ZERO);
             self.normals.push(v.normal);
         }
         if channels.colors {
-            self.colors.resize(n, DEFAULT_COLOR);
             self.colors.push(v.color);
         }
         self.positions.push(v.position);
@@ -259,6 +260,9 @@ impl EdgeBlock {
         mut place: impl FnMut(EdgeNumber) -> EdgeVertex,
     ) {
         let mut wanted = wanted.into_iter().peekable();
+        if wanted.peek().is_none() {
+            return;
+        }
         if self.edges.is_empty() {
             let (least, _) = wanted.size_hint();
             self.edges.reserve_exact(least);
@@ -269,6 +273,9 @@ impl EdgeBlock {
             }
         } else {
             let (old_edges, old) = (std::mem::take(&mut self.edges), std::mem::take(&mut self.vertices));
+            let more = old_edges.len() + wanted.size_hint().0;
+            self.edges.reserve_exact(more);
+            self.vertices.reserve(channels, more);
             let mut old_edges = old_edges.into_iter().enumerate().peekable();
             loop {
                 let take_old = match (old_edges.peek(), wanted.peek()) {
@@ -293,6 +300,7 @@ impl EdgeBlock {
                 self.vertices.push(channels, vertex);
             }
         }
+        debug_assert!(self.edges.is_sorted_by(|a, b| a < b), "edges wanted ascending, without repeats");
         self.index(kinds);
     }
 

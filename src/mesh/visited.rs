@@ -14,8 +14,9 @@ use rustc_hash::FxHashMap;
 use super::lattice::Cell;
 use super::slot_bits;
 
-/// Cubes along each side of a brick, as a power of two.
-const BRICK_SHIFT: i32 = 3;
+/// Cubes along each side of a brick, as a power of two: the polygonizer's
+/// blocks (growth, vertices and assembly go brick by brick).
+pub(super) const BRICK_SHIFT: i32 = 3;
 /// Cubes in a brick.
 const BRICK_CUBES: usize = 1 << (3 * BRICK_SHIFT);
 

@@ -94,6 +94,21 @@ pub fn polygonize(model: &Model, mode: EvalMode, res: u32, options: PolygonizeOp
     (p, mesh)
 }
 
+/// Asserts that a local update's mesh is a fresh polygonization's: the same
+/// triangles and vertices (exact bits, see [`Mesh::digest`]), numbered the same way.
+pub fn assert_same_mesh(local: &Mesh, fresh: &Mesh, what: &str) {
+    assert_eq!(local.triangle_set(), fresh.triangle_set(), "{what}: the triangles");
+    assert_eq!(
+        (local.positions.len(), local.digest()),
+        (fresh.positions.len(), fresh.digest()),
+        "{what}: the vertices (unused ones included)"
+    );
+    assert!(local == fresh, "{what}: the numbering");
+    let mut used = vec![false; local.positions.len()];
+    local.triangles.iter().flatten().for_each(|&v| used[v as usize] = true);
+    assert!(used.iter().all(|&u| u), "{what}: a vertex no triangle uses");
+}
+
 /// A small deterministic generator (SplitMix64) so tests need no seed plumbing.
 pub struct Rng(pub u64);
 

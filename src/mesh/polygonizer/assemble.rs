@@ -112,7 +112,9 @@ impl Polygonizer {
         let mut triangles = vec![[0u32; 3]; counts.iter().sum()];
         let kinds = self.vertices.kinds();
         let runs = split_by(&mut triangles, &counts);
-        let own_table = || vec![UNKNOWN; BLOCK_CUBES * kinds];
+        // Tetrahedra read positions with their numbers, through `Ids::find`.
+        let table_size = if shape == CellShape::Cubes { BLOCK_CUBES * kinds } else { 0 };
+        let own_table = || vec![UNKNOWN; table_size];
         runs.into_par_iter().zip(&bricks).for_each_init(own_table, |own, (run, &(b, brick))| {
             let mut ids = Ids::new(numbered, kinds, b, own);
             let mut out = Out { run, next: 0 };
@@ -139,12 +141,11 @@ fn triangle_count(shape: CellShape, mask: u8) -> usize {
     }
     match shape {
         CellShape::Cubes => cubes::case_triangles(mask).len(),
-        CellShape::Bcc => {
-            let mut count = 0;
-            // Any cell of the shape has the same polygons' sizes for one mask.
-            shape.polygons(Cell { cube: IVec3::ZERO, sub: 0 }, mask, &mut |p| count += p.len() - 2);
-            count
-        }
+        // One vertex inside or outside cuts a triangle off; two, a quadrilateral.
+        CellShape::Bcc => match mask.count_ones() {
+            2 => 2,
+            _ => 1,
+        },
     }
 }
 
@@ -185,9 +186,10 @@ struct Ids<'a, 't> {
 }
 
 impl<'a, 't> Ids<'a, 't> {
-    /// Finder for the cells of the brick `block`, with `own_ids` all [`UNKNOWN`].
+    /// Finder for the cells of the brick `block`, with `own_ids` all
+    /// [`UNKNOWN`] (or empty, to find every vertex through its block).
     fn new(numbered: &'a FxHashMap<IVec3, Numbered<'a>>, kinds: usize, block: IVec3, own_ids: &'t mut [u32]) -> Self {
-        let own = numbered.get(&block).copied();
+        let own = numbered.get(&block).copied().filter(|_| !own_ids.is_empty());
         if let Some(n) = own {
             for (i, &number) in n.block.edges().iter().enumerate() {
                 own_ids[usize::from(number)] = n.first + i as u32;
@@ -223,7 +225,7 @@ impl<'a, 't> Ids<'a, 't> {
     #[inline]
     fn id(&mut self, key: EdgeKey) -> u32 {
         let (block, number) = locate(self.kinds, key);
-        if block == self.own.0 {
+        if block == self.own.0 && !self.own_ids.is_empty() {
             let id = self.own_ids[usize::from(number)];
             assert_ne!(id, UNKNOWN, "no vertex on the edge with key {key}");
             return id;

@@ -20,10 +20,7 @@ use super::{CellShape, PENDING, Polygonizer, crossed};
 use crate::field::Field;
 use crate::mesh::corners::CornerPatch;
 use crate::mesh::lattice::{Cell, Lattice};
-use crate::mesh::visited;
-
-/// Block coordinates are cube coordinates shifted by this (blocks of 8³ cubes).
-const BLOCK_SHIFT: i32 = 3;
+use crate::mesh::visited::{self, BRICK_SHIFT as BLOCK_SHIFT};
 
 impl Polygonizer {
     /// Marks the cells not visited yet as visited and returns them, in order.
