@@ -20,6 +20,7 @@ use glam::{IVec3, Vec3};
 use rustc_hash::FxHashMap;
 
 use super::lattice::{EdgeKey, LatticePoint, ordered_edge};
+use super::visited::{BRICK_CUBES, BRICK_SHIFT, cube_at, cube_slot};
 use crate::field::DEFAULT_COLOR;
 
 /// A vertex on a crossed edge: position, unit outward normal, colour.
@@ -33,10 +34,6 @@ pub struct EdgeVertex {
     pub color: Vec3,
 }
 
-/// Cubes along each side of a block, as a power of two: the visited cells' bricks.
-pub(super) const BLOCK_SHIFT: i32 = super::visited::BRICK_SHIFT;
-/// Cubes in a block.
-pub(super) const BLOCK_CUBES: usize = 1 << (3 * BLOCK_SHIFT);
 /// A remainder pattern no edge has.
 const NO_KIND: u8 = u8::MAX;
 
@@ -76,54 +73,41 @@ const KIND_OF_PATTERN: [u8; 64] = {
 pub(super) type EdgeNumber = u16;
 
 // Every edge of a block, with the most kinds, has a number (and `starts` a count).
-const _: () = assert!(BLOCK_CUBES * KINDS.len() <= 1 << 16);
+const _: () = assert!(BRICK_CUBES * KINDS.len() <= 1 << 16);
 
-/// The slot of cube `cube` in its block, x fastest.
+/// The kind of the edge with key `key` (an index into [`KINDS`]), or [`NO_KIND`].
 #[inline]
-pub(super) fn cube_slot(cube: IVec3) -> usize {
-    let within = cube & IVec3::splat((1 << BLOCK_SHIFT) - 1);
-    (within.x | within.y << BLOCK_SHIFT | within.z << (2 * BLOCK_SHIFT)) as usize
+fn kind_of(key: EdgeKey) -> u8 {
+    let rest = key & IVec3::splat(3);
+    KIND_OF_PATTERN[(rest.x + 4 * rest.y + 16 * rest.z) as usize]
 }
 
 /// The block of edge `key` and the edge's number there, with `kinds` edges per cube.
 #[inline]
 pub(super) fn locate(kinds: usize, key: EdgeKey) -> (IVec3, EdgeNumber) {
-    let rest = key & IVec3::splat(3);
-    let kind = KIND_OF_PATTERN[(rest.x + 4 * rest.y + 16 * rest.z) as usize];
+    let kind = kind_of(key);
     assert!(usize::from(kind) < kinds, "{key} is no edge key of this lattice");
     let cube: IVec3 = key >> 2;
-    (cube >> BLOCK_SHIFT, (cube_slot(cube) * kinds + usize::from(kind)) as EdgeNumber)
+    (cube >> BRICK_SHIFT, (cube_slot(cube) * kinds + usize::from(kind)) as EdgeNumber)
 }
 
 /// The key of edge `number` of block `block`, with `kinds` edges per cube.
 pub(super) fn key_at(kinds: usize, block: IVec3, number: EdgeNumber) -> EdgeKey {
-    let (cube, kind) = (i32::from(number) / kinds as i32, usize::from(number) % kinds);
-    let side = (1 << BLOCK_SHIFT) - 1;
-    let within = IVec3::new(cube & side, cube >> BLOCK_SHIFT & side, cube >> (2 * BLOCK_SHIFT));
-    (((block << BLOCK_SHIFT) + within) << 2) + IVec3::from_array(KINDS[kind])
+    let (cube, kind) = (usize::from(number) / kinds, usize::from(number) % kinds);
+    (cube_at(block, cube) << 2) + IVec3::from_array(KINDS[kind])
 }
 
-/// The ends of the edge with key `key`, in [`ordered_edge`]'s order: both
-/// corners or both centres sit one step either side of the midpoint; a
-/// corner and a centre are the unique even point `(key − d) / 2`, `d ∈ {±1}³`,
-/// and the rest of the sum.
+/// The ends of the edge with key `key`, in [`ordered_edge`]'s order: two
+/// corners or two centres (kinds 0–2 and 3–5, along x, y and z in turn) sit
+/// one step either side of the midpoint `key / 2`; a corner and a centre are
+/// the unique even point `(key − d) / 2`, `d ∈ {±1}³`, and the rest of the sum.
 #[must_use]
 pub fn ends_of(key: EdgeKey) -> [LatticePoint; 2] {
-    if key.x & 1 == 0 {
+    let kind = kind_of(key);
+    if kind < 6 {
+        let mut step = IVec3::ZERO;
+        step[usize::from(kind % 3)] = 1;
         let half = key >> 1;
-        // Corners lie one whole step (2) apart along the axis whose
-        // remainder differs: the one where the midpoint's parity breaks.
-        let step = if key & IVec3::splat(3) == IVec3::from_array(KINDS[0])
-            || key & IVec3::splat(3) == IVec3::from_array(KINDS[3])
-        {
-            IVec3::X
-        } else if key & IVec3::splat(3) == IVec3::from_array(KINDS[1])
-            || key & IVec3::splat(3) == IVec3::from_array(KINDS[4])
-        {
-            IVec3::Y
-        } else {
-            IVec3::Z
-        };
         return ordered_edge(half - step, half + step);
     }
     // (key − d) / 2 even for each axis: d ≡ key (mod 4) picks d = ±1.
@@ -163,6 +147,11 @@ impl VertexArrays {
         if channels.colors {
             self.colors.reserve_exact(n);
         }
+    }
+
+    /// Every channel's array.
+    fn arrays(&mut self) -> [&mut Vec<Vec3>; 3] {
+        [&mut self.positions, &mut self.normals, &mut self.colors]
     }
 
     /// Adds `v`, keeping the channels asked for. A block is filled whole with
@@ -212,7 +201,7 @@ pub(super) struct EdgeBlock {
     /// Their vertices, in the same order.
     vertices: VertexArrays,
     /// `starts[c]`: how many of `edges` belong to cubes before cube `c`
-    /// (`BLOCK_CUBES + 1` entries; empty while the block is).
+    /// (`BRICK_CUBES + 1` entries; empty while the block is).
     starts: Vec<u16>,
 }
 
@@ -263,42 +252,33 @@ impl EdgeBlock {
         if wanted.peek().is_none() {
             return;
         }
-        if self.edges.is_empty() {
-            let (least, _) = wanted.size_hint();
-            self.edges.reserve_exact(least);
-            self.vertices.reserve(channels, least);
-            for number in wanted {
-                self.edges.push(number);
-                self.vertices.push(channels, place(number));
-            }
-        } else {
-            let (old_edges, old) = (std::mem::take(&mut self.edges), std::mem::take(&mut self.vertices));
-            let more = old_edges.len() + wanted.size_hint().0;
-            self.edges.reserve_exact(more);
-            self.vertices.reserve(channels, more);
-            let mut old_edges = old_edges.into_iter().enumerate().peekable();
-            loop {
-                let take_old = match (old_edges.peek(), wanted.peek()) {
-                    (None, None) => break,
-                    (Some(_), None) => true,
-                    (None, Some(_)) => false,
-                    (Some(&(_, o)), Some(&w)) => {
-                        if o == w {
-                            wanted.next();
-                        }
-                        o <= w
+        // The block is rebuilt whole, merging the edges it holds with those wanted.
+        let (old_edges, old) = (std::mem::take(&mut self.edges), std::mem::take(&mut self.vertices));
+        let more = old_edges.len() + wanted.size_hint().0;
+        self.edges.reserve_exact(more);
+        self.vertices.reserve(channels, more);
+        let mut old_edges = old_edges.into_iter().enumerate().peekable();
+        loop {
+            let take_old = match (old_edges.peek(), wanted.peek()) {
+                (None, None) => break,
+                (Some(_), None) => true,
+                (None, Some(_)) => false,
+                (Some(&(_, o)), Some(&w)) => {
+                    if o == w {
+                        wanted.next();
                     }
-                };
-                let (number, vertex) = if take_old {
-                    let (i, number) = old_edges.next().expect("peeked");
-                    (number, old.get(i))
-                } else {
-                    let number = wanted.next().expect("peeked");
-                    (number, place(number))
-                };
-                self.edges.push(number);
-                self.vertices.push(channels, vertex);
-            }
+                    o <= w
+                }
+            };
+            let (number, vertex) = if take_old {
+                let (i, number) = old_edges.next().expect("peeked");
+                (number, old.get(i))
+            } else {
+                let number = wanted.next().expect("peeked");
+                (number, place(number))
+            };
+            self.edges.push(number);
+            self.vertices.push(channels, vertex);
         }
         debug_assert!(self.edges.is_sorted_by(|a, b| a < b), "edges wanted ascending, without repeats");
         self.index(kinds);
@@ -308,24 +288,20 @@ impl EdgeBlock {
     fn retain(&mut self, kinds: usize, mut keep: impl FnMut(EdgeNumber) -> bool) {
         let mut kept = 0;
         let before = self.edges.len();
-        let arrays = &mut self.vertices;
-        for i in 0..self.edges.len() {
+        for i in 0..before {
             if keep(self.edges[i]) {
                 self.edges[kept] = self.edges[i];
-                arrays.positions[kept] = arrays.positions[i];
-                if i < arrays.normals.len() {
-                    arrays.normals[kept] = arrays.normals[i];
-                }
-                if i < arrays.colors.len() {
-                    arrays.colors[kept] = arrays.colors[i];
+                // A channel not kept is empty.
+                for array in self.vertices.arrays().into_iter().filter(|a| !a.is_empty()) {
+                    array[kept] = array[i];
                 }
                 kept += 1;
             }
         }
         self.edges.truncate(kept);
-        arrays.positions.truncate(kept);
-        arrays.normals.truncate(kept);
-        arrays.colors.truncate(kept);
+        for array in self.vertices.arrays() {
+            array.truncate(kept);
+        }
         if kept < before {
             self.index(kinds);
         }
@@ -337,9 +313,9 @@ impl EdgeBlock {
         if self.edges.is_empty() {
             return;
         }
-        self.starts.reserve_exact(BLOCK_CUBES + 1);
+        self.starts.reserve_exact(BRICK_CUBES + 1);
         let mut i = 0;
-        for cube in 0..=BLOCK_CUBES {
+        for cube in 0..=BRICK_CUBES {
             while i < self.edges.len() && usize::from(self.edges[i]) < cube * kinds {
                 i += 1;
             }

@@ -18,7 +18,7 @@ use super::slot_bits;
 /// blocks (growth, vertices and assembly go brick by brick).
 pub(super) const BRICK_SHIFT: i32 = 3;
 /// Cubes in a brick.
-const BRICK_CUBES: usize = 1 << (3 * BRICK_SHIFT);
+pub(super) const BRICK_CUBES: usize = 1 << (3 * BRICK_SHIFT);
 
 /// One brick's cells: which are visited, and their masks.
 #[derive(Clone, Debug)]
@@ -85,9 +85,7 @@ impl VisitedCells {
     /// Where cell `c` lives: its brick and its slot there.
     #[inline]
     fn locate(&self, c: Cell) -> (IVec3, usize) {
-        let within = c.cube & IVec3::splat((1 << BRICK_SHIFT) - 1);
-        let cube = (within.x | within.y << BRICK_SHIFT | within.z << (2 * BRICK_SHIFT)) as usize;
-        (c.cube >> BRICK_SHIFT, cube * self.cells_per_cube + usize::from(c.sub))
+        (c.cube >> BRICK_SHIFT, cube_slot(c.cube) * self.cells_per_cube + usize::from(c.sub))
     }
 
     /// The mask of cell `c`, if visited.
@@ -196,12 +194,23 @@ impl VisitedCells {
     }
 }
 
+/// The place of cube `cube` among its brick's cubes, x fastest.
+#[inline]
+pub(super) fn cube_slot(cube: IVec3) -> usize {
+    let within = cube & IVec3::splat((1 << BRICK_SHIFT) - 1);
+    (within.x | within.y << BRICK_SHIFT | within.z << (2 * BRICK_SHIFT)) as usize
+}
+
+/// The cube in place `slot` of brick `brick` (see [`cube_slot`]).
+pub(super) fn cube_at(brick: IVec3, slot: usize) -> IVec3 {
+    let (slot, side) = (slot as i32, (1 << BRICK_SHIFT) - 1);
+    let within = IVec3::new(slot & side, (slot >> BRICK_SHIFT) & side, slot >> (2 * BRICK_SHIFT));
+    (brick << BRICK_SHIFT) + within
+}
+
 /// The cell in slot `slot` of brick `brick`, its cubes holding `per_cube` cells each.
 pub(super) fn cell_of(per_cube: usize, brick: IVec3, slot: usize) -> Cell {
-    let (cube, sub) = ((slot / per_cube) as i32, (slot % per_cube) as u8);
-    let side = (1 << BRICK_SHIFT) - 1;
-    let within = IVec3::new(cube & side, (cube >> BRICK_SHIFT) & side, cube >> (2 * BRICK_SHIFT));
-    Cell { cube: (brick << BRICK_SHIFT) + within, sub }
+    Cell { cube: cube_at(brick, slot / per_cube), sub: (slot % per_cube) as u8 }
 }
 
 #[cfg(test)]

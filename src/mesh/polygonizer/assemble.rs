@@ -14,10 +14,10 @@ use rustc_hash::FxHashMap;
 use super::{CellShape, Polygonizer, crossed};
 use crate::mesh::Mesh;
 use crate::mesh::cubes;
-use crate::mesh::edge_vertices::{BLOCK_CUBES, EdgeBlock, EdgeVertex, VertexArrays, locate};
+use crate::mesh::edge_vertices::{EdgeBlock, EdgeVertex, VertexArrays, locate};
 use crate::mesh::lattice::{Cell, EdgeKey, edge_key};
 use crate::mesh::vertex::VertexPlacement;
-use crate::mesh::visited::cell_of;
+use crate::mesh::visited::{BRICK_CUBES, cell_of};
 
 /// A block of vertices with the number of its first.
 #[derive(Clone, Copy)]
@@ -113,7 +113,7 @@ impl Polygonizer {
         let kinds = self.vertices.kinds();
         let runs = split_by(&mut triangles, &counts);
         // Tetrahedra read positions with their numbers, through `Ids::find`.
-        let table_size = if shape == CellShape::Cubes { BLOCK_CUBES * kinds } else { 0 };
+        let table_size = if shape == CellShape::Cubes { BRICK_CUBES * kinds } else { 0 };
         let own_table = || vec![UNKNOWN; table_size];
         runs.into_par_iter().zip(&bricks).for_each_init(own_table, |own, (run, &(b, brick))| {
             let mut ids = Ids::new(numbered, kinds, b, own);

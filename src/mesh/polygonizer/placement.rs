@@ -58,13 +58,15 @@ impl Polygonizer {
             return;
         }
         let bricks = self.cells.bricks_in_order();
+        let kinds = self.vertices.kinds();
+        // A cube's axis edges are its edge kinds 0, 1, 2 (see `edge_vertices`).
         let wanted: Vec<Vec<EdgeNumber>> = bricks
             .par_iter()
             .map(|(_, brick)| {
                 let mut wanted = vec![];
                 for (slot, mask) in brick.visited() {
                     if crossed(mask, CellShape::Cubes) {
-                        wanted.extend(cubes::owned_crossed_axes(mask).map(|axis| (slot * 3 + axis) as EdgeNumber));
+                        wanted.extend(cubes::owned_crossed_axes(mask).map(|axis| (slot * kinds + axis) as EdgeNumber));
                     }
                 }
                 wanted
