@@ -47,6 +47,26 @@ fn sphere_vertices_lie_on_the_iso_sphere_and_the_mesh_is_closed_with_outward_nor
     }
 }
 
+#[test]
+fn every_cube_vertex_lies_exactly_in_the_two_lattice_planes_of_its_edge() {
+    // What finding self-intersections cube by cube relies on: a vertex
+    // placed along an edge keeps the coordinates its ends share, bit for bit.
+    for scene in ["medusa.ron", "particles.ron", "sharp.ron", "warps.ron"] {
+        let model = bundled(scene).model;
+        for vertex in [VertexPlacement::default(), VertexPlacement::Linear] {
+            let lattice = Lattice::across(&model.bounds(), 40);
+            let (_, mesh) =
+                polygonize(&model, EvalMode::Indexed, 40, PolygonizeOptions { vertex, ..Default::default() });
+            assert!(mesh.positions.len() > 100, "{scene}");
+            for p in &mesh.positions {
+                let plane = lattice.position(lattice.nearest_corner((*p).into()));
+                let on = (0..3).filter(|&i| p[i] == plane[i]).count();
+                assert!(on >= 2, "{scene} {vertex:?}: {p} lies in {on} lattice planes");
+            }
+        }
+    }
+}
+
 /// A ball with a ball-shaped cavity, both skeletons at the centre (found by
 /// fuzzing): a march from the centre meets the cavity's wall first. It must
 /// go on to the outer surface, or the mesh is the cavity alone.

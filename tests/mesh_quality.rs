@@ -7,11 +7,14 @@ use std::collections::{HashMap, HashSet};
 
 use blobtrace::field::EvalMode;
 use blobtrace::mesh::Mesh;
-use blobtrace::mesh::quality::{ComponentSummary, Components, Edges, MeshQuality, self_intersections};
+use blobtrace::mesh::quality::{
+    ComponentSummary, Components, Edges, MeshQuality, self_intersections, self_intersections_in_cubes,
+};
 use blobtrace::mesh::repair::{drop_small_components, fix_normals, snap_to_corners};
+use blobtrace::mesh::{CellShape, Lattice, PolygonizeOptions, VertexPlacement};
 use blobtrace::pipeline::{MeshRepair, PolygonizeSettings, Silent, polygonize};
 use blobtrace::scene::Scene;
-use common::{blobtrace, scratch};
+use common::{blobtrace, bundled, scratch};
 use glam::Vec3;
 
 /// A mesh from positions and triangles, with normals from the faces.
@@ -166,6 +169,36 @@ fn triangles_cutting_through_each_other_are_found_and_neighbours_are_not() {
     assert_eq!(pairs, [(0, 12), (3, 12)], "one half of the bottom and one of the top");
     assert_eq!(MeshQuality::of(&m).self_intersections, Some(2));
     assert!(self_intersections(&torus(12).positions, &torus(12).triangles).is_empty());
+}
+
+#[test]
+fn every_bundled_scene_crosses_itself_cube_by_cube_as_the_walk_over_all_finds() {
+    // Cube meshes take the one pass over their triangles in order; reversed,
+    // they are sorted by cube first; tetrahedra lie across cubes and are walked.
+    let mut crossings = 0;
+    let scenes =
+        ["bottle", "crown", "example", "hair_point", "medusa", "pair", "particles", "sharp", "sphere", "warps"];
+    for scene in scenes.map(|s| format!("{s}.ron")) {
+        let model = bundled(&scene).model;
+        for (cells, vertex) in [
+            (CellShape::Cubes, VertexPlacement::default()),
+            (CellShape::Cubes, VertexPlacement::Linear),
+            (CellShape::Bcc, VertexPlacement::Linear),
+        ] {
+            let (_, m) = common::polygonize(&model, EvalMode::Indexed, 48, PolygonizeOptions { cells, vertex });
+            let lattice = Lattice::across(&model.bounds(), 48);
+            let walked = self_intersections(&m.positions, &m.triangles);
+            let what = format!("{scene} {cells:?} {vertex:?}");
+            assert_eq!(self_intersections_in_cubes(&m.positions, &m.triangles, &lattice), walked, "{what}");
+            let n = m.triangles.len() as u32;
+            let reversed: Vec<[u32; 3]> = m.triangles.iter().rev().copied().collect();
+            let mut back: Vec<(u32, u32)> = walked.iter().map(|&(s, t)| (n - 1 - t, n - 1 - s)).collect();
+            back.sort_unstable();
+            assert_eq!(self_intersections_in_cubes(&m.positions, &reversed, &lattice), back, "{what}, reversed");
+            crossings += walked.len();
+        }
+    }
+    assert!(crossings > 0, "some bundled mesh crosses itself");
 }
 
 #[test]

@@ -62,7 +62,7 @@ pub fn place_on_edge<F: Field + ?Sized>(
     };
     let mut t = secant(lo, glo, hi, ghi);
     let VertexPlacement::Root { tolerance } = placement else {
-        return (a.lerp(b, t), 0);
+        return (along(a, b, t), 0);
     };
     let mut evals = 0;
     // Which end was kept last: Illinois halves its value when it is kept twice.
@@ -70,7 +70,7 @@ pub fn place_on_edge<F: Field + ?Sized>(
     // The ends' values as evaluated (Illinois scales `glo` and `ghi`).
     let (mut vlo, mut vhi) = (glo, ghi);
     while evals < MAX_ROOT_EVALS && hi - lo > tolerance {
-        let g = field.value(a.lerp(b, t)) - t0;
+        let g = field.value(along(a, b, t)) - t0;
         evals += 1;
         if g == 0.0 {
             break;
@@ -111,7 +111,16 @@ pub fn place_on_edge<F: Field + ?Sized>(
             break;
         }
     }
-    (a.lerp(b, t), evals)
+    (along(a, b, t), evals)
+}
+
+/// The point a fraction `t` of the way from `a` to `b`. Unlike `lerp`'s
+/// `a·(1 − t) + b·t`, it keeps the coordinates the ends share exactly, so a
+/// vertex lies in the lattice planes of its edge bit for bit (what finding
+/// self-intersections cube by cube relies on).
+#[inline]
+fn along(a: Vec3A, b: Vec3A, t: f32) -> Vec3A {
+    a + (b - a) * t
 }
 
 /// Where the parabola in `t` through three points `(t, value)` with distinct

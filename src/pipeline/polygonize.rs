@@ -253,7 +253,7 @@ pub(super) fn polygonize_checked(
     let repairs = (!settings.repair.is_none())
         .then(|| stage(progress, "repairing the mesh", || repair_mesh(model, fine, &mut mesh, &settings.repair)));
     let memory = MeshMemory::measured(before, mesh.triangles.len());
-    let mut report = report(model, mode, settings, &mesh, counts, fine.cell, progress);
+    let mut report = report(model, mode, settings, &mesh, counts, &fine, progress);
     (report.repairs, report.memory) = (repairs, memory);
     (mesh, report)
 }
@@ -264,12 +264,12 @@ fn report(
     settings: &PolygonizeSettings,
     mesh: &Mesh,
     counts: RunCounts,
-    cell_size: f32,
+    lattice: &Lattice,
     progress: &dyn Progress,
 ) -> MeshReport {
     let seconds = counts.seconds;
     let start = Instant::now();
-    let quality = stage(progress, "checking the mesh", || MeshQuality::at_level(mesh, settings.quality));
+    let quality = stage(progress, "checking the mesh", || MeshQuality::at_level(mesh, settings.quality, Some(lattice)));
     let quality_seconds = start.elapsed().as_secs_f64();
     // Watertightness is reported whatever the level: it costs one pass over the edges.
     let closed_manifold = quality.as_ref().map_or_else(|| mesh.topology().is_closed_manifold(), |q| q.watertight)
@@ -279,7 +279,7 @@ fn report(
         seconds,
         res: settings.fine_res(),
         coarse_res: (settings.refine > 0).then_some(settings.res),
-        cell_size,
+        cell_size: lattice.cell,
         cells: cells_name(settings.cells).into(),
         vertex: vertex_name(settings.vertex).into(),
         triangles: mesh.triangles.len(),

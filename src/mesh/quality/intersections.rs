@@ -24,13 +24,7 @@ pub fn self_intersections(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<(u3
     if triangles.len() < 2 {
         return vec![];
     }
-    let boxes: Vec<Box3> = triangles
-        .par_iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| Vec3A::from(positions[i as usize]));
-            Box3 { lo: a.min(b).min(c), hi: a.max(b).max(c) }
-        })
-        .collect();
+    let boxes: Vec<Box3> = triangles.par_iter().map(|&t| Box3::of(positions, t)).collect();
     let tree = Tree::over(&boxes);
     // In the tree's order, so that a leaf's triangles and their neighbours'
     // are read from nearby memory.
@@ -44,17 +38,23 @@ pub fn self_intersections(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<(u3
 
 /// An axis-aligned box.
 #[derive(Clone, Copy)]
-struct Box3 {
-    lo: Vec3A,
-    hi: Vec3A,
+pub(super) struct Box3 {
+    pub lo: Vec3A,
+    pub hi: Vec3A,
 }
 
 impl Box3 {
-    fn union(self, o: Box3) -> Box3 {
+    /// The box of triangle `t`.
+    pub fn of(positions: &[Vec3], t: [u32; 3]) -> Self {
+        let [a, b, c] = t.map(|i| Vec3A::from(positions[i as usize]));
+        Box3 { lo: a.min(b).min(c), hi: a.max(b).max(c) }
+    }
+
+    pub fn union(self, o: Box3) -> Box3 {
         Box3 { lo: self.lo.min(o.lo), hi: self.hi.max(o.hi) }
     }
 
-    fn meets(&self, o: &Box3) -> bool {
+    pub fn meets(&self, o: &Box3) -> bool {
         self.lo.cmple(o.hi).all() && o.lo.cmple(self.hi).all()
     }
 
@@ -219,16 +219,21 @@ impl Walk<'_> {
         if !self.tree.boxes[s as usize].meets(&self.tree.boxes[t as usize]) {
             return;
         }
-        let (ts, tt) = (self.triangles[s as usize], self.triangles[t as usize]);
-        if ts.iter().any(|v| tt.contains(v)) {
-            return;
-        }
-        let corners = |t: [u32; 3]| t.map(|i| self.positions[i as usize].as_dvec3());
-        if triangles_cross(corners(ts), corners(tt)) {
+        if unshared_cross(self.positions, self.triangles[s as usize], self.triangles[t as usize]) {
             let (s, t) = (self.tree.order[s as usize], self.tree.order[t as usize]);
             found.push((s.min(t), s.max(t)));
         }
     }
+}
+
+/// True when triangles `a` and `b` share no vertex and cut through each
+/// other (their boxes, which meet, are not looked at).
+pub(super) fn unshared_cross(positions: &[Vec3], a: [u32; 3], b: [u32; 3]) -> bool {
+    if a.iter().any(|v| b.contains(v)) {
+        return false;
+    }
+    let corners = |t: [u32; 3]| t.map(|i| positions[i as usize].as_dvec3());
+    triangles_cross(corners(a), corners(b))
 }
 
 /// True when some side of either triangle passes through the other's interior.

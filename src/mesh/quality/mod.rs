@@ -7,9 +7,11 @@
 //! - `components`: pieces joined through shared edges, with χ and genus;
 //! - `shape`: smallest angles and the quality histogram;
 //! - `normals`: vertex normals against the faces around them;
-//! - `intersections`: triangles cutting through each other, found through a BVH.
+//! - `intersections`: triangles cutting through each other, found through a tree of boxes;
+//! - `cubes`: the same, cube by cube, for a mesh cut on a lattice's cubes.
 
 mod components;
+mod cubes;
 mod edges;
 mod intersections;
 mod normals;
@@ -18,12 +20,13 @@ mod shape;
 use serde::Serialize;
 
 pub use components::{Component, Components};
+pub use cubes::self_intersections_in_cubes;
 pub use edges::{EdgeKind, Edges, Side, kind};
 pub use intersections::{self_intersections, triangles_cross};
 pub use normals::{NormalCheck, against_faces, face_normal_sums};
 pub use shape::{QUALITY_BINS, QUALITY_MEASURE, ShapeQuality, triangle_shape};
 
-use super::{Mesh, Topology};
+use super::{Lattice, Mesh, Topology};
 
 /// Pieces this small or smaller are counted as islands by default.
 pub const DEFAULT_ISLAND_TRIANGLES: u32 = 50;
@@ -105,20 +108,22 @@ impl MeshQuality {
     /// Every figure for `mesh`.
     #[must_use]
     pub fn of(mesh: &Mesh) -> Self {
-        Self::measured(mesh, true)
+        Self::measured(mesh, true, None)
     }
 
-    /// The figures `level` asks for (`None` when it is [`QualityLevel::Off`]).
+    /// The figures `level` asks for (`None` when it is [`QualityLevel::Off`]),
+    /// for a mesh cut on the cubes of `lattice` if one is given (which only
+    /// makes the self-intersections faster to find).
     #[must_use]
-    pub fn at_level(mesh: &Mesh, level: QualityLevel) -> Option<Self> {
+    pub fn at_level(mesh: &Mesh, level: QualityLevel, lattice: Option<&Lattice>) -> Option<Self> {
         match level {
             QualityLevel::Off => None,
-            QualityLevel::Summary => Some(Self::measured(mesh, false)),
-            QualityLevel::Full => Some(Self::measured(mesh, true)),
+            QualityLevel::Summary => Some(Self::measured(mesh, false, lattice)),
+            QualityLevel::Full => Some(Self::measured(mesh, true, lattice)),
         }
     }
 
-    fn measured(mesh: &Mesh, intersections: bool) -> Self {
+    fn measured(mesh: &Mesh, intersections: bool, lattice: Option<&Lattice>) -> Self {
         let edges = Edges::of(&mesh.triangles);
         let topology = Topology::from_edges(&mesh.triangles, &edges);
         let components = Components::of(&mesh.triangles, &edges);
@@ -129,8 +134,14 @@ impl MeshQuality {
             components: ComponentSummary::of(&components, DEFAULT_ISLAND_TRIANGLES),
             shape: ShapeQuality::of(&mesh.positions, &mesh.triangles),
             normals: NormalCheck::of(&mesh.positions, &mesh.normals, &mesh.triangles),
-            self_intersections: intersections
-                .then(|| self_intersections(&mesh.positions, &mesh.triangles).len() as u64),
+            self_intersections: intersections.then(|| {
+                let (positions, triangles) = (&mesh.positions, &mesh.triangles);
+                let pairs = match lattice {
+                    Some(lattice) => self_intersections_in_cubes(positions, triangles, lattice),
+                    None => self_intersections(positions, triangles),
+                };
+                pairs.len() as u64
+            }),
         }
     }
 
