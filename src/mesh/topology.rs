@@ -1,6 +1,8 @@
 //! Whether a triangle mesh is watertight: every edge shared by exactly two
 //! triangles that traverse it in opposite directions.
 
+use rayon::prelude::*;
+
 use super::quality::{EdgeKind, Edges, kind};
 
 /// Edge statistics of a triangle mesh.
@@ -28,8 +30,7 @@ impl Topology {
     /// The edge statistics of `triangles`, whose edges are `edges`.
     #[must_use]
     pub fn from_edges(triangles: &[[u32; 3]], edges: &Edges) -> Self {
-        let mut topo = Topology::default();
-        for sides in edges.groups() {
+        let runs = edges.fold_groups(Topology::default, |topo, sides| {
             topo.edges += 1;
             match kind(sides) {
                 EdgeKind::Manifold => {}
@@ -37,12 +38,15 @@ impl Topology {
                 EdgeKind::Misoriented => topo.misoriented_edges += 1,
                 EdgeKind::Nonmanifold => topo.nonmanifold_edges += 1,
             }
-        }
-        let mut used = vec![false; triangles.iter().flatten().max().map_or(0, |&v| v as usize + 1)];
-        for &v in triangles.iter().flatten() {
-            used[v as usize] = true;
-        }
-        let vertices = used.iter().filter(|&&u| u).count();
+        });
+        let mut topo = runs.iter().fold(Topology::default(), |sum, run| Topology {
+            edges: sum.edges + run.edges,
+            boundary_edges: sum.boundary_edges + run.boundary_edges,
+            nonmanifold_edges: sum.nonmanifold_edges + run.nonmanifold_edges,
+            misoriented_edges: sum.misoriented_edges + run.misoriented_edges,
+            euler_characteristic: 0,
+        });
+        let vertices = (0..edges.vertices() as u32).into_par_iter().filter(|&v| !edges.star(v).is_empty()).count();
         topo.euler_characteristic = vertices as i64 - topo.edges as i64 + triangles.len() as i64;
         topo
     }

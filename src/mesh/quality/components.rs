@@ -1,9 +1,14 @@
 //! Connected pieces of a mesh: triangles joined through shared edges, each
-//! piece with its own Euler characteristic and, when it is closed, its genus.
+//! piece with its own Euler characteristic and, when it is closed, its genus;
+//! and, from the same pass over the edges, the whole mesh's [`Topology`].
 
+use std::sync::atomic::{AtomicU8, AtomicU32, Ordering};
+
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::edges::{EdgeKind, Edges, kind};
+use crate::mesh::Topology;
 
 /// One connected piece of a mesh.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -32,85 +37,105 @@ pub struct Components {
     pub pieces: Vec<Component>,
     /// The index in `pieces` of each triangle's piece.
     pub of_triangle: Vec<u32>,
+    /// Edge sharing and orientation over the whole mesh.
+    pub topology: Topology,
 }
 
 impl Components {
     /// The pieces of `triangles`, whose edges are `edges`.
     #[must_use]
     pub fn of(triangles: &[[u32; 3]], edges: &Edges) -> Self {
-        let mut sets = DisjointSets::new(triangles.len());
-        for sides in edges.groups() {
-            for side in &sides[1..] {
-                sets.join(sides[0].triangle, side.triangle);
-            }
-        }
-        let roots: Vec<u32> = (0..triangles.len() as u32).map(|t| sets.root(t)).collect();
-        // Pieces numbered by first triangle, then renumbered largest first.
-        let mut first_number = vec![u32::MAX; triangles.len()];
-        let mut numbered = 0u32;
-        let mut of_triangle: Vec<u32> = roots
-            .iter()
-            .map(|&r| {
-                let n = &mut first_number[r as usize];
-                if *n == u32::MAX {
-                    *n = numbered;
-                    numbered += 1;
+        let n = triangles.len();
+        let parents: Vec<AtomicU32> = (0..n as u32).into_par_iter().map(AtomicU32::new).collect();
+        // For each triangle, the edges it comes first on: how many, and how
+        // many of them are boundary, misoriented or nonmanifold edges (at most
+        // three each: two bits).
+        let firsts: Vec<AtomicU8> = (0..n).into_par_iter().map(|_| AtomicU8::new(0)).collect();
+        edges.fold_groups(
+            || (),
+            |(), sides| {
+                for side in &sides[1..] {
+                    join(&parents, sides[0].triangle, side.triangle);
                 }
-                *n
-            })
-            .collect();
+                let open = match kind(sides) {
+                    EdgeKind::Manifold => 0,
+                    EdgeKind::Boundary => 1 << 2,
+                    EdgeKind::Misoriented => 1 << 4,
+                    EdgeKind::Nonmanifold => 1 << 6,
+                };
+                firsts[sides[0].triangle as usize].fetch_add(1 | open, Ordering::Relaxed);
+            },
+        );
+        let roots: Vec<u32> = (0..n as u32).into_par_iter().map(|t| root(&parents, t)).collect();
+        drop(parents);
+        // Pieces numbered by first triangle, which is each piece's root.
+        let mut of_triangle = vec![0u32; n];
+        let mut numbered = 0u32;
+        for (t, &r) in roots.iter().enumerate() {
+            of_triangle[t] = if r as usize == t {
+                numbered += 1;
+                numbered - 1
+            } else {
+                of_triangle[r as usize]
+            };
+        }
+        drop(roots);
         let mut pieces = vec![Tally::default(); numbered as usize];
-        for &c in &of_triangle {
-            pieces[c as usize].triangles += 1;
+        for (&c, first) in of_triangle.iter().zip(&firsts) {
+            let (piece, first) = (&mut pieces[c as usize], u32::from(first.load(Ordering::Relaxed)));
+            piece.triangles += 1;
+            piece.edges += first & 3;
+            piece.boundary_edges += first >> 2 & 3;
+            piece.misoriented_edges += first >> 4 & 3;
+            piece.nonmanifold_edges += first >> 6;
         }
-        for sides in edges.groups() {
-            let piece = &mut pieces[of_triangle[sides[0].triangle as usize] as usize];
-            piece.edges += 1;
-            match kind(sides) {
-                EdgeKind::Manifold => {}
-                EdgeKind::Boundary => piece.boundary_edges += 1,
-                EdgeKind::Misoriented | EdgeKind::Nonmanifold => piece.other_open_edges += 1,
-            }
-        }
-        for (c, _) in vertex_uses(triangles, &of_triangle) {
-            pieces[c as usize].vertices += 1;
-        }
+        let vertices = count_vertices(edges, &of_triangle, &mut pieces);
+        let topology = Topology {
+            edges: pieces.iter().map(|p| p.edges as usize).sum(),
+            boundary_edges: pieces.iter().map(|p| p.boundary_edges as usize).sum(),
+            nonmanifold_edges: pieces.iter().map(|p| p.nonmanifold_edges as usize).sum(),
+            misoriented_edges: pieces.iter().map(|p| p.misoriented_edges as usize).sum(),
+            euler_characteristic: 0,
+        };
+        let topology =
+            Topology { euler_characteristic: vertices as i64 - topology.edges as i64 + n as i64, ..topology };
         let mut order: Vec<u32> = (0..numbered).collect();
         order.sort_by_key(|&c| std::cmp::Reverse(pieces[c as usize].triangles));
         let mut rank = vec![0u32; order.len()];
         for (r, &c) in order.iter().enumerate() {
             rank[c as usize] = r as u32;
         }
-        for c in &mut of_triangle {
-            *c = rank[*c as usize];
-        }
-        Self { pieces: order.iter().map(|&c| pieces[c as usize].component()).collect(), of_triangle }
+        of_triangle.par_iter_mut().for_each(|c| *c = rank[*c as usize]);
+        Self { pieces: order.iter().map(|&c| pieces[c as usize].component()).collect(), of_triangle, topology }
     }
 }
 
-/// Each (piece, vertex) pair once: a vertex belongs to the piece of the
-/// first triangle using it, and, rarely (pieces touching at a vertex), to others.
-fn vertex_uses(triangles: &[[u32; 3]], of_triangle: &[u32]) -> Vec<(u32, u32)> {
-    const NONE: u32 = u32::MAX;
-    let mut first = vec![NONE; triangles.iter().flatten().max().map_or(0, |&v| v as usize + 1)];
-    let mut uses = vec![];
-    let mut shared = vec![];
-    for (tri, &c) in triangles.iter().zip(of_triangle) {
-        for &v in tri {
-            match first[v as usize] {
-                NONE => {
-                    first[v as usize] = c;
-                    uses.push((c, v));
-                }
-                owner if owner != c => shared.push((c, v)),
-                _ => {}
+/// Adds to each piece the vertices its triangles use: a vertex counts once
+/// for each piece among its star's (more than one only where pieces touch
+/// at it). Returns how many vertices the triangles use.
+fn count_vertices(edges: &Edges, of_triangle: &[u32], pieces: &mut [Tally]) -> usize {
+    let mut used = 0;
+    let mut seen: Vec<u32> = Vec::with_capacity(8);
+    for v in 0..edges.vertices() as u32 {
+        let star = edges.star(v);
+        let Some(&first) = star.first() else { continue };
+        let piece = of_triangle[first as usize];
+        pieces[piece as usize].vertices += 1;
+        used += 1;
+        if star.iter().all(|&t| of_triangle[t as usize] == piece) {
+            continue;
+        }
+        seen.clear();
+        seen.push(piece);
+        for &t in star {
+            let other = of_triangle[t as usize];
+            if !seen.contains(&other) {
+                seen.push(other);
+                pieces[other as usize].vertices += 1;
             }
         }
     }
-    shared.sort_unstable();
-    shared.dedup();
-    uses.extend(shared);
-    uses
+    used
 }
 
 /// Counts gathered for one piece.
@@ -120,13 +145,14 @@ struct Tally {
     vertices: u32,
     edges: u32,
     boundary_edges: u32,
-    other_open_edges: u32,
+    misoriented_edges: u32,
+    nonmanifold_edges: u32,
 }
 
 impl Tally {
     fn component(self) -> Component {
         let euler = i64::from(self.vertices) - i64::from(self.edges) + i64::from(self.triangles);
-        let closed = self.boundary_edges == 0 && self.other_open_edges == 0;
+        let closed = self.boundary_edges == 0 && self.misoriented_edges == 0 && self.nonmanifold_edges == 0;
         Component {
             triangles: self.triangles,
             vertices: self.vertices,
@@ -139,35 +165,35 @@ impl Tally {
     }
 }
 
-/// Union–find over triangle indices, with path halving and union by size.
-struct DisjointSets {
-    parent: Vec<u32>,
-    size: Vec<u32>,
+/// The root of `x`'s set in a union–find forest shared between threads,
+/// halving the path on the way.
+fn root(parents: &[AtomicU32], mut x: u32) -> u32 {
+    loop {
+        let parent = parents[x as usize].load(Ordering::Relaxed);
+        if parent == x {
+            return x;
+        }
+        let grand = parents[parent as usize].load(Ordering::Relaxed);
+        // Another thread may have moved `x` on meanwhile; either way it
+        // points to an ancestor still.
+        let _ = parents[x as usize].compare_exchange(parent, grand, Ordering::Relaxed, Ordering::Relaxed);
+        x = grand;
+    }
 }
 
-impl DisjointSets {
-    fn new(n: usize) -> Self {
-        Self { parent: (0..n as u32).collect(), size: vec![1; n] }
-    }
-
-    fn root(&mut self, mut x: u32) -> u32 {
-        while self.parent[x as usize] != x {
-            let grand = self.parent[self.parent[x as usize] as usize];
-            self.parent[x as usize] = grand;
-            x = grand;
-        }
-        x
-    }
-
-    fn join(&mut self, a: u32, b: u32) {
-        let (mut a, mut b) = (self.root(a), self.root(b));
-        if a == b {
+/// Joins the sets of `a` and `b`: the root with the higher index is hung
+/// below the other, so whatever the order of the joins, each set's root
+/// ends as its least member.
+fn join(parents: &[AtomicU32], a: u32, b: u32) {
+    loop {
+        let (ra, rb) = (root(parents, a), root(parents, b));
+        if ra == rb {
             return;
         }
-        if self.size[a as usize] < self.size[b as usize] {
-            std::mem::swap(&mut a, &mut b);
+        let (low, high) = (ra.min(rb), ra.max(rb));
+        // Fails only when another thread hung `high` first: try again from the roots.
+        if parents[high as usize].compare_exchange(high, low, Ordering::Relaxed, Ordering::Relaxed).is_ok() {
+            return;
         }
-        self.parent[b as usize] = a;
-        self.size[a as usize] += self.size[b as usize];
     }
 }

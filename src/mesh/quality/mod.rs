@@ -125,15 +125,15 @@ impl MeshQuality {
 
     fn measured(mesh: &Mesh, intersections: bool, lattice: Option<&Lattice>) -> Self {
         let edges = Edges::of(&mesh.triangles);
-        let topology = Topology::from_edges(&mesh.triangles, &edges);
         let components = Components::of(&mesh.triangles, &edges);
+        let topology = components.topology;
         Self {
             topology,
             // No triangles enclose nothing: an empty mesh is no closed surface.
             watertight: !mesh.triangles.is_empty() && topology.is_closed_manifold(),
             components: ComponentSummary::of(&components, DEFAULT_ISLAND_TRIANGLES),
             shape: ShapeQuality::of(&mesh.positions, &mesh.triangles),
-            normals: NormalCheck::of(&mesh.positions, &mesh.normals, &mesh.triangles),
+            normals: NormalCheck::of(&mesh.positions, &mesh.normals, &edges),
             self_intersections: intersections.then(|| {
                 let (positions, triangles) = (&mesh.positions, &mesh.triangles);
                 let pairs = match lattice {

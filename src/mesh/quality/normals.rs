@@ -4,7 +4,10 @@
 //! vanishes); shading then turns dark or inside out there.
 
 use glam::Vec3;
+use rayon::prelude::*;
 use serde::Serialize;
+
+use super::edges::Edges;
 
 /// How the vertex normals agree with the faces around them.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -39,23 +42,45 @@ pub fn against_faces(normals: &[Vec3], face_sums: &[Vec3]) -> Vec<u32> {
 }
 
 impl NormalCheck {
-    /// Checks `normals` against the faces of `triangles`.
+    /// Checks `normals` against the faces around each vertex, found through
+    /// the stars of `edges`, vertex by vertex in parallel (each vertex's
+    /// faces added in the order of [`face_normal_sums`], so the figures are the same).
     #[must_use]
-    pub fn of(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> Self {
-        let sums = face_normal_sums(positions, triangles);
-        let mut check = Self { against_faces: 0, smallest_cosine: 1.0, zero: 0 };
-        for (n, s) in normals.iter().zip(&sums) {
-            if *s == Vec3::ZERO {
-                continue;
-            }
-            if *n == Vec3::ZERO {
-                check.zero += 1;
-                continue;
-            }
-            let cosine = f64::from(n.normalize().dot(s.normalize()));
-            check.against_faces += u64::from(cosine < 0.0);
-            check.smallest_cosine = check.smallest_cosine.min(cosine);
+    pub fn of(positions: &[Vec3], normals: &[Vec3], edges: &Edges) -> Self {
+        let triangles = edges.triangles();
+        let runs: Vec<Self> = edges
+            .vertex_runs()
+            .into_par_iter()
+            .map(|run| {
+                let mut check = Self { against_faces: 0, smallest_cosine: 1.0, zero: 0 };
+                for v in run.filter(|&v| (v as usize) < normals.len()) {
+                    let sum = edges.star(v).iter().fold(Vec3::ZERO, |sum, &t| {
+                        let [a, b, c] = triangles[t as usize].map(|i| positions[i as usize]);
+                        sum + (b - a).cross(c - a)
+                    });
+                    check.add(normals[v as usize], sum);
+                }
+                check
+            })
+            .collect();
+        runs.into_iter().fold(Self { against_faces: 0, smallest_cosine: 1.0, zero: 0 }, |a, b| Self {
+            against_faces: a.against_faces + b.against_faces,
+            smallest_cosine: a.smallest_cosine.min(b.smallest_cosine),
+            zero: a.zero + b.zero,
+        })
+    }
+
+    /// Checks one vertex's normal `n` against the sum of its faces' normals.
+    fn add(&mut self, n: Vec3, sum: Vec3) {
+        if sum == Vec3::ZERO {
+            return;
         }
-        check
+        if n == Vec3::ZERO {
+            self.zero += 1;
+            return;
+        }
+        let cosine = f64::from(n.normalize().dot(sum.normalize()));
+        self.against_faces += u64::from(cosine < 0.0);
+        self.smallest_cosine = self.smallest_cosine.min(cosine);
     }
 }

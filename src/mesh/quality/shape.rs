@@ -32,25 +32,52 @@ pub struct ShapeQuality {
 /// Quality and smallest angle (degrees) of the triangle `a b c`, in double precision.
 #[must_use]
 pub fn triangle_shape(a: DVec3, b: DVec3, c: DVec3) -> (f64, f64) {
-    let (ab, bc, ca) = (b - a, c - b, a - c);
-    let doubled_area = ab.cross(-ca).length();
-    let (l_ab, l_bc, l_ca) = (ab.length_squared(), bc.length_squared(), ca.length_squared());
-    let squares = l_ab + l_bc + l_ca;
-    let quality = if squares > 0.0 { (3f64.sqrt() * 2.0 * doubled_area / squares).min(1.0) } else { 0.0 };
-    // The smallest angle faces the shortest side (the law of sines): one
-    // arctangent instead of three.
-    let angle = |u: DVec3, v: DVec3| u.cross(v).length().atan2(u.dot(v)).to_degrees();
-    let smallest = if l_ab.min(l_bc).min(l_ca) == 0.0 {
-        // Two corners in one place: the angle facing them is nothing.
-        0.0
-    } else if l_bc <= l_ab && l_bc <= l_ca {
-        angle(ab, -ca)
-    } else if l_ca <= l_ab {
-        angle(bc, -ab)
-    } else {
-        angle(ca, -bc)
-    };
-    (quality, smallest)
+    let sides = Sides::of(a, b, c);
+    (sides.quality(), sides.smallest_corner().map_or(0.0, |(u, v)| angle(u, v)))
+}
+
+/// A triangle's sides and their squared lengths.
+struct Sides {
+    ab: DVec3,
+    bc: DVec3,
+    ca: DVec3,
+    l_ab: f64,
+    l_bc: f64,
+    l_ca: f64,
+}
+
+impl Sides {
+    fn of(a: DVec3, b: DVec3, c: DVec3) -> Self {
+        let (ab, bc, ca) = (b - a, c - b, a - c);
+        Self { ab, bc, ca, l_ab: ab.length_squared(), l_bc: bc.length_squared(), l_ca: ca.length_squared() }
+    }
+
+    fn quality(&self) -> f64 {
+        let doubled_area = self.ab.cross(-self.ca).length();
+        let squares = self.l_ab + self.l_bc + self.l_ca;
+        if squares > 0.0 { (3f64.sqrt() * 2.0 * doubled_area / squares).min(1.0) } else { 0.0 }
+    }
+
+    /// The two sides meeting at the smallest angle, which faces the shortest
+    /// side (the law of sines); `None` when two corners are in one place,
+    /// where the angle facing them is nothing.
+    fn smallest_corner(&self) -> Option<(DVec3, DVec3)> {
+        let (ab, bc, ca) = (self.ab, self.bc, self.ca);
+        if self.l_ab.min(self.l_bc).min(self.l_ca) == 0.0 {
+            None
+        } else if self.l_bc <= self.l_ab && self.l_bc <= self.l_ca {
+            Some((ab, -ca))
+        } else if self.l_ca <= self.l_ab {
+            Some((bc, -ab))
+        } else {
+            Some((ca, -bc))
+        }
+    }
+}
+
+/// The angle between `u` and `v`, in degrees.
+fn angle(u: DVec3, v: DVec3) -> f64 {
+    u.cross(v).length().atan2(u.dot(v)).to_degrees()
 }
 
 impl ShapeQuality {
@@ -65,7 +92,7 @@ impl ShapeQuality {
             .map(|run| {
                 run.iter().fold(Tally::default(), |mut tally, t| {
                     let [a, b, c] = t.map(|i| positions[i as usize].as_dvec3());
-                    tally.add(triangle_shape(a, b, c));
+                    tally.add(&Sides::of(a, b, c));
                     tally
                 })
             })
@@ -92,21 +119,65 @@ struct Tally {
     histogram: [u64; QUALITY_BINS],
     sum: f64,
     min_angle: f64,
+    /// `u · v` and `|u × v|²` of the sides at `min_angle`.
+    least: (f64, f64),
     below_1_degree: u64,
+    /// `tan² 1°`.
+    tan_squared_one_degree: f64,
 }
 
 impl Default for Tally {
     fn default() -> Self {
-        Self { histogram: [0; QUALITY_BINS], sum: 0.0, min_angle: f64::INFINITY, below_1_degree: 0 }
+        Self {
+            histogram: [0; QUALITY_BINS],
+            sum: 0.0,
+            min_angle: f64::INFINITY,
+            least: (0.0, 0.0),
+            below_1_degree: 0,
+            tan_squared_one_degree: 1f64.to_radians().tan().powi(2),
+        }
     }
 }
 
+/// How far, relatively, the comparisons of squared tangents keep from
+/// their boundary before the angle itself is computed: far wider than
+/// their rounding, so they decide only where the arctangent would agree.
+const MARGIN: f64 = 1e-6;
+
 impl Tally {
-    fn add(&mut self, (quality, angle): (f64, f64)) {
+    /// Tallies one triangle. The arctangent of its smallest angle (most of
+    /// the cost) is taken only where that angle may be the least so far or
+    /// near 1°; elsewhere comparing tangents decides (`tan θ = |u × v| / u · v`).
+    fn add(&mut self, sides: &Sides) {
+        let quality = sides.quality();
         self.histogram[((quality * QUALITY_BINS as f64) as usize).min(QUALITY_BINS - 1)] += 1;
         self.sum += quality;
-        self.min_angle = self.min_angle.min(angle);
+        let Some((u, v)) = sides.smallest_corner() else {
+            self.min_angle = self.min_angle.min(0.0);
+            self.least = (1.0, 0.0);
+            self.below_1_degree += 1;
+            return;
+        };
+        let (x, y2) = (u.dot(v), u.cross(v).length_squared());
+        let one = x * x * self.tan_squared_one_degree;
+        let (lx, ly2) = self.least;
+        let clearly = if x > 0.0 && y2 < one * (1.0 - MARGIN) {
+            Some(true)
+        } else if x > 0.0 && y2 > one * (1.0 + MARGIN) {
+            Some(false)
+        } else {
+            None
+        };
+        let maybe_least = !(x > 0.0 && lx > 0.0 && y2 * lx * lx > ly2 * x * x * (1.0 + MARGIN));
+        if clearly.is_some() && !maybe_least {
+            self.below_1_degree += u64::from(clearly == Some(true));
+            return;
+        }
+        let angle = angle(u, v);
         self.below_1_degree += u64::from(angle < 1.0);
+        if angle < self.min_angle {
+            (self.min_angle, self.least) = (angle, (x, y2));
+        }
     }
 
     fn join(mut self, other: Self) -> Self {
@@ -132,6 +203,48 @@ mod tests {
         assert_eq!((q, angle), (0.0, 0.0), "a flat triangle");
         let (_, angle) = triangle_shape(DVec3::ZERO, DVec3::X * 2.0, DVec3::new(1.0, 1.0, 0.0));
         assert!((angle - 45.0).abs() < 1e-9, "{angle}");
+    }
+
+    #[test]
+    fn the_tally_counts_and_finds_the_least_angle_as_every_arctangent_would() {
+        // Thin triangles with smallest angles on either side of 1° by a hair,
+        // random ones, and ones with corners in one place.
+        let mut positions = vec![];
+        for k in 0..4000 {
+            let f = f64::from(k);
+            let degrees = match k % 4 {
+                0 => 1.0 + (f - 2000.0) * 1e-12,
+                1 => 1.0 + (f - 2000.0) * 1e-4,
+                2 => 30.0 + (f * 0.37).sin() * 29.0,
+                _ => 1e-3 * f,
+            };
+            let spin = DVec3::new((f * 0.11).cos(), (f * 0.13).sin(), 0.3 * (f * 0.7).cos());
+            let (u, w) = (spin.normalize(), spin.any_orthonormal_vector());
+            let a = DVec3::new(f, -f, 0.5 * f) * 0.01;
+            let b = a + u * (1.0 + 0.1 * (f * 0.3).sin());
+            let c = a + (u * degrees.to_radians().cos() + w * degrees.to_radians().sin()) * 0.8;
+            let c = if k % 97 == 0 { b } else { c };
+            positions.extend([a, b, c].map(|p| p.as_vec3()));
+        }
+        let triangles: Vec<[u32; 3]> = (0..positions.len() as u32 / 3).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
+        let shapes: Vec<(f64, f64)> = triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| positions[i as usize].as_dvec3());
+                triangle_shape(a, b, c)
+            })
+            .collect();
+        let shape = ShapeQuality::of(&positions, &triangles);
+        let least = shapes.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
+        let below = shapes.iter().filter(|s| s.1 < 1.0).count() as u64;
+        assert_eq!((shape.min_angle_degrees, shape.below_1_degree), (least, below));
+        assert!(below > 1000 && below < 3000, "{below} below 1°");
+        // Without the corners in one place, the least is a real angle.
+        let apart: Vec<[u32; 3]> = triangles.iter().copied().filter(|t| t[0] % 97 != 0).collect();
+        let least_apart =
+            shapes.iter().enumerate().filter(|(t, _)| t % 97 != 0).map(|(_, s)| s.1).fold(f64::INFINITY, f64::min);
+        assert!(least_apart > 0.0);
+        assert_eq!(ShapeQuality::of(&positions, &apart).min_angle_degrees, least_apart);
     }
 
     #[test]

@@ -119,17 +119,17 @@ fn merge_onto_corners(mesh: &mut Mesh, edges: &[Option<[IVec3; 2]>], snapped: &F
 /// triangles (a boundary edge counts too where the mesh was `closed`).
 fn pinched_corners(triangles: &[[u32; 3]], corner_of_keeper: &FxHashMap<u32, IVec3>, closed: bool) -> FxHashSet<IVec3> {
     let mut pinched = FxHashSet::default();
-    for sides in Edges::of(triangles).groups() {
+    Edges::of(triangles).for_each_group(|sides| {
         match kind(sides) {
-            EdgeKind::Manifold => continue,
-            EdgeKind::Boundary if !closed => continue,
+            EdgeKind::Manifold => return,
+            EdgeKind::Boundary if !closed => return,
             _ => {}
         }
         let edge = sides[0].edge;
         for end in [(edge >> 32) as u32, edge as u32] {
             pinched.extend(corner_of_keeper.get(&end).copied());
         }
-    }
+    });
     pinched
 }
 
