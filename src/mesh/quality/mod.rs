@@ -124,24 +124,31 @@ impl MeshQuality {
     }
 
     fn measured(mesh: &Mesh, intersections: bool, lattice: Option<&Lattice>) -> Self {
-        let edges = Edges::of(&mesh.triangles);
-        let components = Components::of(&mesh.triangles, &edges);
+        let (positions, triangles) = (&mesh.positions, &mesh.triangles);
+        // Side by side: listing the stars and numbering the pieces are partly
+        // serial, and the triangles' own figures keep the other core busy meanwhile.
+        let ((components, normals), (shape, self_intersections)) = rayon::join(
+            || {
+                let edges = Edges::of(triangles);
+                (Components::of(triangles, &edges), NormalCheck::of(positions, &mesh.normals, &edges))
+            },
+            || {
+                let crossings = intersections.then(|| match lattice {
+                    Some(lattice) => self_intersections_in_cubes(positions, triangles, lattice).len() as u64,
+                    None => self_intersections(positions, triangles).len() as u64,
+                });
+                (ShapeQuality::of(positions, triangles), crossings)
+            },
+        );
         let topology = components.topology;
         Self {
             topology,
             // No triangles enclose nothing: an empty mesh is no closed surface.
-            watertight: !mesh.triangles.is_empty() && topology.is_closed_manifold(),
+            watertight: !triangles.is_empty() && topology.is_closed_manifold(),
             components: ComponentSummary::of(&components, DEFAULT_ISLAND_TRIANGLES),
-            shape: ShapeQuality::of(&mesh.positions, &mesh.triangles),
-            normals: NormalCheck::of(&mesh.positions, &mesh.normals, &edges),
-            self_intersections: intersections.then(|| {
-                let (positions, triangles) = (&mesh.positions, &mesh.triangles);
-                let pairs = match lattice {
-                    Some(lattice) => self_intersections_in_cubes(positions, triangles, lattice),
-                    None => self_intersections(positions, triangles),
-                };
-                pairs.len() as u64
-            }),
+            shape,
+            normals,
+            self_intersections,
         }
     }
 
