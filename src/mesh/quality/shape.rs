@@ -62,16 +62,17 @@ impl Sides {
     /// side (the law of sines); `None` when two corners are in one place,
     /// where the angle facing them is nothing.
     fn smallest_corner(&self) -> Option<(DVec3, DVec3)> {
-        let (ab, bc, ca) = (self.ab, self.bc, self.ca);
         if self.l_ab.min(self.l_bc).min(self.l_ca) == 0.0 {
-            None
-        } else if self.l_bc <= self.l_ab && self.l_bc <= self.l_ca {
-            Some((ab, -ca))
-        } else if self.l_ca <= self.l_ab {
-            Some((bc, -ab))
-        } else {
-            Some((ca, -bc))
+            return None;
         }
+        // The shortest side (ab 0, bc 1, ca 2; bc, then ca, where lengths
+        // tie) picked without branches, which a random mesh mispredicts.
+        let bc_least = self.l_bc <= self.l_ab && self.l_bc <= self.l_ca;
+        let ca_least = !bc_least && self.l_ca <= self.l_ab;
+        let shortest = usize::from(bc_least) | usize::from(ca_least) << 1;
+        let sides = [self.ab, self.bc, self.ca];
+        // The corner facing side j is between sides j + 2 and j + 1.
+        Some((sides[(shortest + 2) % 3], -sides[(shortest + 1) % 3]))
     }
 }
 
@@ -90,11 +91,12 @@ impl ShapeQuality {
         let runs: Vec<Tally> = triangles
             .par_chunks(TRIANGLES_PER_RUN)
             .map(|run| {
-                run.iter().fold(Tally::default(), |mut tally, t| {
+                let mut tally = Tally::default();
+                for t in run {
                     let [a, b, c] = t.map(|i| positions[i as usize].as_dvec3());
                     tally.add(&Sides::of(a, b, c));
-                    tally
-                })
+                }
+                tally
             })
             .collect();
         let total = runs.into_iter().fold(Tally::default(), Tally::join);
