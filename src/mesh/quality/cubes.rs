@@ -18,7 +18,7 @@
 //! tried against the cubes their boxes meet and against each other; when
 //! they are many, the walk over the whole mesh is cheaper.
 
-use glam::{IVec3, Vec3};
+use glam::{IVec3, Vec3, Vec3A};
 use rayon::prelude::*;
 
 use super::intersections::{Box3, self_intersections, unshared_cross};
@@ -123,8 +123,7 @@ struct Holders {
 impl Holders {
     /// The cubes holding box `b` (`None` when none does).
     fn of(lattice: &Lattice, b: &Box3) -> Option<Self> {
-        let k = cube_holding(lattice, b)?;
-        let bounds = Box3 { lo: lattice.position(k * 2), hi: lattice.position((k + 1) * 2) };
+        let (k, bounds) = cube_and_bounds(lattice, b)?;
         // Flat on the cube's lower plane in an axis: the cube below holds it too.
         let flat = b.hi.cmple(bounds.lo).bitmask() as u8;
         let mask = (0..8u8).filter(|&d| d & !flat == 0).fold(0, |m, d| m | 1 << d);
@@ -291,15 +290,24 @@ fn cube_key(lattice: &Lattice, b: &Box3) -> u64 {
 /// The closed cube of `lattice` holding box `b` (the upper one of two
 /// when `b` lies in their common face), if any within [`REACH`].
 fn cube_holding(lattice: &Lattice, b: &Box3) -> Option<IVec3> {
-    let mut k = lattice.cube_of(b.lo);
-    if k.abs().max_element() >= REACH {
+    cube_and_bounds(lattice, b).map(|(k, _)| k)
+}
+
+/// [`cube_holding`] with the cube's bounds. Cube numbers stay floats
+/// until the end (exact below [`REACH`]), their planes computed as
+/// [`Lattice::position`] does, bit for bit.
+fn cube_and_bounds(lattice: &Lattice, b: &Box3) -> Option<(IVec3, Box3)> {
+    let half = 0.5 * lattice.cell;
+    let plane = |k: Vec3A| (k * 2.0) * half;
+    let mut k = (b.lo / lattice.cell).floor();
+    if !k.is_finite() || k.abs().max_element() >= REACH as f32 {
         return None;
     }
     // The division may round onto the next cube either way.
-    let ones = |mask: u32| IVec3::new((mask & 1) as i32, (mask >> 1 & 1) as i32, (mask >> 2) as i32);
-    k -= ones(lattice.position(k * 2).cmpgt(b.lo).bitmask());
-    k += ones(lattice.position((k + 1) * 2).cmple(b.lo).bitmask());
-    fits(lattice, b, k).then_some(k)
+    k -= Vec3A::select(plane(k).cmpgt(b.lo), Vec3A::ONE, Vec3A::ZERO);
+    k += Vec3A::select(plane(k + 1.0).cmple(b.lo), Vec3A::ONE, Vec3A::ZERO);
+    let bounds = Box3 { lo: plane(k), hi: plane(k + 1.0) };
+    (bounds.lo.cmple(b.lo).all() && b.hi.cmple(bounds.hi).all()).then(|| (k.as_ivec3(), bounds))
 }
 
 /// True when box `b` lies in the closed cube `k` of `lattice`.
@@ -321,7 +329,6 @@ fn key_of(k: IVec3) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Vec3A;
 
     /// A seeded stream of numbers in [0, 1).
     fn stream(mut seed: u64) -> impl FnMut() -> f32 {
