@@ -1,9 +1,10 @@
 //! Polygonization: Medusa from scratch with cold caches against exact naive
 //! evaluation (the caching paper's Table 1, at the sizes a benchmark run can
-//! afford), and local re-polygonization after moving the point/hair test's
-//! probe, cached against naive (its Table 2). `cargo bench --bench mesh`;
-//! `blobtrace bench mesh` and `blobtrace bench edit` print the same ratios
-//! in one process.
+//! afford), local re-polygonization after moving the point/hair test's
+//! probe, cached against naive (its Table 2), and the quality report at
+//! each level against the meshing it checks. `cargo bench --bench mesh`;
+//! `blobtrace bench mesh` and `blobtrace bench edit` print the first two's
+//! ratios in one process.
 
 /// The allocator the `blobtrace` command uses.
 #[global_allocator]
@@ -12,8 +13,9 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 use std::time::{Duration, Instant};
 
 use blobtrace::field::{Edit, EvalMode, ModelField};
+use blobtrace::mesh::quality::{MeshQuality, QualityLevel};
 use blobtrace::mesh::{Lattice, PolygonizeOptions, Polygonizer, skeleton_seeds};
-use blobtrace::pipeline::polygonizer_on;
+use blobtrace::pipeline::{PolygonizeSettings, Silent, polygonize, polygonizer_on};
 use blobtrace::scene::Scene;
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
 use glam::Vec3;
@@ -71,5 +73,22 @@ fn table_2(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, table_1, table_2);
+/// The particles at res 256 (350 k triangles) meshed, and their mesh
+/// checked at each level of the quality report.
+fn quality_report(c: &mut Criterion) {
+    let scene = load("particles.ron");
+    let settings = PolygonizeSettings { res: 256, quality: QualityLevel::Off, ..Default::default() };
+    let mesh_it = || polygonize(&scene.model, EvalMode::Indexed, &settings, &Silent).expect("the particles mesh");
+    let mut group = c.benchmark_group("particles_res256_quality");
+    group.sample_size(10);
+    group.bench_function("meshing", |b| b.iter(mesh_it));
+    let (mesh, report) = mesh_it();
+    let lattice = Lattice { cell: report.cell_size };
+    for (name, level) in [("summary", QualityLevel::Summary), ("full", QualityLevel::Full)] {
+        group.bench_function(name, |b| b.iter(|| MeshQuality::at_level(&mesh, level, Some(&lattice))));
+    }
+    group.finish();
+}
+
+criterion_group!(benches, table_1, table_2, quality_report);
 criterion_main!(benches);
