@@ -202,6 +202,26 @@ fn every_bundled_scene_crosses_itself_cube_by_cube_as_the_walk_over_all_finds() 
 }
 
 #[test]
+fn the_pieces_pass_counts_every_kind_of_edge_as_the_topology_does() {
+    let hair = bundled("hair_point.ron").model;
+    let (_, real) = common::polygonize(&hair, EvalMode::Indexed, 64, PolygonizeOptions::default());
+    let cases = [
+        // (what, triangles, [boundary, misoriented, nonmanifold] edges)
+        ("a closed tetrahedron", vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]], [0, 0, 0]),
+        ("one face turned", vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 2, 3]], [0, 3, 0]),
+        ("three triangles on one edge", vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]], [6, 0, 1]),
+        ("a corner used twice", vec![[0, 0, 1], [0, 1, 2]], [3, 0, 1]),
+        ("the point/hair mesh at res 64", real.triangles.clone(), [0, 0, 0]),
+    ];
+    for (what, triangles, [boundary, misoriented, nonmanifold]) in cases {
+        let topology = Components::of(&triangles, &Edges::of(&triangles)).topology;
+        assert_eq!(topology, blobtrace::mesh::Topology::of(&triangles), "{what}");
+        let counted = [topology.boundary_edges, topology.misoriented_edges, topology.nonmanifold_edges];
+        assert_eq!(counted, [boundary, misoriented, nonmanifold], "{what}: {topology:?}");
+    }
+}
+
+#[test]
 fn dropping_small_pieces_keeps_the_others_whole() {
     let mut m = joined(&[tetrahedron([3.0, 0.0, 0.0], 0.5), cube([0.0; 3], 1.0), tetrahedron([-3.0, 0.0, 0.0], 0.2)]);
     let cube_positions: Vec<Vec3> = m.positions[4..12].to_vec();

@@ -51,21 +51,18 @@ impl Components {
         // many of them are boundary, misoriented or nonmanifold edges (at most
         // three each: two bits).
         let firsts: Vec<AtomicU8> = (0..n).into_par_iter().map(|_| AtomicU8::new(0)).collect();
-        edges.fold_groups(
-            || (),
-            |(), sides| {
-                for side in &sides[1..] {
-                    join(&parents, sides[0].triangle, side.triangle);
-                }
-                let open = match kind(sides) {
-                    EdgeKind::Manifold => 0,
-                    EdgeKind::Boundary => 1 << 2,
-                    EdgeKind::Misoriented => 1 << 4,
-                    EdgeKind::Nonmanifold => 1 << 6,
-                };
-                firsts[sides[0].triangle as usize].fetch_add(1 | open, Ordering::Relaxed);
-            },
-        );
+        edges.par_for_each_group(|sides| {
+            for side in &sides[1..] {
+                join(&parents, sides[0].triangle, side.triangle);
+            }
+            let open = match kind(sides) {
+                EdgeKind::Manifold => 0,
+                EdgeKind::Boundary => 1 << 2,
+                EdgeKind::Misoriented => 1 << 4,
+                EdgeKind::Nonmanifold => 1 << 6,
+            };
+            firsts[sides[0].triangle as usize].fetch_add(1 | open, Ordering::Relaxed);
+        });
         let roots: Vec<u32> = (0..n as u32).into_par_iter().map(|t| root(&parents, t)).collect();
         drop(parents);
         // Pieces numbered by first triangle, which is each piece's root.

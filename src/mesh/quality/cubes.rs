@@ -7,10 +7,10 @@
 //! in the plane, a side of the first meets it only by lying in the plane
 //! too (coplanar, which is not counted) or at an end, which an open side
 //! does not hold. So triangles inside different cubes never cross, and only
-//! the triangles of one cube need trying against each other. (The
-//! coordinates of points in an axis plane are the same floating-point
-//! number, so the double-precision test sees the coplanar and end cases
-//! exactly: a zero determinant, a zero distance along the side.)
+//! the triangles of one cube need trying against each other. (Trying two
+//! triangles of different cubes that touch in the plane, the
+//! double-precision test could count them where rounding decides; here they
+//! are never tried, which is the exact answer.)
 //!
 //! A polygonizer's cube meshes put every triangle in its cube, and emit a
 //! cube's triangles together, in the order [`cube_key`] sorts. Triangles
@@ -23,6 +23,7 @@ use rayon::prelude::*;
 
 use super::intersections::{Box3, self_intersections, unshared_cross};
 use crate::mesh::Lattice;
+use crate::mesh::visited::{BRICK_SHIFT, cube_slot};
 
 /// Above this share of triangles in no one cube, the whole mesh is walked instead.
 const MOST_LOOSE: f64 = 0.25;
@@ -30,18 +31,21 @@ const MOST_LOOSE: f64 = 0.25;
 /// The key of a triangle in no one cube (or in a cube too far from the origin).
 const LOOSE: u64 = u64::MAX;
 
-/// Bits of a brick coordinate in a cube key (bricks of 8³ cubes).
+/// Bits of a brick coordinate in a cube key (bricks as the polygonizer's).
 const BRICK_BITS: u32 = 18;
 
 /// Largest distance of a cube coordinate from the origin that [`cube_key`] encodes.
-const REACH: i32 = 1 << (BRICK_BITS + 2);
+const REACH: i32 = 1 << (BRICK_BITS - 1 + BRICK_SHIFT as u32);
 
 /// Pairs `(s, t)`, `s < t`, of triangles that share no vertex and cross, in
-/// order: the same pairs as [`self_intersections`], found cube by cube of
-/// `lattice` (see the module's documentation).
+/// order, found cube by cube of `lattice`, the lattice the mesh was cut on
+/// (see the module's documentation): the pairs of [`self_intersections`],
+/// but for triangles in different cubes that only touch in a lattice plane,
+/// which that test's rounding could count.
 #[must_use]
 pub fn self_intersections_in_cubes(positions: &[Vec3], triangles: &[[u32; 3]], lattice: &Lattice) -> Vec<(u32, u32)> {
-    in_emitted_order(positions, triangles, lattice).unwrap_or_else(|| in_any_order(positions, triangles, lattice))
+    let mesh = CutMesh { positions, triangles, lattice };
+    in_emitted_order(&mesh, CHUNK).unwrap_or_else(|| in_any_order(positions, triangles, lattice))
 }
 
 /// Triangles one task starts runs in, in [`in_emitted_order`].
@@ -52,53 +56,76 @@ const CHUNK: usize = 1 << 14;
 /// emits them (`None` for any other mesh), found in one pass without a list of keys.
 ///
 /// The triangles are cut into runs, each as long as one cube holds all of
-/// it; if the runs' cubes rise from
-/// run to run, no cube has two runs, and only pairs within a run need trying.
-/// (A run that several cubes hold, such as a triangle alone in a face, takes
-/// the lowest above the run before's.)
-/// Tasks take chunks of triangles; each starts at the first triangle that
-/// no cube holds together with the one before it, where every run breaks,
-/// and finishes its last run past its chunk's end.
-fn in_emitted_order(positions: &[Vec3], triangles: &[[u32; 3]], lattice: &Lattice) -> Option<Vec<(u32, u32)>> {
-    let n = triangles.len();
-    let box_of = |t: usize| Box3::of(positions, triangles[t]);
-    let breaks = |t: usize| cube_holding(lattice, &box_of(t - 1).union(box_of(t))).is_none();
-    let chunks: Option<Vec<Chunk>> = (0..n.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let (start, end) = (c * CHUNK, ((c + 1) * CHUNK).min(n));
-            let mut at = start;
-            while at > 0 && at < n && !breaks(at) {
-                at += 1;
-            }
-            let mut chunk = Chunk { first: None, last: None, pairs: vec![] };
-            let mut run: Vec<(u32, Box3)> = Vec::with_capacity(8);
-            while at < n && (at < end || !breaks(at)) {
-                let b = box_of(at);
-                let mut holders = Holders::of(lattice, &b)?;
-                run.clear();
-                run.push((at as u32, b));
-                at += 1;
-                while at < n {
-                    let b = box_of(at);
-                    let narrowed = holders.narrowed(lattice, &b);
-                    if narrowed.mask == 0 {
-                        break;
-                    }
-                    holders = narrowed;
-                    run.push((at as u32, b));
-                    at += 1;
-                }
-                let key = holders.lowest_key_above(chunk.last)?;
-                (chunk.first, chunk.last) = (chunk.first.or(Some(key)), Some(key));
-                chunk.pairs.extend(crossings_among(positions, triangles, &run));
-            }
-            Some(chunk)
-        })
-        .collect();
+/// it; if the runs' cubes rise from run to run, no cube has two runs, and
+/// only pairs within a run need trying. (A run that several cubes hold,
+/// such as a triangle alone in a face, takes the lowest above the run
+/// before's.) Tasks take `chunk` triangles each; a task starts at the first
+/// triangle that no cube holds together with the one before it, where every
+/// run breaks, and finishes its last run past its chunk's end.
+fn in_emitted_order(mesh: &CutMesh, chunk: usize) -> Option<Vec<(u32, u32)>> {
+    let n = mesh.triangles.len();
+    let chunks: Option<Vec<Chunk>> =
+        (0..n.div_ceil(chunk)).into_par_iter().map(|c| mesh.chunk(c * chunk, ((c + 1) * chunk).min(n))).collect();
     let chunks = chunks?;
     let keys: Vec<u64> = chunks.iter().flat_map(|c| c.first.into_iter().chain(c.last)).collect();
     keys.windows(2).all(|w| w[0] <= w[1]).then(|| chunks.into_iter().flat_map(|c| c.pairs).collect())
+}
+
+/// A mesh and the lattice it was cut on.
+struct CutMesh<'a> {
+    positions: &'a [Vec3],
+    triangles: &'a [[u32; 3]],
+    lattice: &'a Lattice,
+}
+
+impl CutMesh<'_> {
+    fn box_of(&self, t: usize) -> Box3 {
+        Box3::of(self.positions, self.triangles[t])
+    }
+
+    /// True when no cube holds triangles `t − 1` and `t` both: every run breaks there.
+    fn breaks(&self, t: usize) -> bool {
+        cube_holding(self.lattice, &self.box_of(t - 1).union(self.box_of(t))).is_none()
+    }
+
+    /// The runs that start from the first break at or after `start` (or at
+    /// 0) up to the first break at or after `end`, where the next task starts.
+    fn chunk(&self, start: usize, end: usize) -> Option<Chunk> {
+        let n = self.triangles.len();
+        let mut at = start;
+        while at > 0 && at < n && !self.breaks(at) {
+            at += 1;
+        }
+        let mut chunk = Chunk { first: None, last: None, pairs: vec![] };
+        let mut run: Vec<(u32, Box3)> = Vec::with_capacity(8);
+        while at < n && (at < end || !self.breaks(at)) {
+            let holders = self.run_from(at, &mut run)?;
+            at += run.len();
+            let key = holders.lowest_key_above(chunk.last)?;
+            (chunk.first, chunk.last) = (chunk.first.or(Some(key)), Some(key));
+            chunk.pairs.extend(crossings_among(self.positions, self.triangles, &run));
+        }
+        Some(chunk)
+    }
+
+    /// The run starting at triangle `at`, with each triangle's box, into
+    /// `run`, and the cubes holding all of it (`None` when none holds its first).
+    fn run_from(&self, at: usize, run: &mut Vec<(u32, Box3)>) -> Option<Holders> {
+        let b = self.box_of(at);
+        let mut holders = Holders::of(self.lattice, &b)?;
+        run.clear();
+        run.push((at as u32, b));
+        for t in at + 1..self.triangles.len() {
+            let b = self.box_of(t);
+            let narrowed = holders.narrowed(self.lattice, &b);
+            if narrowed.mask == 0 {
+                break;
+            }
+            holders = narrowed;
+            run.push((t as u32, b));
+        }
+        Some(holders)
+    }
 }
 
 /// What one task of [`in_emitted_order`] found: the keys of its first and
@@ -269,7 +296,7 @@ impl Cubes {
         let reach = |k: IVec3| k.clamp(IVec3::splat(-REACH), IVec3::splat(REACH));
         let (lo, hi) = (reach(lattice.cube_of(b.lo)) - 1, reach(lattice.cube_of(b.hi)) + 1);
         let span = (hi - lo + 1).as_i64vec3();
-        if span.x * span.y * span.z > self.len() as i64 {
+        if span.x.saturating_mul(span.y).saturating_mul(span.z) > self.len() as i64 {
             return (0..self.len()).collect();
         }
         let mut found = vec![];
@@ -300,7 +327,8 @@ fn cube_and_bounds(lattice: &Lattice, b: &Box3) -> Option<(IVec3, Box3)> {
     let half = 0.5 * lattice.cell;
     let plane = |k: Vec3A| (k * 2.0) * half;
     let mut k = (b.lo / lattice.cell).floor();
-    if !k.is_finite() || k.abs().max_element() >= REACH as f32 {
+    // Two short of the reach: a cube below may hold it too (see [`Holders`]).
+    if !k.is_finite() || k.abs().max_element() >= (REACH - 2) as f32 {
         return None;
     }
     // The division may round onto the next cube either way.
@@ -317,13 +345,11 @@ fn fits(lattice: &Lattice, b: &Box3, k: IVec3) -> bool {
 
 /// The key of cube `k` (each coordinate within [`REACH`] of the origin).
 fn key_of(k: IVec3) -> u64 {
-    let brick = ((k >> 3i32) + IVec3::splat(1 << (BRICK_BITS - 1))).as_uvec3();
-    let slot = (k & 7).as_uvec3();
+    let brick = ((k >> BRICK_SHIFT) + IVec3::splat(1 << (BRICK_BITS - 1))).as_uvec3();
+    let slot = cube_slot(k) as u64;
     let wide = |v: u32, shift: u32| u64::from(v) << shift;
-    wide(brick.z, 9 + 2 * BRICK_BITS)
-        | wide(brick.y, 9 + BRICK_BITS)
-        | wide(brick.x, 9)
-        | wide(slot.z << 6 | slot.y << 3 | slot.x, 0)
+    let slot_bits = 3 * BRICK_SHIFT as u32;
+    wide(brick.z, slot_bits + 2 * BRICK_BITS) | wide(brick.y, slot_bits + BRICK_BITS) | wide(brick.x, slot_bits) | slot
 }
 
 #[cfg(test)]
@@ -338,15 +364,23 @@ mod tests {
         }
     }
 
-    /// Triangles crowded into a few cubes of side 1, crossing each other
+    /// Triangles crowded into a few cubes of side `cell` (twelve side by
+    /// side, or, `spread`, 150 scattered over 30³), crossing each other
     /// often: most inside one cube (some flat in a face, an edge or at a
     /// corner), some across several; in cube order when `ordered`.
-    fn soup(ordered: bool) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-        let lattice = Lattice { cell: 1.0 };
+    fn soup(ordered: bool, spread: bool) -> (Lattice, Vec<Vec3>, Vec<[u32; 3]>) {
+        let lattice = Lattice { cell: if spread { 0.1 } else { 1.0 } };
         let mut next = stream(11);
+        let cubes: Vec<Vec3> = if spread {
+            (0..150)
+                .map(|_| Vec3::new(next(), next(), next()).mul_add(Vec3::splat(30.0), Vec3::splat(-15.0)).floor())
+                .collect()
+        } else {
+            (0..12).map(|i| Vec3::new((i % 3) as f32 - 1.0, (i / 3 % 2) as f32, (i / 6) as f32 - 1.0)).collect()
+        };
         let mut triangles: Vec<[Vec3; 3]> = vec![];
         for k in 0..900 {
-            let cube = Vec3::new((next() * 3.0).floor() - 1.0, (next() * 2.0).floor(), (next() * 2.0).floor() - 1.0);
+            let cube = cubes[(next() * cubes.len() as f32) as usize % cubes.len()];
             let mut corner = || cube + Vec3::new(next(), next(), next());
             let mut t = [corner(), corner(), corner()];
             match k % 9 {
@@ -357,29 +391,57 @@ mod tests {
                 2 => t[0] += Vec3::new(next(), next(), 0.0) * 1.5,
                 _ => {}
             }
-            triangles.push(t);
+            triangles.push(t.map(|p| p * lattice.cell));
         }
         if ordered {
             triangles.retain(|t| cube_key(&lattice, &Box3::of(t, [0, 1, 2])) != LOOSE);
             triangles.sort_by_key(|t| cube_key(&lattice, &Box3::of(t, [0, 1, 2])));
         }
         let positions = triangles.iter().flatten().copied().collect();
-        (positions, (0..triangles.len() as u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect())
+        (lattice, positions, (0..triangles.len() as u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect())
     }
 
     #[test]
     fn cube_by_cube_finds_what_the_walk_over_all_finds() {
-        let lattice = Lattice { cell: 1.0 };
-        for ordered in [false, true] {
-            let (positions, triangles) = soup(ordered);
+        for (ordered, spread) in [(false, false), (true, false), (false, true), (true, true)] {
+            let (lattice, positions, triangles) = soup(ordered, spread);
+            let what = format!("ordered {ordered}, spread {spread}");
             let walked = self_intersections(&positions, &triangles);
-            assert!(walked.len() > 100, "the soup crosses itself: {}", walked.len());
-            assert_eq!(self_intersections_in_cubes(&positions, &triangles, &lattice), walked, "ordered: {ordered}");
-            let emitted = in_emitted_order(&positions, &triangles, &lattice);
-            assert_eq!(emitted.is_some(), ordered, "one pass only over triangles in cube order");
-            let keys: Vec<u64> = triangles.iter().map(|&t| cube_key(&lattice, &Box3::of(&positions, t))).collect();
-            let loose = keys.iter().filter(|&&k| k == LOOSE).count();
-            assert!(ordered || (loose > 50 && loose < triangles.len() / 4), "{loose} loose of {}", triangles.len());
+            assert!(walked.len() > 20, "{what}: the soup crosses itself: {}", walked.len());
+            assert_eq!(self_intersections_in_cubes(&positions, &triangles, &lattice), walked, "{what}");
+            let mesh = CutMesh { positions: &positions, triangles: &triangles, lattice: &lattice };
+            assert_eq!(in_emitted_order(&mesh, CHUNK).is_some(), ordered, "{what}: one pass only in cube order");
+            if ordered {
+                // Chunks of every size break where runs break, and miss no pair.
+                for chunk in [1, 2, 3, 5, 64] {
+                    assert_eq!(in_emitted_order(&mesh, chunk), Some(walked.clone()), "{what}, chunks of {chunk}");
+                }
+            } else {
+                let keys: Vec<u64> = triangles.iter().map(|&t| cube_key(&lattice, &Box3::of(&positions, t))).collect();
+                let loose = keys.iter().filter(|&&k| k == LOOSE).count();
+                assert!(loose > 50 && loose < triangles.len() / 4, "{what}: {loose} loose of {}", triangles.len());
+                // Spread out, a loose triangle's box covers fewer cubes than hold
+                // triangles, so they are looked up one by one.
+                let cubes = Cubes::of(&keys);
+                let b = Box3::of(&positions, triangles[keys.iter().position(|&k| k == LOOSE).unwrap()]);
+                assert_eq!(cubes.meeting(&lattice, &b).len() < cubes.len(), spread, "{what}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_polygonizers_cube_mesh_takes_the_one_pass() {
+        let scene = crate::scene::Scene::load(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/particles.ron")).unwrap();
+        for vertex in [crate::mesh::VertexPlacement::default(), crate::mesh::VertexPlacement::Linear] {
+            let lattice = Lattice::across(&scene.model.bounds(), 48);
+            let options = crate::mesh::PolygonizeOptions { vertex, ..Default::default() };
+            let m =
+                crate::pipeline::polygonizer_on(&scene.model, crate::field::EvalMode::Indexed, lattice, options).mesh();
+            assert!(m.triangles.len() > 3 * 64);
+            let mesh = CutMesh { positions: &m.positions, triangles: &m.triangles, lattice: &lattice };
+            let walked = self_intersections(&m.positions, &m.triangles);
+            assert_eq!(in_emitted_order(&mesh, CHUNK), Some(walked.clone()), "{vertex:?}");
+            assert_eq!(in_emitted_order(&mesh, 64), Some(walked), "{vertex:?}, chunks of 64");
         }
     }
 

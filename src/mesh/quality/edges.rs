@@ -105,6 +105,11 @@ impl<'a> Edges<'a> {
             .collect()
     }
 
+    /// Calls `visit` with the sides of each undirected edge, in parallel, in no order.
+    pub fn par_for_each_group(&self, visit: impl Fn(&[Side]) + Sync + Send) {
+        self.fold_groups(|| (), |(), sides| visit(sides));
+    }
+
     /// The vertices in runs of [`VERTICES_PER_RUN`].
     #[must_use]
     pub fn vertex_runs(&self) -> Vec<Range<u32>> {
