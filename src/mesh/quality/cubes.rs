@@ -216,12 +216,6 @@ fn crossings_among(positions: &[Vec3], triangles: &[[u32; 3]], members: &[(u32, 
     pairs
 }
 
-/// True when triangles `s` and `t` share no vertex and cross.
-fn cross(positions: &[Vec3], triangles: &[[u32; 3]], s: u32, t: u32) -> bool {
-    let (a, b) = (triangles[s as usize], triangles[t as usize]);
-    Box3::of(positions, a).meets(&Box3::of(positions, b)) && unshared_cross(positions, a, b)
-}
-
 /// The crossing pairs with a triangle of `loose` in them: each loose
 /// triangle against the cubes its box meets, and the loose ones among themselves.
 fn loose_crossings(
@@ -234,11 +228,12 @@ fn loose_crossings(
     let mut found: Vec<(u32, u32)> = loose
         .par_iter()
         .flat_map_iter(|&s| {
-            let b = Box3::of(positions, triangles[s as usize]);
+            let (tri, b) = (triangles[s as usize], Box3::of(positions, triangles[s as usize]));
             let mut pairs = vec![];
             for c in cubes.meeting(lattice, &b) {
                 for &t in cubes.members(c) {
-                    if cross(positions, triangles, s, t) {
+                    let other = triangles[t as usize];
+                    if b.meets(&Box3::of(positions, other)) && unshared_cross(positions, tri, other) {
                         pairs.push((s.min(t), s.max(t)));
                     }
                 }
@@ -292,8 +287,9 @@ impl Cubes {
     /// The cubes holding triangles among those `b` may meet: found one by
     /// one in the box's range of cubes, or all of them when fewer.
     fn meeting(&self, lattice: &Lattice, b: &Box3) -> Vec<usize> {
-        // One cube more each way than the box's covers rounding in the division.
-        let reach = |k: IVec3| k.clamp(IVec3::splat(-REACH), IVec3::splat(REACH));
+        // One cube more each way than the box's covers rounding in the
+        // division; no cube holding triangles lies beyond two short of the reach.
+        let reach = |k: IVec3| k.clamp(IVec3::splat(2 - REACH), IVec3::splat(REACH - 2));
         let (lo, hi) = (reach(lattice.cube_of(b.lo)) - 1, reach(lattice.cube_of(b.hi)) + 1);
         let span = (hi - lo + 1).as_i64vec3();
         if span.x.saturating_mul(span.y).saturating_mul(span.z) > self.len() as i64 {

@@ -26,13 +26,18 @@ pub struct NormalCheck {
 pub fn face_normal_sums(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
     let mut sums = vec![Vec3::ZERO; positions.len()];
     for t in triangles {
-        let [a, b, c] = t.map(|i| positions[i as usize]);
-        let n = (b - a).cross(c - a);
+        let n = face_normal(positions, *t);
         for &i in t {
             sums[i as usize] += n;
         }
     }
     sums
+}
+
+/// Triangle `t`'s normal, twice its area long.
+fn face_normal(positions: &[Vec3], t: [u32; 3]) -> Vec3 {
+    let [a, b, c] = t.map(|i| positions[i as usize]);
+    (b - a).cross(c - a)
 }
 
 /// The vertices of `normals` that point against `face_sums`.
@@ -54,10 +59,10 @@ impl NormalCheck {
             .map(|run| {
                 let mut check = Self { against_faces: 0, smallest_cosine: 1.0, zero: 0 };
                 for v in run.filter(|&v| (v as usize) < normals.len()) {
-                    let sum = edges.star(v).iter().fold(Vec3::ZERO, |sum, &t| {
-                        let [a, b, c] = triangles[t as usize].map(|i| positions[i as usize]);
-                        sum + (b - a).cross(c - a)
-                    });
+                    let sum = edges
+                        .star(v)
+                        .iter()
+                        .fold(Vec3::ZERO, |sum, &t| sum + face_normal(positions, triangles[t as usize]));
                     check.add(normals[v as usize], sum);
                 }
                 check

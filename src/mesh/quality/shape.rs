@@ -124,20 +124,11 @@ struct Tally {
     /// `u · v` and `|u × v|²` of the sides at `min_angle`.
     least: (f64, f64),
     below_1_degree: u64,
-    /// `tan² 1°`.
-    tan_squared_one_degree: f64,
 }
 
 impl Default for Tally {
     fn default() -> Self {
-        Self {
-            histogram: [0; QUALITY_BINS],
-            sum: 0.0,
-            min_angle: f64::INFINITY,
-            least: (0.0, 0.0),
-            below_1_degree: 0,
-            tan_squared_one_degree: 1f64.to_radians().tan().powi(2),
-        }
+        Self { histogram: [0; QUALITY_BINS], sum: 0.0, min_angle: f64::INFINITY, least: (0.0, 0.0), below_1_degree: 0 }
     }
 }
 
@@ -145,6 +136,9 @@ impl Default for Tally {
 /// their boundary before the angle itself is computed: far wider than
 /// their rounding, so they decide only where the arctangent would agree.
 const MARGIN: f64 = 1e-6;
+
+/// `tan² 1°`.
+const TAN_SQUARED_ONE_DEGREE: f64 = 0.0003046792916482916;
 
 impl Tally {
     /// Tallies one triangle. The arctangent of its smallest angle (most of
@@ -161,7 +155,7 @@ impl Tally {
             return;
         };
         let (x, y2) = (u.dot(v), u.cross(v).length_squared());
-        let one = x * x * self.tan_squared_one_degree;
+        let one = x * x * TAN_SQUARED_ONE_DEGREE;
         let (lx, ly2) = self.least;
         let clearly = if x > 0.0 && y2 < one * (1.0 - MARGIN) {
             Some(true)
@@ -205,6 +199,11 @@ mod tests {
         assert_eq!((q, angle), (0.0, 0.0), "a flat triangle");
         let (_, angle) = triangle_shape(DVec3::ZERO, DVec3::X * 2.0, DVec3::new(1.0, 1.0, 0.0));
         assert!((angle - 45.0).abs() < 1e-9, "{angle}");
+    }
+
+    #[test]
+    fn the_squared_tangent_of_one_degree_is_what_its_name_says() {
+        assert!((TAN_SQUARED_ONE_DEGREE - 1f64.to_radians().tan().powi(2)).abs() < 1e-18);
     }
 
     #[test]
