@@ -77,7 +77,8 @@ pub enum Rise {
     /// Nowhere: it stays below `-margin`.
     Never,
     /// Somewhere in `[a, b]`, a stretch no wider than asked; before `a` it
-    /// stays below `-margin`. With `a == b` where it is above at the stretch's start.
+    /// stays below `-margin`. With `a == b` where it may be above `-margin`
+    /// at the stretch's start.
     Within(f32, f32),
 }
 
@@ -101,7 +102,15 @@ fn rise_in(c: &Bernstein, (a, b): (f32, f32), margin: f32, width: f32, depth: u3
     if c.iter().all(|&x| x <= -margin) {
         return None;
     }
-    if c[0] > -margin || b - a <= width || depth >= MAX_DEPTH {
+    if c[0] > -margin {
+        // Within the margin of `T` where the stretch starts: it may be inside
+        // from there, and the snap looks lattice point by lattice point from
+        // there. (Handed the whole stretch, the snap tried its far end alone
+        // and marched on from past it, over every lattice point between:
+        // through a million points, chords above `T` over a unit long.)
+        return Some(Rise::Within(a, a));
+    }
+    if b - a <= width || depth >= MAX_DEPTH {
         return Some(Rise::Within(a, b));
     }
     if c[6] > 0.0 && sign_changes(c) == 1 {
@@ -248,5 +257,19 @@ mod tests {
             }
         }
         std::array::from_fn(|i| (m[i][n] / m[i][i]) as f32)
+    }
+
+    #[test]
+    fn a_start_within_the_margin_is_a_rise_where_the_stretch_starts() {
+        // Starts 0.004 below zero, within the margin 0.01, dips, and crosses
+        // zero well inside: the rise is given at the start (where the field
+        // may already be inside), never as the whole stretch, whose far end
+        // alone a snap would try.
+        let c: Bernstein = [-0.004, -0.2, -0.2, 0.5, 0.5, -0.3, -0.3];
+        assert_eq!(first_rise(&c, (10.0, 20.0), 0.01, 0.001), Rise::Within(10.0, 10.0));
+        // Below the margin at the start, the crossing itself is narrowed.
+        let c: Bernstein = [-0.1, -0.2, -0.2, 0.5, 0.5, 0.3, 0.3];
+        let Rise::Within(a, b) = first_rise(&c, (10.0, 20.0), 0.01, 0.001) else { panic!("a root") };
+        assert!(b - a <= 0.001 && a > 10.0, "{a} {b}");
     }
 }

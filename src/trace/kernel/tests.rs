@@ -279,3 +279,29 @@ fn the_overlap_estimate_does_not_depend_on_where_the_model_lies() {
     assert!(near > 1.0, "{near}");
     assert!((far / near - 1.0).abs() < 0.1, "{near} at the origin, {far} 900,000 units off");
 }
+
+#[test]
+fn a_stretch_starting_within_the_margin_of_t_is_searched_from_its_start() {
+    // Three points of a million-point cloud (`gen2.py 1000000`) and the ray
+    // of its pixel (388, 125), with two more as far out as the cloud reaches
+    // (the margin grows with the distances rays reach): the field rises above
+    // `T` 0.02 after the third support's entry, where the sum starts within
+    // the margin of `T`, and stays above it for 1.2 (0.65 at its peak). The
+    // tracer once handed the snap the whole stretch, which tried its far end
+    // alone, found it outside and marched on past the chord.
+    let text = "Scene(camera: Camera(eye: (0.0, -448.0, 0.0), target: (0.0, 0.0, 0.0), up: (0.0, 0.0, 1.0), \
+                fov_y: 60.0), size: (500, 500), threshold: 0.5, model: Blend([\
+                Point(center: (96.64091, -144.36513, 89.07211), radius: 2.25), \
+                Point(center: (97.99042, -144.22478, 87.88926), radius: 2.25), \
+                Point(center: (99.05194, -143.66639, 88.15077), radius: 2.25), \
+                Point(center: (-200.0, 200.0, -200.0), radius: 2.25), \
+                Point(center: (200.0, -200.0, 200.0), radius: 2.25)]))";
+    let scene = Scene::parse(text, "five points").unwrap();
+    let s = scene.render_settings(Size(500, 500));
+    let field = ModelField::new(&scene.model, EvalMode::Indexed);
+    let kernel = KernelTracer::new(&scene.model, EvalMode::Indexed, &s.camera, (500, 500)).unwrap();
+    let ray = s.camera.ray(388, 125, 500, 500);
+    let (first, _) = brute_force(&field, &ray, s.trace.quantum.unwrap()).expect("the ray crosses the surface");
+    assert!((first - 330.51).abs() < 0.01 && field.value(ray.at(first + 0.6)) > 0.6, "the chord: from {first}");
+    assert_eq!(kernel.trace(&field, &ray, (388, 125), &s.trace).hit, Some(first));
+}
