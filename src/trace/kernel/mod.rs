@@ -25,12 +25,15 @@
 //! coefficients of magnitude at most 8 through the conversion and up to
 //! forty halvings. So no lattice point whose computed field exceeds `T` is
 //! passed over; what the polynomial only nearly reaches costs a snap that
-//! finds nothing and marches on.
+//! finds nothing and marches on. A stretch, or a half of one, that starts
+//! within the margin is handed to the snap at its start, which walks the
+//! lattice from there: the snap brackets a crossing only across a narrow
+//! stretch, and marches on from the far end of what it is handed.
 //!
 //! Screen tiles list the supports their rays can cross, nearest first
 //! ([`tiles`]); a ray tests only those. A ray's crossings are summed in one
-//! order (entry, then support) and its sweep is cut at distances from the
-//! eye that are the same for every ray, whatever tile holds it, so its hit
+//! order (entry, then support) and its sweep is cut at distances past its
+//! entry into the model's bounds, whatever tile holds it, so its hit
 //! depends on the ray and the model alone: images are the same for any
 //! thread count, and a dirty rectangle traced again equals a full render.
 
