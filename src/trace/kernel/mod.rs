@@ -317,8 +317,10 @@ impl<'a, F: Field + ?Sized> Sweep<'a, F> {
             let t1 = state.active.iter().map(|&i| crossings[i].t_out).fold(entry.min(limit), f32::min);
             match self.stretch(supports, crossings, &state.active, (t0, t1)) {
                 Ok(Some(hit)) => return Some(hit),
-                // A touch between lattice points: go on past where the snap left off.
-                Err(t_past) => state.t0 = t_past.max(t0),
+                // A touch between lattice points: go on past where the snap
+                // left off (at least a float further on, where lattice steps
+                // are finer than the floats this far out resolve).
+                Err(t_past) => state.t0 = if t_past > t0 { t_past } else { t0.next_up() },
                 Ok(None) => state.t0 = t1,
             }
         }
@@ -352,23 +354,20 @@ impl<'a, F: Field + ?Sized> Sweep<'a, F> {
         // Half a lattice step: the snap then settles which lattice point in a sign or three.
         match first_rise(&sum, (t0, t1), margin, 0.5 * self.quantum) {
             Rise::Never => Ok(None),
-            Rise::Within(a, b) => self.confirm(supports, crossings, a, b),
+            Rise::Within(a, _) => self.confirm(supports, crossings, a),
         }
     }
 
-    /// Confirms a rise on `[a, b]`: the first lattice point inside after it,
-    /// or where to go on from. The snap asks the sign of `f - T` at lattice
-    /// points; the sum of the crossed supports at the point, computed as the
-    /// field computes each, answers where it is farther from `T` than two
-    /// evaluations' rounding (the field, computed, has the same sign there),
-    /// the field elsewhere.
-    fn confirm(
-        &mut self,
-        supports: &KernelSupports,
-        crossings: &[Crossing],
-        a: f32,
-        b: f32,
-    ) -> Result<Option<f32>, f32> {
+    /// Confirms a rise from `a` on (the field below `T` before it): the first
+    /// lattice point inside after it, or where to go on from. The snap walks
+    /// the lattice from `a` point by point, so it passes none: handed the
+    /// rise's narrow bracket instead, it tried the bracket's far end and
+    /// could march on past a lattice point inside the bracket. The snap asks
+    /// the sign of `f - T` at lattice points; the sum of the crossed supports
+    /// at the point, computed as the field computes each, answers where it
+    /// is farther from `T` than two evaluations' rounding (the field,
+    /// computed, has the same sign there), the field elsewhere.
+    fn confirm(&mut self, supports: &KernelSupports, crossings: &[Crossing], a: f32) -> Result<Option<f32>, f32> {
         if a <= self.span.0 {
             // Inside where the ray enters the field's bounds, as the segment tracer says it.
             self.evals += 1;
@@ -377,7 +376,7 @@ impl<'a, F: Field + ?Sized> Sweep<'a, F> {
             }
         }
         let quantum = self.quantum;
-        let snapped = snap_on(|t| self.sign_at(supports, crossings, t), a, b, quantum);
+        let snapped = snap_on(|t| self.sign_at(supports, crossings, t), a, a, quantum);
         match snapped {
             Snapped::Hit(t) => Ok(Some(t)),
             Snapped::Past(t, _) if t < self.span.1 => Err(t),

@@ -162,6 +162,17 @@ fn random_blends_seen_from_afar_agree_with_the_segment_tracer() {
     assert!(hits > 200 * 24 * 18 / 10, "{hits} hits over 200 cases");
 }
 
+#[test]
+fn a_blend_seen_from_thirty_thousand_away_is_traced_alike_by_both_tracers() {
+    // Lattice steps far finer than the floats resolve that far out: both
+    // tracers must still end, and agree.
+    let text = "Scene(camera: Camera(eye: (0.0, 0.0, 30000.0), target: (0.0, 0.0, 0.0), up: (0.0, 1.0, 0.0), \
+                fov_y: 0.01), size: (32, 24), threshold: 0.5, model: Blend([\
+                Point(center: (0.0, 0.0, 0.0), radius: 1.0), Point(center: (0.8, 0.3, 0.0), radius: 1.0), \
+                Segment(a: (-1.0, -1.0, 0.5), b: (1.0, 0.5, -0.5), radius: 0.6)]))";
+    assert_agrees(&Scene::parse(text, "far blend").unwrap(), (32, 24), 40);
+}
+
 /// A lone point of support radius 1 and weight `weight` at the origin, and its kernel tracer for `camera`.
 fn lone_point(weight: f32) -> Scene {
     let text = format!(

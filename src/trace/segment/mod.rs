@@ -441,13 +441,16 @@ fn lattice_step(t: f32, step: f32, q: f32) -> f32 {
 
 /// The first point `k · q` after `t`. The quotient `t / q` may round up past
 /// a lattice point an ulp above `t`; counting back first keeps that point.
+/// Past 2²⁴ steps from the eye (a camera hundreds of model sizes away) the
+/// floats hold only some of the `k`, and the count goes from one to the
+/// next: counting by ones there stood still, and the march never ended.
 fn next_lattice_point(t: f32, q: f32) -> f32 {
     let mut k = (t / q).floor();
     while k * q > t {
-        k -= 1.0;
+        k = if k - 1.0 < k { k - 1.0 } else { k.next_down() };
     }
     while k * q <= t {
-        k += 1.0;
+        k = if k + 1.0 > k { k + 1.0 } else { k.next_up() };
     }
     k * q
 }
@@ -586,5 +589,27 @@ mod tests {
             assert!(to > t && to <= t + 3.0 * q && (to / q).round() * q == to, "k = {k}: {t} -> {to}");
         }
         assert!(just_below > 1000, "the quotient rounded up only {just_below} times");
+    }
+
+    #[test]
+    fn lattice_points_are_found_past_two_to_the_twenty_four_steps() {
+        // A camera thousands of model sizes away: `t / q` near 10⁹, where
+        // adding one to a float count changes nothing. Counted on a thread,
+        // so a count that never ends fails instead of hanging.
+        let q = 4e-5;
+        let (sent, received) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let found: Vec<(f32, f32)> =
+                [1000.0f32, 29_999.998, 30_000.0, 123_456.79].iter().map(|&t| (t, next_lattice_point(t, q))).collect();
+            sent.send(found).ok();
+        });
+        let found = received.recv_timeout(std::time::Duration::from_secs(20)).expect("the count ends");
+        for (t, point) in found {
+            assert!(point > t, "{point} after {t}");
+            // The next float that is a multiple of q as the lattice computes them.
+            let k = (point / q).floor();
+            assert!([k - 2.0, k - 1.0, k, k + 1.0, k + 2.0].iter().any(|&k| k * q == point), "{point} is k·q");
+            assert!(point - t <= 4.0 * q.max(t * f32::EPSILON), "{point} is near {t}");
+        }
     }
 }
