@@ -25,10 +25,9 @@
 //! coefficients of magnitude at most 8 through the conversion and up to
 //! forty halvings. So no lattice point whose computed field exceeds `T` is
 //! passed over; what the polynomial only nearly reaches costs a snap that
-//! finds nothing and marches on. A stretch, or a half of one, that starts
-//! within the margin is handed to the snap at its start, which walks the
-//! lattice from there: the snap brackets a crossing only across a narrow
-//! stretch, and marches on from the far end of what it is handed.
+//! finds nothing and marches on. The snap walks the lattice from where the
+//! rise may begin (a stretch, or half of one, that starts within the margin
+//! may begin at its start), so it passes no lattice point on the way.
 //!
 //! Screen tiles list the supports their rays can cross, nearest first
 //! ([`tiles`]); a ray tests only those. A ray's crossings are summed in one
