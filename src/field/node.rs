@@ -39,7 +39,7 @@ pub enum NodeKind {
         /// Children, in scene order.
         children: Vec<NodeId>,
         /// Grid over the blend's leaves; built for wide blends.
-        index: Option<Box<BlendIndex>>,
+        index: Option<Arc<BlendIndex>>,
     },
     /// The sum of a set of points (a particle file's): one node over packed
     /// arrays, with its own index over them.
@@ -47,7 +47,7 @@ pub enum NodeKind {
         /// The points.
         set: Arc<PointSet>,
         /// Grid over the points (see [`PointSet::indexed`]).
-        index: Box<BlendIndex>,
+        index: Arc<BlendIndex>,
     },
     /// `max` of the children (CSG union).
     Union(Vec<NodeId>),
@@ -203,7 +203,7 @@ impl NodeKind {
             return None;
         }
         let set = Arc::new(set);
-        let index = Box::new(set.indexed());
+        let index = Arc::new(set.indexed());
         Some(NodeKind::Points { set, index })
     }
 

@@ -187,45 +187,86 @@ impl UniformGrid {
 
     /// [`Self::walk_segment_while`], giving each cell's coordinates.
     fn walk_cells_while(&self, a: Vec3A, b: Vec3A, mut f: impl FnMut(UVec3, f32) -> bool) {
-        let d = b - a;
-        let inv = d.recip();
-        let Some((t0, t1)) = self.bounds().clip_ray(a, inv, 0.0, 1.0) else {
-            return;
-        };
-        let top = self.dims.as_ivec3() - IVec3::ONE;
-        let start = (a + d * t0 - self.origin) * self.inv_cell;
-        let mut cell = start.floor().as_ivec3().clamp(IVec3::ZERO, top);
-        let step = IVec3::new(sign(d.x), sign(d.y), sign(d.z));
-        let next_face = (cell + step.max(IVec3::ZERO)).as_vec3a() * self.cell + self.origin;
-        // Parameter of the next face crossing per axis; infinite along axes the segment does not move on.
-        let t_max = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (next_face - a) * inv);
-        let t_delta = Vec3A::select(d.cmpeq(Vec3A::ZERO), Vec3A::INFINITY, (self.cell * inv).abs());
-        // The parameter of the next face crossing on each axis, kept in plain
-        // scalars: a vector indexed by the axis chosen went through memory
-        // (a store and a reload of the whole vector) every cell.
-        let (mut tx, mut ty, mut tz) = (t_max.x, t_max.y, t_max.z);
-        loop {
-            let (axis, t_cross) = if tx <= ty && tx <= tz {
-                (0, tx)
-            } else if ty <= tz {
-                (1, ty)
-            } else {
-                (2, tz)
-            };
-            if !f(cell.as_uvec3(), t_cross.min(t1)) || t_cross > t1 {
-                return;
-            }
-            // An axis the segment does not move along is chosen only when the
-            // crossings are NaN (a degenerate grid): stop rather than spin.
-            let inside = match axis {
-                0 => advance(&mut cell.x, &mut tx, (step.x, top.x), t_delta.x),
-                1 => advance(&mut cell.y, &mut ty, (step.y, top.y), t_delta.y),
-                _ => advance(&mut cell.z, &mut tz, (step.z, top.z), t_delta.z),
-            };
-            if !inside {
+        for (cell, _, exit) in CellWalk::new(self, a, b - a, (0.0, 1.0)) {
+            if !f(cell, exit) {
                 return;
             }
         }
+    }
+}
+
+/// The cells of a grid that the line `origin + t·dir` passes through for
+/// `t` in a range, in order (Amanatides–Woo), each with the `t` where the
+/// walk enters it and where it leaves (the range's ends at the first and
+/// last). A walk that can pause between cells, as a caller gathering what
+/// the cells list only as far as it needs.
+#[derive(Clone, Debug)]
+pub struct CellWalk {
+    cell: IVec3,
+    step: IVec3,
+    top: IVec3,
+    /// The parameter of the next face crossing on each axis, kept in plain
+    /// scalars: a vector indexed by the axis chosen went through memory (a
+    /// store and a reload of the whole vector) every cell.
+    next: (f32, f32, f32),
+    delta: Vec3A,
+    /// Where the walk enters the next cell, and where it stops.
+    entry: f32,
+    end: f32,
+    done: bool,
+}
+
+impl CellWalk {
+    /// The walk through `grid` along `origin + t·dir` for `t` in `range`
+    /// (empty where the line misses the grid there).
+    #[must_use]
+    pub fn new(grid: &UniformGrid, origin: Vec3A, dir: Vec3A, range: (f32, f32)) -> Self {
+        let top = grid.dims.as_ivec3() - IVec3::ONE;
+        let step = IVec3::new(sign(dir.x), sign(dir.y), sign(dir.z));
+        let inv = dir.recip();
+        let Some((t0, t1)) = grid.bounds().clip_ray(origin, inv, range.0, range.1) else {
+            let (next, delta) = ((0.0, 0.0, 0.0), Vec3A::ZERO);
+            return Self { cell: IVec3::ZERO, step, top, next, delta, entry: 0.0, end: 0.0, done: true };
+        };
+        let start = (origin + dir * t0 - grid.origin) * grid.inv_cell;
+        let cell = start.floor().as_ivec3().clamp(IVec3::ZERO, top);
+        let next_face = (cell + step.max(IVec3::ZERO)).as_vec3a() * grid.cell + grid.origin;
+        // Infinite along axes the line does not move on.
+        let still = dir.cmpeq(Vec3A::ZERO);
+        let t_max = Vec3A::select(still, Vec3A::INFINITY, (next_face - origin) * inv);
+        let delta = Vec3A::select(still, Vec3A::INFINITY, (grid.cell * inv).abs());
+        Self { cell, step, top, next: (t_max.x, t_max.y, t_max.z), delta, entry: t0, end: t1, done: false }
+    }
+}
+
+impl Iterator for CellWalk {
+    /// A cell's coordinates, and where the walk enters and leaves it.
+    type Item = (UVec3, f32, f32);
+
+    #[inline]
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.done {
+            return None;
+        }
+        let (tx, ty, tz) = self.next;
+        let (axis, t_cross) = if tx <= ty && tx <= tz {
+            (0, tx)
+        } else if ty <= tz {
+            (1, ty)
+        } else {
+            (2, tz)
+        };
+        let item = (self.cell.as_uvec3(), self.entry, t_cross.min(self.end));
+        self.entry = item.2;
+        // An axis the line does not move along is chosen only when the
+        // crossings are NaN (a degenerate grid): stop rather than spin.
+        let inside = match axis {
+            0 => advance(&mut self.cell.x, &mut self.next.0, (self.step.x, self.top.x), self.delta.x),
+            1 => advance(&mut self.cell.y, &mut self.next.1, (self.step.y, self.top.y), self.delta.y),
+            _ => advance(&mut self.cell.z, &mut self.next.2, (self.step.z, self.top.z), self.delta.z),
+        };
+        self.done = t_cross > self.end || !inside;
+        Some(item)
     }
 }
 

@@ -10,7 +10,7 @@ mod region;
 mod support;
 
 pub use aabb::Aabb;
-pub use grid::{UniformGrid, cell_coords, linear_index};
+pub use grid::{CellWalk, UniformGrid, cell_coords, linear_index};
 pub use interval::Interval;
 pub use ray::Ray;
 pub use region::Region;

@@ -28,7 +28,7 @@ use rayon::prelude::*;
 use super::node_id::NodeId;
 use super::point_set::PointSet;
 use super::primitive::Primitive;
-use crate::geom::{Aabb, Interval, Region, UniformGrid};
+use crate::geom::{Aabb, CellWalk, Interval, Region, UniformGrid};
 use lists::Lists;
 use packed_points::PackedPoints;
 
@@ -380,6 +380,26 @@ impl BlendIndex {
         } else {
             self.grid.for_each_cell(b, |c| f(self.cell_items(c)));
         }
+    }
+
+    /// The lists of the cells the line `origin + t·dir` passes through for
+    /// `t` in `range`, in order, each with the `t` where the line enters
+    /// and leaves its cell: every leaf reaching a point of the line there
+    /// is in the list of the cell holding it (see [`CellWalk`]).
+    pub fn lists_along(
+        &self,
+        origin: Vec3A,
+        dir: Vec3A,
+        range: (f32, f32),
+    ) -> impl Iterator<Item = (&[u32], f32, f32)> + '_ {
+        CellWalk::new(&self.grid, origin, dir, range)
+            .map(|(cell, entry, exit)| (self.cell_items(self.grid.linear(cell)), entry, exit))
+    }
+
+    /// The edge of the grid's cells.
+    #[must_use]
+    pub fn cell_size(&self) -> f32 {
+        self.grid.cell
     }
 
     /// Visits the cells a region meets: those a segment passes through

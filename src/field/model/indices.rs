@@ -1,6 +1,8 @@
 //! The blend indices of a model: one over the leaves of each cluster of
 //! nested blends that has enough of them, rebuilt along the path of an edit.
 
+use std::sync::Arc;
+
 use glam::Vec3;
 
 use super::Model;
@@ -34,7 +36,7 @@ impl Model {
         self.collect_leaves(id, None, &mut leaves);
         let index = (leaves.len() >= MIN_INDEXED_LEAVES).then(|| {
             let bounds = self.nodes[id as usize].bounds;
-            Box::new(BlendIndex::build(
+            Arc::new(BlendIndex::build(
                 bounds,
                 Leaves::Listed(leaves),
                 // Per-cell bounds must hold for exact and cached evaluation alike.

@@ -74,6 +74,9 @@ pub struct KernelSupports {
     spheres: Vec<(Vec3A, f32)>,
     /// Supports in all.
     len: usize,
+    /// The index over the supports, where they are the points of one set
+    /// in the world's frame: its cells list them by support number.
+    index: Option<Arc<BlendIndex>>,
 }
 
 /// A run of consecutive support numbers from `first`.
@@ -152,6 +155,10 @@ impl KernelSupports {
     pub fn of(model: &Model, mode: EvalMode) -> Result<Self, NotKernel> {
         let mut out = Self { placements: vec![Affine3A::IDENTITY], ..Self::default() };
         out.gather(model, model.root(), mode, (0, Affine3A::IDENTITY, Affine3A::IDENTITY))?;
+        let one_set_in_place = matches!(&out.runs[..], [Run { kept: Kept::Set(s), .. }] if s.placement == 0);
+        if !one_set_in_place {
+            out.index = None;
+        }
         Ok(out)
     }
 
@@ -182,6 +189,16 @@ impl KernelSupports {
         cells.par_sort_unstable();
         cells.dedup();
         (volume / (cells.len() as f64 * f64::from(cell).powi(3))) as f32
+    }
+
+    /// The index whose cells list the supports by number, and the set of
+    /// points they are, where the supports are one set in the world's frame.
+    #[must_use]
+    pub fn indexed_set(&self) -> Option<(&BlendIndex, &PointSet)> {
+        match (&self.index, &self.runs[..]) {
+            (Some(index), [Run { kept: Kept::Set(s), .. }]) => Some((index, &s.set)),
+            _ => None,
+        }
     }
 
     /// Number of primitives.
@@ -236,13 +253,13 @@ impl KernelSupports {
                 // A wide blend of Wyvill points is read from the set its index
                 // sums: the same points, in the same (depth-first) order.
                 Some(set) => {
-                    self.push_set(set, frame);
+                    self.push_set(set, index.as_ref(), frame);
                     Ok(())
                 }
                 None => children.iter().try_for_each(|&c| self.gather(model, c, mode, frame)),
             },
-            NodeKind::Points { set, .. } => {
-                self.push_set(set, frame);
+            NodeKind::Points { set, index } => {
+                self.push_set(set, Some(index), frame);
                 Ok(())
             }
             NodeKind::Named { child, .. } => self.gather(model, *child, mode, frame),
@@ -268,9 +285,16 @@ impl KernelSupports {
         }
     }
 
-    /// Appends the points of `set`, read from the set itself.
-    fn push_set(&mut self, set: &Arc<PointSet>, (placement, _, to_world): (u32, Affine3A, Affine3A)) {
+    /// Appends the points of `set`, read from the set itself; `index` is
+    /// the index over them, where they have one.
+    fn push_set(
+        &mut self,
+        set: &Arc<PointSet>,
+        index: Option<&Arc<BlendIndex>>,
+        (placement, _, to_world): (u32, Affine3A, Affine3A),
+    ) {
         let Kernel::Wyvill = set.kernel();
+        self.index = index.cloned();
         let stretch = stretch_of(placement, &to_world);
         let run = SetPlacement { set: Arc::clone(set), placement, to_world, stretch };
         self.runs.push(Run { first: self.len, kept: Kept::Set(run) });
@@ -326,16 +350,35 @@ impl KernelSupports {
     /// `local` caches the ray seen in the last placement asked for.
     #[inline]
     pub fn crossings(&self, i: usize, ray: &Ray, local: &mut LocalRay, span: (f32, f32), out: &mut Vec<Crossing>) {
-        let s = &self.support(i);
-        let (o, d, scale) = local.get(self, s.placement, ray);
         let first = out.len();
-        match s.shape {
-            Shape::Point { center } => {
-                if let Some(c) = point_quadratic(o - center, d, s, scale + center.length()) {
-                    clip_push(c, span, out);
+        match self.run_of(i) {
+            // A set's point read from its packed terms, its weight only where
+            // the ray crosses it: most supports a ray is asked about it misses.
+            (Kept::Set(s), k) => {
+                let term = s.set.terms()[k];
+                let center = Vec3A::from(term.truncate());
+                let (o, d, scale) = local.get(self, s.placement, ray);
+                if let Some(c) = point_quadratic(o - center, d, term.w, || scale + center.length()) {
+                    let placed = s.placement != 0;
+                    clip_push(Crossing { weight: s.set.weights()[k], placed, ..c }, span, out);
                 }
             }
-            Shape::Segment { a, axis, length } => segment_crossings(s, (a, axis, length), (o, d, scale), span, out),
+            (Kept::Listed(at), k) => {
+                let s = &self.listed[at + k];
+                let (o, d, scale) = local.get(self, s.placement, ray);
+                match s.shape {
+                    Shape::Point { center } => {
+                        if let Some(c) =
+                            point_quadratic(o - center, d, s.primitive.inv_r2(), || scale + center.length())
+                        {
+                            clip_push(s.weigh(c), span, out);
+                        }
+                    }
+                    Shape::Segment { a, axis, length } => {
+                        segment_crossings(s, (a, axis, length), (o, d, scale), span, out);
+                    }
+                }
+            }
         }
         for c in &mut out[first..] {
             c.support = i as u32;
@@ -409,21 +452,17 @@ impl LocalRay {
     }
 }
 
-/// The quadratic of a point support at offset `oc = o' - c` from the ray's
-/// local origin, along local direction `d`; `None` where the ray's line
-/// misses the support. `scale` bounds the magnitudes of the points involved.
+/// The quadratic of a point support of `1/R²` `inv_r2` at offset `oc = o' - c`
+/// from the ray's local origin, along local direction `d`, of no weight
+/// yet; `None` where the ray's line misses the support. `scale` bounds the
+/// magnitudes of the points involved (asked only where the ray crosses).
 #[inline]
-fn point_quadratic(oc: Vec3A, d: Vec3A, s: &Support, scale: f32) -> Option<Crossing> {
-    let dd = d.length_squared();
-    let tm = -d.dot(oc) / dd;
-    // The perpendicular offset directly, not |oc|² - (oc·d)²: that would
-    // cancel to nothing for a support far from the eye.
-    let perp = oc + d * tm;
-    let a0 = 1.0 - perp.length_squared() * s.primitive.inv_r2();
+fn point_quadratic(oc: Vec3A, d: Vec3A, inv_r2: f32, scale: impl FnOnce() -> f32) -> Option<Crossing> {
+    let (dd, tm, a0) = peak(oc, d, inv_r2);
     if a0 <= 0.0 {
         return None;
     }
-    let k = dd * s.primitive.inv_r2();
+    let k = dd * inv_r2;
     let half = (a0 / k).sqrt();
     Some(Crossing {
         t_in: tm - half,
@@ -431,11 +470,41 @@ fn point_quadratic(oc: Vec3A, d: Vec3A, s: &Support, scale: f32) -> Option<Cross
         a0,
         k,
         tm,
-        weight: s.primitive.weight,
+        weight: 0.0,
         support: 0,
-        placed: s.placement != 0,
-        err: rounding(scale, s.primitive.inv_r2()),
+        placed: false,
+        err: rounding(scale(), inv_r2),
     })
+}
+
+/// Along the line `o' + t·d` with `oc = o' - c`, for a point support of
+/// `1/R²` `inv_r2` at `c`: `|d|²`, where `s` peaks, and `s` there.
+#[inline]
+fn peak(oc: Vec3A, d: Vec3A, inv_r2: f32) -> (f32, f32, f32) {
+    let dd = d.length_squared();
+    let tm = -d.dot(oc) / dd;
+    // The perpendicular offset directly, not |oc|² - (oc·d)²: that would
+    // cancel to nothing for a support far from the eye.
+    let perp = oc + d * tm;
+    (dd, tm, 1.0 - perp.length_squared() * inv_r2)
+}
+
+/// False where `ray`'s line misses point `i` of `set`, placed as it is,
+/// as [`KernelSupports::crossings`] finds it: a test reading nothing but the
+/// point's packed term, for rays that meet many supports' cells.
+#[inline]
+#[must_use]
+pub fn line_meets_point(set: &PointSet, i: usize, ray: &Ray) -> bool {
+    let term = set.terms()[i];
+    peak(ray.origin - Vec3A::from(term.truncate()), ray.dir, term.w).2 > 0.0
+}
+
+impl Support {
+    /// Crossing `c` of this support, with its weight and placement.
+    #[inline]
+    fn weigh(&self, c: Crossing) -> Crossing {
+        Crossing { weight: self.primitive.weight, placed: self.placement != 0, ..c }
+    }
 }
 
 /// A bound on `|s_ray - s_field|` for points of magnitude up to `scale`:
@@ -494,7 +563,7 @@ fn segment_crossings(
             continue;
         }
         let quadratic = match end {
-            Some(c) => point_quadratic(o - c, d, s, scale),
+            Some(c) => point_quadratic(o - c, d, s.primitive.inv_r2(), || scale).map(|c| s.weigh(c)),
             None => line_quadratic(w0 - axis * l0, d - axis * ld, d, s, scale),
         };
         if let Some(c) = quadratic {
@@ -525,5 +594,5 @@ fn line_quadratic(w0p: Vec3A, dp: Vec3A, d: Vec3A, s: &Support, scale: f32) -> O
         });
     }
     // Only the motion across the axis changes the distance to the line.
-    point_quadratic(w0p, dp, s, scale)
+    point_quadratic(w0p, dp, s.primitive.inv_r2(), || scale).map(|c| s.weigh(c))
 }

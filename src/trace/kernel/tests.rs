@@ -369,3 +369,58 @@ fn a_stretch_starting_within_the_margin_of_t_is_searched_from_its_start() {
     assert!((first - 330.51).abs() < 0.01 && field.value(ray.at(first + 0.6)) > 0.6, "the chord: from {first}");
     assert_eq!(kernel.trace(&field, &ray, (388, 125), &s.trace).hit, Some(first));
 }
+
+/// A cloud of `n` points at the particles scene's density: chains of fifty
+/// random-walk points 1.8 apart of radius 2.25, started in a cube whose side
+/// grows as `n`'s cube root, seen from in front.
+fn cloud(n: usize) -> Scene {
+    let mut numbers = Numbers(7);
+    let side = 14.0 * (n as f32 / 1000.0).cbrt();
+    let mut points = Vec::with_capacity(n);
+    while points.len() < n {
+        let mut p = Vec3::new(numbers.range(-side, side), numbers.range(-side, side), numbers.range(-side, side));
+        for _ in 0..50.min(n - points.len()) {
+            points.push(format!("Point(center: ({}, {}, {}), radius: 2.25)", p.x, p.y, p.z));
+            let (angle, z) = (numbers.range(0.0, std::f32::consts::TAU), numbers.range(-1.0, 1.0));
+            let r = (1.0 - z * z).sqrt();
+            p += 1.8 * Vec3::new(r * angle.cos(), r * angle.sin(), z);
+        }
+    }
+    let text = format!(
+        "Scene(camera: Camera(eye: (0.0, {}, 0.0), target: (0.0, 0.0, 0.0), up: (0.0, 0.0, 1.0), fov_y: 60.0), \
+         size: (64, 64), threshold: 0.5, model: Blend([{}]))",
+        -3.2 * side,
+        points.join(", ")
+    );
+    let path = std::env::temp_dir().join(format!("blobtrace-kernel-cloud-{}-{n}.ron", std::process::id()));
+    std::fs::write(&path, text).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    std::fs::remove_file(&path).unwrap();
+    scene
+}
+
+#[test]
+fn a_cloud_walked_cell_by_cell_is_hit_where_tiles_lists_and_the_segment_tracer_hit_it() {
+    // Twenty thousand points at 64×64: more than two supports a pixel, so
+    // rays walk the index's cells; the tiles' lists and the segment tracer
+    // must find every hit at the same distance, to the bit.
+    let scene = cloud(20_000);
+    let size = (64, 64);
+    let s = scene.render_settings(Size(size.0, size.1));
+    let field = ModelField::new(&scene.model, EvalMode::Indexed);
+    let supports = Arc::new(KernelSupports::of(&scene.model, EvalMode::Indexed).unwrap());
+    let walking = KernelTracer::of_supports(Arc::clone(&supports), &s.camera, size);
+    let listing = KernelTracer::gathering(supports, &s.camera, size, false);
+    assert!(walking.walks_cells() && !listing.walks_cells());
+    let mut hits = 0;
+    for y in 0..size.1 {
+        for x in 0..size.0 {
+            let ray = s.camera.ray(x, y, size.0, size.1);
+            let walked = walking.trace(&field, &ray, (x, y), &s.trace);
+            assert_eq!(walked.hit, listing.trace(&field, &ray, (x, y), &s.trace).hit, "pixel {x},{y}");
+            assert_eq!(walked.hit, trace_ray(&field, &ray, &s.trace).hit, "pixel {x},{y}");
+            hits += u32::from(walked.hit.is_some());
+        }
+    }
+    assert!(hits > 1500, "{hits} hits");
+}
