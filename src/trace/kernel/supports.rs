@@ -12,6 +12,7 @@
 //! three such quadratics, each on its own stretch of the ray.
 
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::{Affine3A, Vec3A};
 use rayon::prelude::*;
@@ -177,18 +178,12 @@ impl KernelSupports {
         let mid = radii.len() / 2;
         let cell = *radii.select_nth_unstable_by(mid, f32::total_cmp).1;
         let cell_of = |i: usize| (self.world_sphere(i).0 / cell).floor();
-        let low = (0..self.len).into_par_iter().map(cell_of).reduce(|| Vec3A::INFINITY, Vec3A::min);
-        // Each cell as one 63-bit key, 21 bits an axis counted from the
-        // lowest cell (a model more than two million cells wide counts its
-        // farthest cells as the edge's: the estimate only steers `auto`).
-        let key = |i: usize| {
-            let c = (cell_of(i) - low).min(Vec3A::splat(CELL_KEY_MAX));
-            (c.x as u64) << 42 | (c.y as u64) << 21 | c.z as u64
-        };
-        let mut cells: Vec<u64> = (0..self.len).into_par_iter().map(key).collect();
-        cells.par_sort_unstable();
-        cells.dedup();
-        (volume / (cells.len() as f64 * f64::from(cell).powi(3))) as f32
+        let (low, high) = (0..self.len)
+            .into_par_iter()
+            .map(|i| (cell_of(i), cell_of(i)))
+            .reduce(|| (Vec3A::INFINITY, Vec3A::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+        let occupied = occupied_cells(self.len, |i| cell_of(i) - low, high - low);
+        (volume / (occupied as f64 * f64::from(cell).powi(3))) as f32
     }
 
     /// The index whose cells list the supports by number, and the set of
@@ -416,8 +411,75 @@ fn world_sphere(shape: Shape, radius: f32, to_world: &Affine3A, stretch: f32) ->
     (to_world.transform_point3a(centre), radius * stretch)
 }
 
-/// The largest cell coordinate [`KernelSupports::overlap`]'s keys hold.
+/// The largest cell coordinate [`occupied_cells`]'s keys hold.
 const CELL_KEY_MAX: f32 = ((1 << 21) - 1) as f32;
+
+/// Most cells [`occupied_cells`] marks in a bitmap (8 MB of it).
+const MAX_MARKED_CELLS: f32 = (1u64 << 26) as f32;
+
+/// How many cells hold some item, of the items `0..n` in cells `cell(i)`
+/// (whole coordinates from zero up to `top`): marked in a bitmap of the
+/// cells where it is small, as a million points' cells are (a sort of
+/// their keys took most of the estimate); else by sorting their keys (a
+/// model more than two million cells wide counts its farthest cells as
+/// the edge's: the estimate only steers `auto`).
+fn occupied_cells(n: usize, cell: impl Fn(usize) -> Vec3A + Sync, top: Vec3A) -> usize {
+    let dims = top + Vec3A::ONE;
+    if dims.element_product() <= MAX_MARKED_CELLS.min(64.0 * n as f32) {
+        marked_cells(n, cell, dims)
+    } else {
+        sorted_cells(n, cell)
+    }
+}
+
+/// [`occupied_cells`] by marking each item's cell in a bitmap of `dims` cells.
+fn marked_cells(n: usize, cell: impl Fn(usize) -> Vec3A + Sync, dims: Vec3A) -> usize {
+    let (dx, dy) = (dims.x as usize, dims.y as usize);
+    let cells = dims.element_product() as usize;
+    let words: Vec<AtomicU64> = std::iter::repeat_with(|| AtomicU64::new(0)).take(cells.div_ceil(64)).collect();
+    (0..n).into_par_iter().for_each(|i| {
+        let c = cell(i);
+        let k = (c.z as usize * dy + c.y as usize) * dx + c.x as usize;
+        words[k / 64].fetch_or(1 << (k % 64), Ordering::Relaxed);
+    });
+    words.iter().map(|w| w.load(Ordering::Relaxed).count_ones() as usize).sum()
+}
+
+/// [`occupied_cells`] by sorting the items' cells as 63-bit keys, 21 bits an axis.
+fn sorted_cells(n: usize, cell: impl Fn(usize) -> Vec3A + Sync) -> usize {
+    let key = |i: usize| {
+        let c = cell(i).min(Vec3A::splat(CELL_KEY_MAX));
+        (c.x as u64) << 42 | (c.y as u64) << 21 | c.z as u64
+    };
+    let mut keys: Vec<u64> = (0..n).into_par_iter().map(key).collect();
+    keys.par_sort_unstable();
+    keys.dedup();
+    keys.len()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn occupied_cells_are_counted_alike_in_a_bitmap_and_by_sorting() {
+        // Items scattered over a 40 × 30 × 20 box of cells, two by two in
+        // the same cell; a bitmap and a sort must count the same.
+        let cell = |i: usize| {
+            let h = (i as u64 / 2 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 20;
+            Vec3A::new((h % 40) as f32, (h / 40 % 30) as f32, (h / 1200 % 20) as f32)
+        };
+        let dims = Vec3A::new(40.0, 30.0, 20.0);
+        for n in [1, 17, 500, 5000] {
+            let marked = marked_cells(n, cell, dims);
+            assert_eq!(marked, sorted_cells(n, cell), "{n} items");
+            assert_eq!(marked, occupied_cells(n, cell, dims - Vec3A::ONE), "{n} items");
+        }
+        // 5,000 items in pairs, scattered over 24,000 cells.
+        let count = sorted_cells(5000, cell);
+        assert!((2000..=2500).contains(&count), "{count} cells");
+    }
+}
 
 /// A ray seen in one placement's frame, kept while consecutive supports share it.
 #[derive(Clone, Copy, Debug, Default)]
