@@ -56,7 +56,7 @@ const FREE_CELLS: usize = 1 << 21;
 /// [`MAX_CELLS_PER_LEAF`] a leaf: a hundred thousand sparse points took the
 /// 2 M free cells, 20 a point and 60 listings, and 0.13 s to index; at 2 a
 /// point, 0.03 s, meshing as fast (the segment tracer renders them 20%
-/// slower; the kernel tracer renders them, and does not read the cells).
+/// slower; the kernel tracer, which renders them, reads their tiles' lists).
 const FREE_CELLS_UP_TO: usize = 1 << 14;
 
 /// Cells a grid may have per leaf (beyond [`FREE_CELLS`], where those
@@ -64,8 +64,9 @@ const FREE_CELLS_UP_TO: usize = 1 << 14;
 /// a packing slot) whether it lists anything or not, and the cells a leaf
 /// reaches grow as the cells shrink: a million sparse points at 4 cells a
 /// leaf took 4 M cells and 25 listings a point; at 2, 2 M cells and 16.5
-/// listings, 0.27 s less to load and 175 MB less to hold. The kernel tracer
-/// does not read the cells; the segment tracer renders them 7% slower.
+/// listings, 0.27 s less to load and 175 MB less to hold. The kernel tracer's
+/// rays walk these cells, about a support wide (see `trace::kernel`); the
+/// segment tracer renders them 7% slower.
 const MAX_CELLS_PER_LEAF: usize = 2;
 
 /// Listings (a leaf in a cell's list) the cell lists may hold on average per

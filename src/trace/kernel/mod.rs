@@ -30,9 +30,12 @@
 //! may begin at its start), so it passes no lattice point on the way.
 //!
 //! Screen tiles list the supports their rays can cross, nearest first
-//! ([`tiles`]); a ray tests only those. A ray's crossings are summed in one
+//! ([`tiles`]); a ray tests only those. Where the model is one large point
+//! set, a ray instead walks the cells of the set's index, which list every
+//! point reaching them, and takes each point once (see [`WALK_PER_PIXEL`]
+//! for when). A ray's crossings are summed in one
 //! order (entry, then support) and its sweep is cut at distances past its
-//! entry into the model's bounds, whatever tile holds it, so its hit
+//! entry into the model's bounds, whatever tile or cells hold it, so its hit
 //! depends on the ray and the model alone: images are the same for any
 //! thread count, and a dirty rectangle traced again equals a full render.
 
