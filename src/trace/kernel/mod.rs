@@ -141,56 +141,77 @@ impl KernelTracer {
         (x, y): (u32, u32),
         opts: &TraceOptions,
     ) -> TraceResult {
-        let span = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY);
-        let (Some(span), false) = (span, self.misses(x, y)) else {
+        if self.misses(x, y) {
+            return TraceResult::default();
+        }
+        let Some(span) = field.bounds().clip_ray(ray.origin, ray.dir.recip(), 0.0, f32::INFINITY) else {
             return TraceResult::default();
         };
-        let supports = &*self.supports;
-        let Some(tiles) = &self.tiles else {
-            let (index, set) = supports.indexed_set().expect("rays walk the cells of the supports' index");
-            let cell = index.cell_size();
-            let mut cells = index.lists_along(ray.origin, ray.dir, span).peekable();
-            // Rounding in the walk's distances, and then some: gathering a
-            // cell early costs nothing but its crossings sorted a little sooner.
-            let slack = |bound: f32| 1e-4 * bound.abs() + 1e-2 * cell;
-            return STAMPS.with_borrow_mut(|stamps| {
-                stamps.begin(supports.len());
-                // A cell further each time: a ray crosses cells a support wide.
-                let schedule = |reach: f32| reach + cell;
-                self.sweep(field, ray, opts, span, schedule, |bound, local, crossings| {
-                    while let Some(&(_, entry, _)) = cells.peek() {
-                        if entry > bound + slack(bound) {
-                            return false;
-                        }
-                        for &i in cells.next().map_or(&[][..], |(list, ..)| list) {
-                            if line_meets_point(set, i as usize, ray) && stamps.first_visit(i) {
-                                supports.crossings(i as usize, ray, local, span, crossings);
-                            }
-                        }
-                    }
-                    true
-                })
-            });
-        };
-        let (entries, dir) = (tiles.at(x, y), ray.dir.extend(0.0));
+        match &self.tiles {
+            Some(tiles) => self.trace_listed(field, ray, (tiles, tiles.at(x, y)), opts, span),
+            None => self.trace_walking(field, ray, opts, span),
+        }
+    }
+
+    /// [`Self::trace`] from the list of the ray's tile, nearest first: its
+    /// sweep reaches twice as far past the ray's entry each time.
+    fn trace_listed<F: Field + ?Sized>(
+        &self,
+        field: &F,
+        ray: &Ray,
+        (tiles, entries): (&TileLists, &[tiles::Entry]),
+        opts: &TraceOptions,
+        span: (f32, f32),
+    ) -> TraceResult {
+        let dir = ray.dir.extend(0.0);
         let mut pos = 0;
-        self.sweep(
-            field,
-            ray,
-            opts,
-            span,
-            |reach| 2.0 * reach,
-            |bound, local, crossings| {
-                while pos < entries.len() && entries[pos].near <= bound {
-                    let e = &entries[pos];
-                    if tiles.may_cross(e, dir) {
-                        supports.crossings(e.support as usize, ray, local, span, crossings);
-                    }
-                    pos += 1;
+        let gather = |bound: f32, local: &mut LocalRay, crossings: &mut Vec<Crossing>| {
+            while pos < entries.len() && entries[pos].near <= bound {
+                let e = &entries[pos];
+                if tiles.may_cross(e, dir) {
+                    self.supports.crossings(e.support as usize, ray, local, span, crossings);
                 }
-                pos == entries.len()
-            },
-        )
+                pos += 1;
+            }
+            pos == entries.len()
+        };
+        self.sweep(field, ray, opts, span, |reach| 2.0 * reach, gather)
+    }
+
+    /// [`Self::trace`] walking the cells of the supports' index along the
+    /// ray: its sweep reaches a cell further each time (a ray crosses cells
+    /// about a support wide), and takes each support once.
+    fn trace_walking<F: Field + ?Sized>(
+        &self,
+        field: &F,
+        ray: &Ray,
+        opts: &TraceOptions,
+        span: (f32, f32),
+    ) -> TraceResult {
+        let supports = &*self.supports;
+        let (index, set) = supports.indexed_set().expect("rays walk the cells of the supports' index");
+        let cell = index.cell_size();
+        let mut cells = index.lists_along(ray.origin, ray.dir, span).peekable();
+        // Rounding in the walk's distances, and then some: gathering a cell
+        // early costs nothing but its crossings sorted a little sooner.
+        let slack = |bound: f32| 1e-4 * bound.abs() + 1e-2 * cell;
+        STAMPS.with_borrow_mut(|stamps| {
+            stamps.begin(supports.len());
+            let gather = |bound: f32, local: &mut LocalRay, crossings: &mut Vec<Crossing>| {
+                while let Some(&(_, entry, _)) = cells.peek() {
+                    if entry > bound + slack(bound) {
+                        return false;
+                    }
+                    for &i in cells.next().map_or(&[][..], |(list, ..)| list) {
+                        if line_meets_point(set, i as usize, ray) && stamps.first_visit(i) {
+                            supports.crossings(i as usize, ray, local, span, crossings);
+                        }
+                    }
+                }
+                true
+            };
+            self.sweep(field, ray, opts, span, |reach| reach + cell, gather)
+        })
     }
 
     /// Sweeps `ray`'s crossings front to back from where it enters the
@@ -214,7 +235,7 @@ impl KernelTracer {
             let mut sweep = Sweep::new(field, ray, opts, span);
             let mut state = SweepState::new(span.0);
             // Crossings are gathered front to back, up to distances past the
-            // ray's entry into the model's bounds that double each time; the
+            // ray's entry into the model's bounds that grow each time; the
             // sweep goes as far as the crossings known cover, short of a snap's
             // reach. Those limits come from the ray and the model's bounds,
             // whatever its tile lists or cells, so a ray's hit still depends on
