@@ -52,7 +52,7 @@ use crate::geom::Ray;
 use bernstein::{Bernstein, Rise, add_cube, first_rise};
 use supports::LocalRay;
 use supports::line_meets_point;
-pub use supports::{Crossing, KernelSupports, NotKernel};
+pub use supports::{Crossing, IndexedSet, KernelSupports, NotKernel};
 pub use tiles::{TILE, TileLists};
 
 use super::segment::{MAX_SNAP_WALK, Snapped, TraceOptions, TraceResult, snap_on};
@@ -70,7 +70,7 @@ pub struct KernelTracer {
 }
 
 /// Supports per pixel from which rays walk their index's cells rather than
-/// tiles' lists, where the model is one point set. Listing every support in
+/// tiles' lists, where the model is one point set (placed anyhow). Listing every support in
 /// every tile it covers costs about 120 ns a support, however few of them
 /// the rays reach; a walk costs a ray about 240 ns more than reading its
 /// tile's list, where cells are about a support wide (as they are past
@@ -189,9 +189,13 @@ impl KernelTracer {
         span: (f32, f32),
     ) -> TraceResult {
         let supports = &*self.supports;
-        let (index, set) = supports.indexed_set().expect("rays walk the cells of the supports' index");
-        let cell = index.cell_size();
-        let mut cells = index.lists_along(ray.origin, ray.dir, span).peekable();
+        let IndexedSet { index, set, to_local } = supports.indexed_set().expect("a tracer walking an index");
+        // The ray in the set's frame, where its index lies, as the crossings
+        // see it: an affine map keeps each point's distance along the ray.
+        let local_ray = (to_local.transform_point3a(ray.origin), to_local.transform_vector3a(ray.dir));
+        // A cell's edge as a distance along the ray.
+        let cell = index.cell_size() / local_ray.1.length();
+        let mut cells = index.lists_along(local_ray.0, local_ray.1, span).peekable();
         // Rounding in the walk's distances, and then some: gathering a cell
         // early costs nothing but its crossings sorted a little sooner.
         let slack = |bound: f32| 1e-4 * bound.abs() + 1e-2 * cell;
@@ -203,7 +207,7 @@ impl KernelTracer {
                         return false;
                     }
                     for &i in cells.next().map_or(&[][..], |(list, ..)| list) {
-                        if line_meets_point(set, i as usize, ray) && stamps.first_visit(i) {
+                        if line_meets_point(set, i as usize, local_ray) && stamps.first_visit(i) {
                             supports.crossings(i as usize, ray, local, span, crossings);
                         }
                     }

@@ -75,9 +75,21 @@ pub struct KernelSupports {
     spheres: Vec<(Vec3A, f32)>,
     /// Supports in all.
     len: usize,
-    /// The index over the supports, where they are the points of one set
-    /// in the world's frame: its cells list them by support number.
+    /// The index over the supports, where they are the points of one set:
+    /// its cells list them by support number.
     index: Option<Arc<BlendIndex>>,
+}
+
+/// A model's supports where they are the points of one set: the set, the
+/// index over it (in the set's own frame) and the map from the world there.
+#[derive(Clone, Copy, Debug)]
+pub struct IndexedSet<'a> {
+    /// The index, whose cells list the points by number.
+    pub index: &'a BlendIndex,
+    /// The points.
+    pub set: &'a PointSet,
+    /// World to the set's frame.
+    pub to_local: &'a Affine3A,
 }
 
 /// A run of consecutive support numbers from `first`.
@@ -156,8 +168,7 @@ impl KernelSupports {
     pub fn of(model: &Model, mode: EvalMode) -> Result<Self, NotKernel> {
         let mut out = Self { placements: vec![Affine3A::IDENTITY], ..Self::default() };
         out.gather(model, model.root(), mode, (0, Affine3A::IDENTITY, Affine3A::IDENTITY))?;
-        let one_set_in_place = matches!(&out.runs[..], [Run { kept: Kept::Set(s), .. }] if s.placement == 0);
-        if !one_set_in_place {
+        if !matches!(&out.runs[..], [Run { kept: Kept::Set(_), .. }]) {
             out.index = None;
         }
         Ok(out)
@@ -186,12 +197,14 @@ impl KernelSupports {
         (volume / (occupied as f64 * f64::from(cell).powi(3))) as f32
     }
 
-    /// The index whose cells list the supports by number, and the set of
-    /// points they are, where the supports are one set in the world's frame.
+    /// The set of points the supports are, where they are one set with an
+    /// index: its cells list them by support number.
     #[must_use]
-    pub fn indexed_set(&self) -> Option<(&BlendIndex, &PointSet)> {
+    pub fn indexed_set(&self) -> Option<IndexedSet<'_>> {
         match (&self.index, &self.runs[..]) {
-            (Some(index), [Run { kept: Kept::Set(s), .. }]) => Some((index, &s.set)),
+            (Some(index), [Run { kept: Kept::Set(s), .. }]) => {
+                Some(IndexedSet { index, set: &s.set, to_local: &self.placements[s.placement as usize] })
+            }
             _ => None,
         }
     }
@@ -551,14 +564,15 @@ fn peak(oc: Vec3A, d: Vec3A, inv_r2: f32) -> (f32, f32, f32) {
     (dd, tm, 1.0 - perp.length_squared() * inv_r2)
 }
 
-/// False where `ray`'s line misses point `i` of `set`, placed as it is,
-/// as [`KernelSupports::crossings`] finds it: a test reading nothing but the
-/// point's packed term, for rays that meet many supports' cells.
+/// False where the line `o + t·d`, a ray seen in `set`'s frame, misses
+/// point `i` of the set, as [`KernelSupports::crossings`] finds it: a test
+/// reading nothing but the point's packed term, for rays that meet many
+/// supports' cells.
 #[inline]
 #[must_use]
-pub fn line_meets_point(set: &PointSet, i: usize, ray: &Ray) -> bool {
+pub fn line_meets_point(set: &PointSet, i: usize, (o, d): (Vec3A, Vec3A)) -> bool {
     let term = set.terms()[i];
-    peak(ray.origin - Vec3A::from(term.truncate()), ray.dir, term.w).2 > 0.0
+    peak(o - Vec3A::from(term.truncate()), d, term.w).2 > 0.0
 }
 
 impl Support {

@@ -372,8 +372,8 @@ fn a_stretch_starting_within_the_margin_of_t_is_searched_from_its_start() {
 
 /// A cloud of `n` points at the particles scene's density: chains of fifty
 /// random-walk points 1.8 apart of radius 2.25, started in a cube whose side
-/// grows as `n`'s cube root, seen from in front.
-fn cloud(n: usize) -> Scene {
+/// grows as `n`'s cube root, seen from in front; `place` wraps its blend.
+fn cloud(n: usize, place: impl Fn(String) -> String) -> Scene {
     let mut numbers = Numbers(7);
     let side = 14.0 * (n as f32 / 1000.0).cbrt();
     let mut points = Vec::with_capacity(n);
@@ -388,23 +388,23 @@ fn cloud(n: usize) -> Scene {
     }
     let text = format!(
         "Scene(camera: Camera(eye: (0.0, {}, 0.0), target: (0.0, 0.0, 0.0), up: (0.0, 0.0, 1.0), fov_y: 60.0), \
-         size: (64, 64), threshold: 0.5, model: Blend([{}]))",
+         size: (64, 64), threshold: 0.5, model: {})",
         -3.2 * side,
-        points.join(", ")
+        place(format!("Blend([{}])", points.join(", ")))
     );
-    let path = std::env::temp_dir().join(format!("blobtrace-kernel-cloud-{}-{n}.ron", std::process::id()));
+    // One file a scene: tests run side by side.
+    static SCENES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let k = SCENES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let path = std::env::temp_dir().join(format!("blobtrace-kernel-cloud-{}-{k}.ron", std::process::id()));
     std::fs::write(&path, text).unwrap();
     let scene = Scene::load(&path).unwrap();
     std::fs::remove_file(&path).unwrap();
     scene
 }
 
-#[test]
-fn a_cloud_walked_cell_by_cell_is_hit_where_tiles_lists_and_the_segment_tracer_hit_it() {
-    // Twenty thousand points at 64×64: more than two supports a pixel, so
-    // rays walk the index's cells; the tiles' lists and the segment tracer
-    // must find every hit at the same distance, to the bit.
-    let scene = cloud(20_000);
+/// Traces every pixel of `scene` at 64×64 walking its index's cells, from
+/// tiles' lists and by segments: the hits must be the same to the bit.
+fn assert_walks_alike(scene: &Scene) {
     let size = (64, 64);
     let s = scene.render_settings(Size(size.0, size.1));
     let field = ModelField::new(&scene.model, EvalMode::Indexed);
@@ -423,4 +423,23 @@ fn a_cloud_walked_cell_by_cell_is_hit_where_tiles_lists_and_the_segment_tracer_h
         }
     }
     assert!(hits > 1500, "{hits} hits");
+}
+
+#[test]
+fn a_cloud_walked_cell_by_cell_is_hit_where_tiles_lists_and_the_segment_tracer_hit_it() {
+    // Twenty thousand points at 64×64: more than two supports a pixel, so
+    // rays walk the index's cells.
+    assert_walks_alike(&cloud(20_000, |blend| blend));
+}
+
+#[test]
+fn a_placed_cloud_is_walked_in_its_own_frame() {
+    // The same cloud turned, stretched unevenly and moved: its index lies in
+    // its own frame, and rays walk it seen there.
+    let place = |blend| {
+        format!(
+            "Transform(translate: (3.0, -5.0, 2.0), rotate: (20.0, 10.0, 35.0), scale: (1.3, 0.7, 1.1), child: {blend})"
+        )
+    };
+    assert_walks_alike(&cloud(20_000, place));
 }
