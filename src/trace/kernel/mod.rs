@@ -244,8 +244,8 @@ impl KernelTracer {
             // reach. Those limits come from the ray and the model's bounds,
             // whatever its tile lists or cells, so a ray's hit still depends on
             // the ray and the model alone. (Doubling distances from the eye
-            // instead gathered up to twice as deep as the ray's entry: through
-            // a million points a ray read 207 listed supports, now 112.)
+            // would gather up to twice as deep as the ray's entry: through a
+            // million points a ray would read 207 listed supports, not 112.)
             let guard = SNAP_REACH * sweep.quantum;
             let mut reach = FIRST_BOUND * sweep.quantum;
             loop {
