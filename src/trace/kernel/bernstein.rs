@@ -105,8 +105,8 @@ fn rise_in(c: &Bernstein, (a, b): (f32, f32), margin: f32, width: f32, depth: u3
     if c[0] > -margin {
         // Within the margin of `T` where the stretch starts: it may be inside
         // from there, and the snap looks lattice point by lattice point from
-        // there. (Handed the whole stretch, the snap tried its far end alone
-        // and marched on from past it, over every lattice point between:
+        // there. (Handed the whole stretch, the snap would try its far end
+        // alone and march on from past it, over every lattice point between:
         // through a million points, chords above `T` over a unit long.)
         return Some(Rise::Within(a, a));
     }

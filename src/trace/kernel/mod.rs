@@ -511,7 +511,7 @@ impl<'a, F: Field + ?Sized> Sweep<'a, F> {
     /// Confirms a rise from `a` on (the field below `T` before it): the first
     /// lattice point inside after it, or where to go on from. The snap walks
     /// the lattice from `a` point by point, so it passes none: handed the
-    /// rise's narrow bracket instead, it tried the bracket's far end and
+    /// rise's narrow bracket instead, it would try the bracket's far end and
     /// could march on past a lattice point inside the bracket. The snap asks
     /// the sign of `f - T` at lattice points; the sum of the crossed supports
     /// at the point, computed as the field computes each, answers where it

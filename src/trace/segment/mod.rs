@@ -443,7 +443,7 @@ fn lattice_step(t: f32, step: f32, q: f32) -> f32 {
 /// a lattice point an ulp above `t`; counting back first keeps that point.
 /// Past 2²⁴ steps from the eye (a camera hundreds of model sizes away) the
 /// floats hold only some of the `k`, and the count goes from one to the
-/// next: counting by ones there stood still, and the march never ended.
+/// next: counting by ones there would stand still, and the march not end.
 fn next_lattice_point(t: f32, q: f32) -> f32 {
     let mut k = (t / q).floor();
     while k * q > t {
