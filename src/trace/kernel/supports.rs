@@ -75,9 +75,6 @@ pub struct KernelSupports {
     spheres: Vec<(Vec3A, f32)>,
     /// Supports in all.
     len: usize,
-    /// The index over the supports, where they are the points of one set:
-    /// its cells list them by support number.
-    index: Option<Arc<BlendIndex>>,
 }
 
 /// A model's supports where they are the points of one set: the set, the
@@ -118,6 +115,8 @@ struct SetPlacement {
     to_world: Affine3A,
     /// How far the map stretches any direction at most.
     stretch: f32,
+    /// The index over the points, where they have one: its cells list them by number.
+    index: Option<Arc<BlendIndex>>,
 }
 
 /// Where a ray is inside one support: `w·(a₀ - k (t - t_m)²)³` on `[t_in, t_out]`.
@@ -168,9 +167,6 @@ impl KernelSupports {
     pub fn of(model: &Model, mode: EvalMode) -> Result<Self, NotKernel> {
         let mut out = Self { placements: vec![Affine3A::IDENTITY], ..Self::default() };
         out.gather(model, model.root(), mode, (0, Affine3A::IDENTITY, Affine3A::IDENTITY))?;
-        if !matches!(&out.runs[..], [Run { kept: Kept::Set(_), .. }]) {
-            out.index = None;
-        }
         Ok(out)
     }
 
@@ -191,7 +187,10 @@ impl KernelSupports {
         let cell_of = |i: usize| (self.world_sphere(i).0 / cell).floor();
         let (low, high) = (0..self.len)
             .into_par_iter()
-            .map(|i| (cell_of(i), cell_of(i)))
+            .map(|i| {
+                let c = cell_of(i);
+                (c, c)
+            })
             .reduce(|| (Vec3A::INFINITY, Vec3A::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)));
         let occupied = occupied_cells(self.len, |i| cell_of(i) - low, high - low);
         (volume / (occupied as f64 * f64::from(cell).powi(3))) as f32
@@ -201,12 +200,8 @@ impl KernelSupports {
     /// index: its cells list them by support number.
     #[must_use]
     pub fn indexed_set(&self) -> Option<IndexedSet<'_>> {
-        match (&self.index, &self.runs[..]) {
-            (Some(index), [Run { kept: Kept::Set(s), .. }]) => {
-                Some(IndexedSet { index, set: &s.set, to_local: &self.placements[s.placement as usize] })
-            }
-            _ => None,
-        }
+        let [Run { kept: Kept::Set(s), .. }] = &self.runs[..] else { return None };
+        Some(IndexedSet { index: s.index.as_deref()?, set: &s.set, to_local: &self.placements[s.placement as usize] })
     }
 
     /// Number of primitives.
@@ -302,9 +297,8 @@ impl KernelSupports {
         (placement, _, to_world): (u32, Affine3A, Affine3A),
     ) {
         let Kernel::Wyvill = set.kernel();
-        self.index = index.cloned();
         let stretch = stretch_of(placement, &to_world);
-        let run = SetPlacement { set: Arc::clone(set), placement, to_world, stretch };
+        let run = SetPlacement { set: Arc::clone(set), placement, to_world, stretch, index: index.cloned() };
         self.runs.push(Run { first: self.len, kept: Kept::Set(run) });
         self.len += set.len();
     }

@@ -392,14 +392,7 @@ fn cloud(n: usize, place: impl Fn(String) -> String) -> Scene {
         -3.2 * side,
         place(format!("Blend([{}])", points.join(", ")))
     );
-    // One file a scene: tests run side by side.
-    static SCENES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let k = SCENES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let path = std::env::temp_dir().join(format!("blobtrace-kernel-cloud-{}-{k}.ron", std::process::id()));
-    std::fs::write(&path, text).unwrap();
-    let scene = Scene::load(&path).unwrap();
-    std::fs::remove_file(&path).unwrap();
-    scene
+    Scene::parse(&text, "cloud").unwrap()
 }
 
 /// Traces every pixel of `scene` at 64×64 walking its index's cells, from
